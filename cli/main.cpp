@@ -1,0 +1,170 @@
+// soda — run, benchmark and inspect SODA scenes. See docs/cli.md.
+//
+// Exit codes: 0 success; 1 the run failed; 2 bad input (usage, scene,
+// partition or configuration errors), always with a message on stderr.
+#include <cstdio>
+#include <exception>
+#include <iostream>
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "soda/bench/bench.h"
+#include "soda/bench/result_json.h"
+#include "soda/scene/registry.h"
+#include "soda/scene/scene_json.h"
+#include "soda/scene/validate.h"
+#include "soda/worlds/body_state.h"
+
+namespace {
+
+constexpr int kExitFailure = 1;
+constexpr int kExitBadInput = 2;
+
+// Options shared by `run` and `bench`.
+struct Options {
+  std::string scene = "falling-cubes";
+  soda::SceneParams params;
+  std::optional<int> steps;
+  std::optional<double> dt;
+  std::optional<int> iterations;
+  soda::RunConfig config;
+  std::string world = "canonical";
+  std::string json_path;
+  int repeat = 3;
+};
+
+void add_scene_options(CLI::App& cmd, Options& o) {
+  cmd.add_option("--scene", o.scene, "Registry scene name or a .json scene file")->capture_default_str();
+  cmd.add_option("--n", o.params.n, "Number of dynamic bodies (generated scenes)")->capture_default_str();
+  cmd.add_option("--seed", o.params.seed, "Seed of the scene generator")->capture_default_str();
+  cmd.add_flag("--random-scale", o.params.random_scale, "falling-cubes: edges uniform in [0.2, 1.3] m");
+}
+
+void add_run_options(CLI::App& cmd, Options& o) {
+  add_scene_options(cmd, o);
+  cmd.add_option("--steps", o.steps, "Steps to run (default: the scene's, 600 for generated scenes)");
+  cmd.add_option("--dt", o.dt, "Fixed step in seconds (default: the scene's, 1/60)");
+  cmd.add_option("--iterations", o.iterations, "Solver iterations (default: the scene's, 10)");
+  cmd.add_option("--territories", o.config.territories, "Number of territories (worlds)")->capture_default_str();
+  cmd.add_option("--partition", o.config.partition, "kmeans | rcb | grid:AxBxC | territory-map file")
+      ->capture_default_str();
+  cmd.add_option("--threads", o.config.threads, "Threads (0: one per world)")->capture_default_str();
+  cmd.add_option("--shuffle-seed", o.config.shuffle_seed,
+                 "Insert bodies in an order shuffled by this seed (0: scene order)")
+      ->capture_default_str();
+  cmd.add_option("--world", o.world, "canonical | stock")->capture_default_str();
+  cmd.add_option("--json", o.json_path, "Write results as JSON to this path ('-': stdout)");
+}
+
+soda::Scene resolve_scene(Options& o) {
+  soda::Scene scene = soda::load_or_make_scene(o.scene, o.params);
+  if (o.dt) scene.settings.dt = *o.dt;
+  if (o.iterations) scene.settings.iterations = *o.iterations;
+  if (o.steps) scene.settings.steps = *o.steps;
+  soda::validate_scene(scene, o.scene);  // overrides must be valid too
+  o.config.steps = scene.settings.steps;
+  if (o.world == "canonical") o.config.world = soda::WorldKind::Canonical;
+  else if (o.world == "stock") o.config.world = soda::WorldKind::Stock;
+  else throw std::invalid_argument("--world must be 'canonical' or 'stock', got '" + o.world + "'");
+  return scene;
+}
+
+void print_summary(const soda::RunResult& r) {
+  std::printf("%s world (%s): %zu bodies, %d steps in %.3f s (%.1f steps/s), state_hash %s, %zu asleep\n",
+              soda::world_kind_name(r.world), soda::kPrecisionName, r.bodies, r.steps, r.wall_seconds,
+              r.wall_seconds > 0 ? r.steps / r.wall_seconds : 0.0, soda::hash_hex(r.state_hash).c_str(),
+              r.sleeping_bodies);
+}
+
+int cmd_run(Options& o) {
+  const soda::Scene scene = resolve_scene(o);
+  const soda::RunResult r = soda::run_scene(scene, o.config);
+  print_summary(r);
+  if (!o.json_path.empty())
+    soda::write_json(soda::run_json({o.scene, o.params, &scene, o.config}, r), o.json_path);
+  return 0;
+}
+
+int cmd_bench(Options& o) {
+  const soda::Scene scene = resolve_scene(o);
+  soda::BenchConfig bc{o.config, o.repeat};
+  const soda::BenchResult b = soda::bench_scene(scene, bc);
+  print_summary(b.run);
+  std::printf("baseline (stock Bullet, same process): %.3f s; ratio_vs_baseline %.3f (min of %d interleaved repeats)\n",
+              b.baseline.wall_seconds, b.ratio_vs_baseline, o.repeat);
+  if (!o.json_path.empty())
+    soda::write_json(soda::bench_json({o.scene, o.params, &scene, o.config}, b), o.json_path);
+  return 0;
+}
+
+int cmd_export(Options& o, const std::string& out) {
+  const soda::Scene scene = soda::load_or_make_scene(o.scene, o.params);
+  soda::write_scene_file(scene, out);
+  std::printf("wrote %s: %zu bodies (%zu dynamic)\n", out.c_str(), scene.bodies.size(), scene.dynamic_count());
+  return 0;
+}
+
+int cmd_scenes() {
+  for (const soda::SceneGenerator& g : soda::scene_registry())
+    std::printf("%-16s %s\n", g.name.c_str(), g.description.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"soda: one rigid-body scene, many Bullet worlds (" + std::string(soda::kPrecisionName) +
+               " precision build)"};
+  app.require_subcommand(1);
+  std::string log_level = "info";
+  app.add_option("--log-level", log_level, "trace | debug | info | warn | error | off")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
+
+  Options run_o, bench_o, export_o;
+  CLI::App* run = app.add_subcommand("run", "Run a scene and report its state hash and timings");
+  add_run_options(*run, run_o);
+  CLI::App* bench = app.add_subcommand("bench", "Run a scene and a stock Bullet baseline side by side");
+  bench->add_option("scene", bench_o.scene, "Registry scene name or .json file (same as --scene)");
+  add_run_options(*bench, bench_o);
+  bench->add_option("--repeat", bench_o.repeat, "Interleaved repeats; the minimum of each side is kept")
+      ->capture_default_str();
+  std::string export_path;
+  CLI::App* exp = app.add_subcommand("export-scene", "Write a scene (generated or loaded) as a JSON scene file");
+  add_scene_options(*exp, export_o);
+  exp->add_option("-o,--output", export_path, "Output path")->required();
+  CLI::App* scenes = app.add_subcommand("scenes", "List the registered scene generators");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : kExitBadInput;
+  }
+
+  auto logger = spdlog::stderr_color_mt("soda");
+  spdlog::set_default_logger(logger);
+  spdlog::set_level(spdlog::level::from_str(log_level));
+  spdlog::set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
+
+  try {
+    if (*run) return cmd_run(run_o);
+    if (*bench) return cmd_bench(bench_o);
+    if (*exp) return cmd_export(export_o, export_path);
+    if (*scenes) return cmd_scenes();
+  } catch (const soda::SceneError& e) {
+    std::fprintf(stderr, "soda: error: %s\n", e.what());
+    return kExitBadInput;
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "soda: error: %s\n", e.what());
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "soda: failed: %s\n", e.what());
+    return kExitFailure;
+  }
+  return kExitBadInput;
+}

@@ -1,0 +1,66 @@
+// runtime/ — the step, threads, messages and the public API.
+// This header: running a scene to completion and measuring it, the engine
+// behind `soda run` and `soda bench`.
+//
+// Today a run is one world (territories = 1): the canonical world, or the
+// stock Bullet world for comparison. Partitioned runs (territories > 1) are
+// refused with a clear error until the partitioned runtime lands.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "soda/scene/scene.h"
+#include "soda/worlds/body_state.h"
+
+namespace soda {
+
+/// Which Bullet world steps the scene.
+enum class WorldKind {
+  Canonical,  // order-independent, restorable (worlds/canonical_world.h)
+  Stock,      // plain btDiscreteDynamicsWorld, the baseline
+};
+const char* world_kind_name(WorldKind kind);
+
+struct RunConfig {
+  WorldKind world = WorldKind::Canonical;
+  int steps = 600;                   // steps to run
+  int territories = 1;               // K; only 1 is supported today
+  std::string partition = "kmeans";  // kmeans | rcb | grid:AxBxC | FILE
+  int threads = 0;                   // 0: one per world
+  std::uint64_t shuffle_seed = 0;    // 0: insert bodies in scene order
+  double progress_seconds = 1.0;     // progress line period (<= 0: none)
+};
+
+/// Summary statistics of per-step times, in milliseconds.
+struct StepTimeStats {
+  double mean_ms = 0, median_ms = 0, p95_ms = 0, max_ms = 0, min_ms = 0;
+  static StepTimeStats from_ns(std::vector<std::int64_t> ns);
+};
+
+struct RunResult {
+  std::uint64_t state_hash = 0;
+  std::size_t bodies = 0;           // all bodies, statics included
+  std::size_t dynamic_bodies = 0;
+  std::size_t sleeping_bodies = 0;  // at the end of the run
+  int steps = 0;
+  int territories = 1;
+  double wall_seconds = 0;          // stepping only, not scene set-up
+  double cpu_seconds = 0;           // thread CPU time of the stepping thread(s)
+  StepTimeStats step_time;
+  WorldKind world = WorldKind::Canonical;
+};
+
+/// Insertion order of the scene's bodies for a shuffle seed (0: scene order).
+/// Deterministic: a function of (body count, seed) only.
+std::vector<std::size_t> insertion_order(std::size_t body_count, std::uint64_t shuffle_seed);
+
+/// Runs `scene` for config.steps steps. Throws std::invalid_argument with a
+/// clear message for an unsupported configuration (territories != 1,
+/// steps < 0). Blocks the calling thread; logs a progress line through spdlog
+/// every config.progress_seconds.
+RunResult run_scene(const Scene& scene, const RunConfig& config);
+
+}  // namespace soda

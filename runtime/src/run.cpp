@@ -1,0 +1,111 @@
+#include "soda/runtime/run.h"
+
+#include <algorithm>
+#include <numeric>
+#include <random>
+#include <stdexcept>
+
+#include <spdlog/spdlog.h>
+
+#include "soda/loadbalance/thread_clock.h"
+#include "soda/worlds/stock_world.h"
+
+namespace soda {
+namespace {
+
+// Steps `world` and measures it. W: StockWorld or CanonicalWorld (same
+// step / state_hash / sleeping_count surface).
+template <class W>
+RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
+  RunResult r;
+  r.world = config.world;
+  r.bodies = scene.bodies.size();
+  r.dynamic_bodies = scene.dynamic_count();
+  r.steps = config.steps;
+  std::vector<std::int64_t> step_ns;
+  step_ns.reserve(static_cast<std::size_t>(config.steps));
+  const std::int64_t cpu0 = thread_cpu_ns();
+  const std::int64_t t0 = wall_ns();
+  std::int64_t next_progress = t0 + static_cast<std::int64_t>(config.progress_seconds * 1e9);
+  for (int s = 0; s < config.steps; ++s) {
+    const std::int64_t a = wall_ns();
+    world.step();
+    const std::int64_t b = wall_ns();
+    step_ns.push_back(b - a);
+    if (config.progress_seconds > 0 && b >= next_progress) {
+      const double elapsed = static_cast<double>(b - t0) * 1e-9;
+      const double eta = elapsed / (s + 1) * (config.steps - s - 1);
+      spdlog::info("{} {}: step {}/{} ({:.0f} %), {:.1f} s elapsed, about {:.1f} s to go", scene.name,
+                   world_kind_name(config.world), s + 1, config.steps, 100.0 * (s + 1) / config.steps,
+                   elapsed, eta);
+      next_progress = b + static_cast<std::int64_t>(config.progress_seconds * 1e9);
+    }
+  }
+  r.wall_seconds = static_cast<double>(wall_ns() - t0) * 1e-9;
+  r.cpu_seconds = static_cast<double>(thread_cpu_ns() - cpu0) * 1e-9;
+  r.step_time = StepTimeStats::from_ns(std::move(step_ns));
+  r.state_hash = world.state_hash();
+  r.sleeping_bodies = world.sleeping_count();
+  return r;
+}
+
+}  // namespace
+
+const char* world_kind_name(WorldKind kind) {
+  switch (kind) {
+    case WorldKind::Canonical: return "canonical";
+    case WorldKind::Stock: return "stock";
+  }
+  return "unknown";
+}
+
+StepTimeStats StepTimeStats::from_ns(std::vector<std::int64_t> ns) {
+  StepTimeStats s;
+  if (ns.empty()) return s;
+  std::sort(ns.begin(), ns.end());
+  const auto ms = [](std::int64_t v) { return static_cast<double>(v) * 1e-6; };
+  const double sum = std::accumulate(ns.begin(), ns.end(), 0.0);
+  s.mean_ms = sum / static_cast<double>(ns.size()) * 1e-6;
+  s.median_ms = ms(ns[ns.size() / 2]);
+  s.p95_ms = ms(ns[std::min(ns.size() - 1, ns.size() * 95 / 100)]);
+  s.max_ms = ms(ns.back());
+  s.min_ms = ms(ns.front());
+  return s;
+}
+
+std::vector<std::size_t> insertion_order(std::size_t body_count, std::uint64_t shuffle_seed) {
+  std::vector<std::size_t> order(body_count);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  if (shuffle_seed == 0) return order;
+  // Fisher-Yates with an explicit bounded draw: std::shuffle's use of the
+  // engine is implementation-defined, this is the same everywhere.
+  std::mt19937_64 rng(shuffle_seed);
+  for (std::size_t i = body_count; i > 1; --i) {
+    const std::size_t j = static_cast<std::size_t>(rng() % i);
+    std::swap(order[i - 1], order[j]);
+  }
+  return order;
+}
+
+RunResult run_scene(const Scene& scene, const RunConfig& config) {
+  if (config.steps < 0) throw std::invalid_argument("--steps must be >= 0");
+  if (config.territories < 1) throw std::invalid_argument("--territories must be >= 1");
+  if (config.territories > 1)
+    throw std::invalid_argument(
+        "--territories " + std::to_string(config.territories) +
+        ": partitioned runs are not implemented yet (this build steps one world); "
+        "use `soda partition` to inspect partitions");
+  const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), config.shuffle_seed);
+  switch (config.world) {
+    case WorldKind::Stock: {
+      StockWorld world(scene, order);
+      return run_world(world, scene, config);
+    }
+    case WorldKind::Canonical: {
+      throw std::invalid_argument("the canonical world is not available in this build");
+    }
+  }
+  throw std::invalid_argument("unknown world kind");
+}
+
+}  // namespace soda

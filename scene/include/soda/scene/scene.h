@@ -1,0 +1,101 @@
+// scene/ — the scene model: what is simulated, independent of how.
+//
+// A Scene is plain data (double precision, no Bullet types) so that it can be
+// written to JSON, generated from a seed, validated, partitioned and handed to
+// worlds of either precision.
+//
+// Invariants (checked by validate_scene, see validate.h):
+//  1. every body has a unique id below 2^31 (BodyId), statics included; ids are
+//     never reused within a run;
+//  2. every number is finite; dynamic bodies have mass > 0; shape extents > 0;
+//  3. no body is so large or fast that Bullet would silently disable it
+//     (its one-step swept AABB has length^2 >= 1e12, see kBulletMaxAabbLength2).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace soda {
+
+/// Stable global body id, statics included. Valid ids are 0 .. kMaxBodyId.
+using BodyId = std::uint32_t;
+inline constexpr BodyId kMaxBodyId = (BodyId{1} << 31) - 1;
+
+using Vec3 = Eigen::Vector3d;
+using Quat = Eigen::Quaterniond;
+
+enum class ShapeKind { Box, Sphere, Capsule, Cylinder, ConvexHull };
+
+/// Name used in scene files and messages ("box", "sphere", ...).
+const char* shape_kind_name(ShapeKind kind);
+
+/// Collision shape in the body's local frame. Units: metres.
+/// - Box:        half_extents (x, y, z).
+/// - Sphere:     radius.
+/// - Capsule:    radius and height (length of the cylindrical part, along y,
+///               as btCapsuleShape).
+/// - Cylinder:   half_extents (x = radius, y = half height, z = radius),
+///               along y, as btCylinderShape.
+/// - ConvexHull: points (at least 4, not all coplanar).
+struct Shape {
+  ShapeKind kind = ShapeKind::Box;
+  Vec3 half_extents = Vec3(0.5, 0.5, 0.5);
+  double radius = 0.5;
+  double height = 1.0;
+  std::vector<Vec3> points;
+
+  static Shape box(const Vec3& half_extents);
+  static Shape sphere(double radius);
+  static Shape capsule(double radius, double height);
+  static Shape cylinder(const Vec3& half_extents);
+  static Shape convex_hull(std::vector<Vec3> points);
+
+  /// Radius of a sphere around the local origin that holds the whole shape.
+  double bounding_radius() const;
+  /// Half extents of the local-frame AABB of the shape.
+  Vec3 local_half_extents() const;
+};
+
+/// One rigid body. Static bodies have mass 0 and never move.
+struct Body {
+  BodyId id = 0;
+  bool is_static = false;
+  Shape shape;
+  double mass = 1.0;         // kg; > 0 for dynamic bodies, ignored for statics
+  double friction = 0.5;     // Bullet's friction coefficient
+  double restitution = 0.0;  // Bullet's restitution coefficient
+  Vec3 position = Vec3::Zero();                  // m, world frame
+  Quat orientation = Quat::Identity();           // unit quaternion
+  Vec3 linear_velocity = Vec3::Zero();           // m/s
+  Vec3 angular_velocity = Vec3::Zero();          // rad/s
+
+  /// Half extents of the world-frame AABB of the body at its initial pose.
+  Vec3 aabb_half_extents() const;
+};
+
+/// Stepping settings of a scene. Units: seconds, m/s^2.
+struct SceneSettings {
+  double dt = 1.0 / 60.0;     // fixed step
+  int substeps = 1;           // internal substeps per step (Bullet maxSubSteps)
+  int iterations = 10;        // constraint solver iterations
+  Vec3 gravity = Vec3(0.0, -9.81, 0.0);
+  int steps = 600;            // default number of steps for a run
+};
+
+struct Scene {
+  std::string name;           // registry name or file stem
+  std::uint64_t seed = 0;     // seed it was generated from (0 for files)
+  SceneSettings settings;
+  std::vector<Body> bodies;   // any order; ids are what identify bodies
+
+  std::size_t dynamic_count() const;
+  std::size_t static_count() const;
+  /// Largest extent (AABB edge length) over dynamic bodies, 0 if none.
+  double largest_dynamic_extent() const;
+};
+
+}  // namespace soda

@@ -1,0 +1,114 @@
+#include "soda/scene/scene.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace soda {
+
+const char* shape_kind_name(ShapeKind kind) {
+  switch (kind) {
+    case ShapeKind::Box: return "box";
+    case ShapeKind::Sphere: return "sphere";
+    case ShapeKind::Capsule: return "capsule";
+    case ShapeKind::Cylinder: return "cylinder";
+    case ShapeKind::ConvexHull: return "convex_hull";
+  }
+  return "unknown";
+}
+
+Shape Shape::box(const Vec3& half_extents) {
+  Shape s;
+  s.kind = ShapeKind::Box;
+  s.half_extents = half_extents;
+  return s;
+}
+
+Shape Shape::sphere(double radius) {
+  Shape s;
+  s.kind = ShapeKind::Sphere;
+  s.radius = radius;
+  return s;
+}
+
+Shape Shape::capsule(double radius, double height) {
+  Shape s;
+  s.kind = ShapeKind::Capsule;
+  s.radius = radius;
+  s.height = height;
+  return s;
+}
+
+Shape Shape::cylinder(const Vec3& half_extents) {
+  Shape s;
+  s.kind = ShapeKind::Cylinder;
+  s.half_extents = half_extents;
+  return s;
+}
+
+Shape Shape::convex_hull(std::vector<Vec3> points) {
+  Shape s;
+  s.kind = ShapeKind::ConvexHull;
+  s.points = std::move(points);
+  return s;
+}
+
+Vec3 Shape::local_half_extents() const {
+  switch (kind) {
+    case ShapeKind::Box:
+    case ShapeKind::Cylinder:
+      return half_extents;
+    case ShapeKind::Sphere:
+      return Vec3::Constant(radius);
+    case ShapeKind::Capsule:
+      return Vec3(radius, radius + 0.5 * height, radius);
+    case ShapeKind::ConvexHull: {
+      Vec3 h = Vec3::Zero();
+      for (const Vec3& p : points) h = h.cwiseMax(p.cwiseAbs());
+      return h;
+    }
+  }
+  return Vec3::Zero();
+}
+
+double Shape::bounding_radius() const {
+  switch (kind) {
+    case ShapeKind::Box:
+      return half_extents.norm();
+    case ShapeKind::Cylinder:
+      return std::hypot(std::max(half_extents.x(), half_extents.z()), half_extents.y());
+    case ShapeKind::Sphere:
+      return radius;
+    case ShapeKind::Capsule:
+      return radius + 0.5 * height;
+    case ShapeKind::ConvexHull: {
+      double r = 0.0;
+      for (const Vec3& p : points) r = std::max(r, p.norm());
+      return r;
+    }
+  }
+  return 0.0;
+}
+
+Vec3 Body::aabb_half_extents() const {
+  // |R| * h bounds the rotated local box; exact for boxes.
+  const Eigen::Matrix3d abs_r = orientation.normalized().toRotationMatrix().cwiseAbs();
+  return abs_r * shape.local_half_extents();
+}
+
+std::size_t Scene::dynamic_count() const {
+  return static_cast<std::size_t>(
+      std::count_if(bodies.begin(), bodies.end(), [](const Body& b) { return !b.is_static; }));
+}
+
+std::size_t Scene::static_count() const { return bodies.size() - dynamic_count(); }
+
+double Scene::largest_dynamic_extent() const {
+  // Orientation-independent: the extent is the bounding sphere's diameter, so
+  // that a body cannot outgrow its cell by rotating.
+  double e = 0.0;
+  for (const Body& b : bodies)
+    if (!b.is_static) e = std::max(e, 2.0 * b.shape.bounding_radius());
+  return e;
+}
+
+}  // namespace soda

@@ -1,0 +1,138 @@
+#include "soda/scene/validate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <unordered_map>
+
+namespace soda {
+namespace {
+
+std::string body_prefix(const std::string& source, std::size_t index, BodyId id) {
+  std::ostringstream s;
+  s << source << ": body #" << index << " (id " << id << ")";
+  return s.str();
+}
+
+[[noreturn]] void fail(const std::string& where, const std::string& field, const std::string& what) {
+  throw SceneError(where + ": field '" + field + "': " + what);
+}
+
+void check_finite(const std::string& where, const std::string& field, double v) {
+  if (!std::isfinite(v)) fail(where, field, "must be a finite number");
+}
+
+void check_finite(const std::string& where, const std::string& field, const Vec3& v) {
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(v[i])) fail(where, field, "must be finite numbers");
+}
+
+void check_positive(const std::string& where, const std::string& field, double v) {
+  check_finite(where, field, v);
+  if (!(v > 0.0)) fail(where, field, "must be > 0");
+}
+
+void check_shape(const std::string& where, const Shape& shape) {
+  switch (shape.kind) {
+    case ShapeKind::Box:
+    case ShapeKind::Cylinder:
+      for (int i = 0; i < 3; ++i) check_positive(where, "shape.half_extents", shape.half_extents[i]);
+      break;
+    case ShapeKind::Sphere:
+      check_positive(where, "shape.radius", shape.radius);
+      break;
+    case ShapeKind::Capsule:
+      check_positive(where, "shape.radius", shape.radius);
+      check_positive(where, "shape.height", shape.height);
+      break;
+    case ShapeKind::ConvexHull: {
+      if (shape.points.size() < 4) fail(where, "shape.points", "a convex hull needs at least 4 points");
+      for (const Vec3& p : shape.points) check_finite(where, "shape.points", p);
+      // Not all coplanar: some triple of edges from point 0 spans volume.
+      const Vec3 extent = shape.local_half_extents();
+      bool spans = false;
+      for (std::size_t i = 1; i < shape.points.size() && !spans; ++i)
+        for (std::size_t j = i + 1; j < shape.points.size() && !spans; ++j)
+          for (std::size_t k = j + 1; k < shape.points.size() && !spans; ++k) {
+            const Vec3 a = shape.points[i] - shape.points[0];
+            const Vec3 b = shape.points[j] - shape.points[0];
+            const Vec3 c = shape.points[k] - shape.points[0];
+            spans = std::abs(a.cross(b).dot(c)) > 1e-12 * std::pow(extent.maxCoeff(), 3);
+          }
+      if (!spans) fail(where, "shape.points", "points are coplanar: the hull has no volume");
+      break;
+    }
+  }
+}
+
+// Bullet's own test (btDiscreteDynamicsWorld::updateSingleAabb): a dynamic
+// body whose AABB over one step (current union predicted transform) has
+// length^2 >= 1e12 is silently disabled. The AABB is computed here the way a
+// float world computes it (bounds rounded to float), which also catches
+// coordinates so large that float rounding alone blows the AABB up; a double
+// world is at least as lenient.
+void check_bullet_aabb(const std::string& where, const Body& b, double dt) {
+  const Vec3 h = b.aabb_half_extents();
+  const Vec3 next = b.position + b.linear_velocity * dt;
+  double len2 = 0.0;
+  constexpr double kFloatMax = 3.4028234663852886e38;
+  for (int k = 0; k < 3; ++k) {
+    if (!(std::abs(b.position[k]) + h[k] < kFloatMax && std::abs(next[k]) + h[k] < kFloatMax)) {
+      len2 = HUGE_VAL;  // the bounds overflow a float: infinite AABB
+      break;
+    }
+    const auto pk = static_cast<float>(b.position[k]), nk = static_cast<float>(next[k]);
+    const auto hk = static_cast<float>(h[k]);
+    const float lo = std::min(pk - hk, nk - hk), hi = std::max(pk + hk, nk + hk);
+    const double len = static_cast<double>(hi) - static_cast<double>(lo);
+    len2 += len * len;
+  }
+  if (!(len2 < kBulletMaxAabbLength2)) {
+    std::ostringstream msg;
+    msg << "body too large, too fast or too far from the origin: its one-step AABB has length^2 "
+        << len2 << " >= 1e12, which Bullet silently disables";
+    fail(where, "position/shape/linear_velocity", msg.str());
+  }
+}
+
+}  // namespace
+
+void validate_scene(const Scene& scene, const std::string& source) {
+  const SceneSettings& st = scene.settings;
+  const std::string settings = source + ": settings";
+  check_positive(settings, "dt", st.dt);
+  check_finite(settings, "gravity", st.gravity);
+  if (st.substeps < 1) fail(settings, "substeps", "must be >= 1");
+  if (st.iterations < 1) fail(settings, "iterations", "must be >= 1");
+  if (st.steps < 0) fail(settings, "steps", "must be >= 0");
+
+  std::unordered_map<BodyId, std::size_t> seen;
+  seen.reserve(scene.bodies.size());
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    const Body& b = scene.bodies[i];
+    const std::string where = body_prefix(source, i, b.id);
+    if (b.id > kMaxBodyId) fail(where, "id", "must be below 2^31");
+    auto [it, inserted] = seen.emplace(b.id, i);
+    if (!inserted)
+      fail(where, "id", "duplicate id, also used by body #" + std::to_string(it->second));
+    check_shape(where, b.shape);
+    check_finite(where, "position", b.position);
+    check_finite(where, "linear_velocity", b.linear_velocity);
+    check_finite(where, "angular_velocity", b.angular_velocity);
+    check_finite(where, "friction", b.friction);
+    check_finite(where, "restitution", b.restitution);
+    if (b.friction < 0.0) fail(where, "friction", "must be >= 0");
+    if (b.restitution < 0.0) fail(where, "restitution", "must be >= 0");
+    const Eigen::Vector4d q = b.orientation.coeffs();
+    for (int k = 0; k < 4; ++k)
+      if (!std::isfinite(q[k])) fail(where, "orientation", "must be finite numbers");
+    if (!(q.norm() > 1e-6)) fail(where, "orientation", "must be a non-zero quaternion");
+    if (!b.is_static) {
+      check_finite(where, "mass", b.mass);
+      if (!(b.mass > 0.0)) fail(where, "mass", "must be > 0 for a dynamic body");
+      check_bullet_aabb(where, b, st.dt);
+    }
+  }
+}
+
+}  // namespace soda

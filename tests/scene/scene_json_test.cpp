@@ -1,0 +1,249 @@
+// Scene files: round trip, and one test per bad-input case. Each error must
+// name the source, the body and the field.
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "soda/scene/registry.h"
+#include "soda/scene/scene_json.h"
+#include "soda/scene/validate.h"
+
+namespace soda {
+namespace {
+
+// A valid two-body scene; tests replace one fragment to make it bad.
+std::string scene_text(const std::string& dynamic_body) {
+  return R"({"format": "soda-scene", "version": 1, "name": "t",
+    "bodies": [
+      {"id": 0, "type": "static", "shape": {"type": "box", "half_extents": [10, 0.5, 10]},
+       "position": [0, -0.5, 0]},
+      )" + dynamic_body + R"(
+    ]})";
+}
+
+const std::string kGoodCube =
+    R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0.5, 0.5]},
+        "position": [0, 2, 0]})";
+
+// Parses `text` and returns the error message, or fails the test.
+std::string error_of(const std::string& text) {
+  try {
+    parse_scene_json(text, "bad.json");
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no error for:\n" << text;
+  return "";
+}
+
+TEST(SceneJson, GoodSceneParses) {
+  const Scene s = parse_scene_json(scene_text(kGoodCube), "good.json");
+  ASSERT_EQ(s.bodies.size(), 2u);
+  EXPECT_EQ(s.bodies[1].id, 7u);
+  EXPECT_FALSE(s.bodies[1].is_static);
+  EXPECT_TRUE(s.bodies[0].is_static);
+  EXPECT_DOUBLE_EQ(s.bodies[1].friction, 0.5);  // default
+}
+
+TEST(SceneJson, RoundTripIsBitExact) {
+  const Scene a = make_scene("falling-cubes", SceneParams{200, 42, true});
+  const Scene b = parse_scene_json(scene_to_json(a), "roundtrip");
+  ASSERT_EQ(a.bodies.size(), b.bodies.size());
+  EXPECT_EQ(a.settings.dt, b.settings.dt);
+  for (std::size_t i = 0; i < a.bodies.size(); ++i) {
+    const Body &x = a.bodies[i], &y = b.bodies[i];
+    EXPECT_EQ(x.id, y.id);
+    EXPECT_EQ(x.is_static, y.is_static);
+    EXPECT_EQ(x.position, y.position);
+    EXPECT_EQ(x.orientation.coeffs(), y.orientation.coeffs());
+    EXPECT_EQ(x.shape.half_extents, y.shape.half_extents);
+    EXPECT_EQ(x.mass, y.mass);
+  }
+}
+
+TEST(SceneJson, AllShapesRoundTrip) {
+  Scene s;
+  s.name = "shapes";
+  auto add = [&](Shape shape) {
+    Body b;
+    b.id = static_cast<BodyId>(s.bodies.size());
+    b.shape = std::move(shape);
+    b.position = Vec3(3.0 * b.id, 1, 0);
+    s.bodies.push_back(b);
+  };
+  add(Shape::box(Vec3(0.5, 0.25, 0.5)));
+  add(Shape::sphere(0.3));
+  add(Shape::capsule(0.2, 0.8));
+  add(Shape::cylinder(Vec3(0.3, 0.5, 0.3)));
+  add(Shape::convex_hull({Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)}));
+  const Scene r = parse_scene_json(scene_to_json(s), "shapes");
+  ASSERT_EQ(r.bodies.size(), 5u);
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(r.bodies[i].shape.kind, s.bodies[i].shape.kind);
+  EXPECT_EQ(r.bodies[2].shape.height, 0.8);
+  EXPECT_EQ(r.bodies[4].shape.points.size(), 4u);
+}
+
+TEST(SceneErrors, NanIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0.5, 0.5]},
+          "position": [NaN, 2, 0]})"));
+  EXPECT_NE(e.find("bad.json: body #1 (id 7): field 'position[0]'"), std::string::npos) << e;
+  EXPECT_NE(e.find("NaN"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, InfiniteNumberIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0.5, 0.5]},
+          "position": [0, 1e999, 0]})"));
+  EXPECT_NE(e.find("bad.json: body #1 (id 7): field 'position[1]'"), std::string::npos) << e;
+  EXPECT_NE(e.find("finite"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, ZeroMassDynamicIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 0, "shape": {"type": "sphere", "radius": 0.5},
+          "position": [0, 2, 0]})"));
+  EXPECT_NE(e.find("body #1 (id 7)"), std::string::npos) << e;
+  EXPECT_NE(e.find("'mass'"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, NegativeMassDynamicIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": -2, "shape": {"type": "sphere", "radius": 0.5},
+          "position": [0, 2, 0]})"));
+  EXPECT_NE(e.find("'mass'"), std::string::npos) << e;
+  EXPECT_NE(e.find("> 0"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, ZeroExtentIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0, 0.5]},
+          "position": [0, 2, 0]})"));
+  EXPECT_NE(e.find("body #1 (id 7)"), std::string::npos) << e;
+  EXPECT_NE(e.find("'shape.half_extents'"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, NegativeRadiusIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "capsule", "radius": -0.1, "height": 1},
+          "position": [0, 2, 0]})"));
+  EXPECT_NE(e.find("'shape.radius'"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, UnknownShapeIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "torus", "radius": 1},
+          "position": [0, 2, 0]})"));
+  EXPECT_NE(e.find("body #1 (id 7)"), std::string::npos) << e;
+  EXPECT_NE(e.find("unknown shape 'torus'"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, DuplicateIdIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 0, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5},
+          "position": [0, 2, 0]})"));
+  EXPECT_NE(e.find("body #1 (id 0)"), std::string::npos) << e;
+  EXPECT_NE(e.find("duplicate id"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, IdOutOfRangeIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 2147483648, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5},
+          "position": [0, 2, 0]})"));
+  EXPECT_NE(e.find("'id'"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, MissingFieldIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5}})"));
+  EXPECT_NE(e.find("body #1 (id 7)"), std::string::npos) << e;
+  EXPECT_NE(e.find("'position': missing"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, MissingMassOnDynamicIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "shape": {"type": "sphere", "radius": 0.5}, "position": [0, 2, 0]})"));
+  EXPECT_NE(e.find("'mass': missing"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, MistypedFieldIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": "heavy", "shape": {"type": "sphere", "radius": 0.5},
+          "position": [0, 2, 0]})"));
+  EXPECT_NE(e.find("'mass': must be a number, got string"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, WrongArrayLengthIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5},
+          "position": [0, 2]})"));
+  EXPECT_NE(e.find("'position': must be an array of 3 numbers"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, UnknownFieldIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 1, "fricton": 0.3, "shape": {"type": "sphere", "radius": 0.5},
+          "position": [0, 2, 0]})"));
+  EXPECT_NE(e.find("'fricton': unknown field"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, MalformedJsonIsRejected) {
+  const std::string e = error_of(R"({"format": "soda-scene", "version": 1, "bodies": [)");
+  EXPECT_NE(e.find("not valid JSON"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, UnreadableFileIsRejected) {
+  try {
+    load_scene_file("/nonexistent/dir/scene.json");
+    FAIL() << "no error";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/scene.json: cannot open"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(SceneErrors, HugeBodyBulletWouldDisableIsRejected) {
+  // 1e6 m box: AABB length^2 = 3e12 >= 1e12.
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [5e5, 5e5, 5e5]},
+          "position": [0, 2, 0]})"));
+  EXPECT_NE(e.find("body #1 (id 7)"), std::string::npos) << e;
+  EXPECT_NE(e.find("1e12"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, FarAwayCoordinatesBulletWouldDisableAreRejected) {
+  // Beyond float range a float world's AABB is infinite: Bullet disables the
+  // body. (Far below that, float merely loses precision; the far-origin
+  // stress scenes measure it.)
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0.5, 0.5]},
+          "position": [1e39, 2, 0]})"));
+  EXPECT_NE(e.find("body #1 (id 7)"), std::string::npos) << e;
+  EXPECT_NE(e.find("too far from the origin"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, TooFastBodyBulletWouldDisableIsRejected) {
+  const std::string e = error_of(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5},
+          "position": [0, 2, 0], "linear_velocity": [1e9, 0, 0]})"));
+  EXPECT_NE(e.find("'position/shape/linear_velocity'"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, FarButReasonableCoordinatesAreAccepted) {
+  // The far-origin stress scenes live at 1e5 m: must load.
+  EXPECT_NO_THROW(parse_scene_json(scene_text(
+      R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0.5, 0.5]},
+          "position": [1e5, 2, 0]})"), "far.json"));
+}
+
+TEST(SceneErrors, BadSettingsAreRejected) {
+  const std::string e = error_of(R"({"format": "soda-scene", "version": 1, "settings": {"dt": -1},
+      "bodies": []})");
+  EXPECT_NE(e.find("settings: field 'dt'"), std::string::npos) << e;
+}
+
+}  // namespace
+}  // namespace soda

@@ -1,0 +1,39 @@
+// Conversion from the scene model to Bullet objects, shared by every kind of
+// world (stock baseline, canonical world) so that they build identical bodies.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <btBulletDynamicsCommon.h>
+
+#include "soda/scene/scene.h"
+#include "soda/worlds/body_state.h"
+
+namespace soda {
+
+/// Creates the collision shape of `shape` (Bullet's default margins).
+std::unique_ptr<btCollisionShape> make_collision_shape(const Shape& shape);
+
+/// Scene pose -> Bullet transform (rounded to btScalar).
+btTransform to_bt_transform(const Vec3& position, const Quat& orientation);
+btVector3 to_bt(const Vec3& v);
+
+/// Creates a rigid body for `body` with its start transform and velocities in
+/// the construction info (so its world-space inertia is right from the first
+/// step), friction and restitution set. The body's user index is its id.
+/// The shape must outlive the body.
+std::unique_ptr<btRigidBody> make_rigid_body(const Body& body, btCollisionShape& shape);
+
+/// Reads the raw state of a Bullet body (id taken from its user index).
+BodyState read_body_state(const btRigidBody& body);
+
+/// Owns the shapes and bodies of a scene, in the scene's body order.
+struct BulletBodies {
+  std::vector<std::unique_ptr<btCollisionShape>> shapes;
+  std::vector<std::unique_ptr<btRigidBody>> bodies;
+
+  explicit BulletBodies(const Scene& scene);
+};
+
+}  // namespace soda

@@ -1,0 +1,80 @@
+#include "soda/worlds/bullet_bodies.h"
+
+#include <stdexcept>
+
+namespace soda {
+
+btVector3 to_bt(const Vec3& v) {
+  return btVector3(btScalar(v.x()), btScalar(v.y()), btScalar(v.z()));
+}
+
+btTransform to_bt_transform(const Vec3& position, const Quat& orientation) {
+  const Quat q = orientation.normalized();
+  return btTransform(btQuaternion(btScalar(q.x()), btScalar(q.y()), btScalar(q.z()), btScalar(q.w())),
+                     to_bt(position));
+}
+
+std::unique_ptr<btCollisionShape> make_collision_shape(const Shape& shape) {
+  switch (shape.kind) {
+    case ShapeKind::Box:
+      return std::make_unique<btBoxShape>(to_bt(shape.half_extents));
+    case ShapeKind::Sphere:
+      return std::make_unique<btSphereShape>(btScalar(shape.radius));
+    case ShapeKind::Capsule:
+      return std::make_unique<btCapsuleShape>(btScalar(shape.radius), btScalar(shape.height));
+    case ShapeKind::Cylinder:
+      return std::make_unique<btCylinderShape>(to_bt(shape.half_extents));
+    case ShapeKind::ConvexHull: {
+      auto hull = std::make_unique<btConvexHullShape>();
+      for (const Vec3& p : shape.points) hull->addPoint(to_bt(p), false);
+      hull->recalcLocalAabb();
+      return hull;
+    }
+  }
+  throw std::invalid_argument("make_collision_shape: unknown shape kind");
+}
+
+std::unique_ptr<btRigidBody> make_rigid_body(const Body& body, btCollisionShape& shape) {
+  const btScalar mass = body.is_static ? btScalar(0) : btScalar(body.mass);
+  btVector3 inertia(0, 0, 0);
+  if (!body.is_static) shape.calculateLocalInertia(mass, inertia);
+  btRigidBody::btRigidBodyConstructionInfo info(mass, nullptr, &shape, inertia);
+  info.m_startWorldTransform = to_bt_transform(body.position, body.orientation);
+  info.m_friction = btScalar(body.friction);
+  info.m_restitution = btScalar(body.restitution);
+  auto rb = std::make_unique<btRigidBody>(info);
+  rb->setUserIndex(static_cast<int>(body.id));
+  if (!body.is_static) {
+    rb->setLinearVelocity(to_bt(body.linear_velocity));
+    rb->setAngularVelocity(to_bt(body.angular_velocity));
+    rb->setInterpolationLinearVelocity(to_bt(body.linear_velocity));
+    rb->setInterpolationAngularVelocity(to_bt(body.angular_velocity));
+  }
+  return rb;
+}
+
+BodyState read_body_state(const btRigidBody& body) {
+  BodyState s;
+  s.id = static_cast<BodyId>(body.getUserIndex());
+  const btTransform& t = body.getWorldTransform();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) s.basis[r * 3 + c] = t.getBasis()[r][c];
+  for (int i = 0; i < 3; ++i) {
+    s.origin[i] = t.getOrigin()[i];
+    s.linear_velocity[i] = body.getLinearVelocity()[i];
+    s.angular_velocity[i] = body.getAngularVelocity()[i];
+  }
+  s.activation_state = body.getActivationState();
+  return s;
+}
+
+BulletBodies::BulletBodies(const Scene& scene) {
+  shapes.reserve(scene.bodies.size());
+  bodies.reserve(scene.bodies.size());
+  for (const Body& b : scene.bodies) {
+    shapes.push_back(make_collision_shape(b.shape));
+    bodies.push_back(make_rigid_body(b, *shapes.back()));
+  }
+}
+
+}  // namespace soda
