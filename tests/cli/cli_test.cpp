@@ -1,0 +1,152 @@
+// The CLI end to end: bad input gives a clear message and exit code 2 (never
+// a crash), bench writes the documented JSON fields.
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace {
+
+struct Outcome {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+Outcome run_cli(const std::string& args) {
+  const std::string cmd = std::string(SODA_CLI_PATH) + " " + args + " 2>&1";
+  Outcome o;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return o;
+  char buf[4096];
+  std::size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) o.output.append(buf, n);
+  const int status = pclose(p);
+  o.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return o;
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  std::filesystem::path dir_;
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("soda_cli_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  std::string write(const std::string& name, const std::string& text) {
+    const auto path = (dir_ / name).string();
+    std::ofstream(path) << text;
+    return path;
+  }
+
+  // A scene file with one bad dynamic body.
+  std::string bad_scene(const std::string& body) {
+    return write("bad.json", R"({"format": "soda-scene", "version": 1, "bodies": [
+      {"id": 0, "type": "static", "shape": {"type": "box", "half_extents": [10, 0.5, 10]}, "position": [0, -0.5, 0]},
+      )" + body + "]}");
+  }
+
+  void expect_bad_input(const std::string& path, const std::string& needle) {
+    const Outcome o = run_cli("run --scene " + path + " --steps 1");
+    EXPECT_EQ(o.exit_code, 2) << o.output;
+    EXPECT_NE(o.output.find(path), std::string::npos) << o.output;
+    EXPECT_NE(o.output.find(needle), std::string::npos) << o.output;
+  }
+};
+
+TEST_F(CliTest, NanNumber) {
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 1},
+      "position": [0, NaN, 0]})"), "body #1 (id 3): field 'position[1]'");
+}
+TEST_F(CliTest, InfiniteNumber) {
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "dynamic", "mass": 1e400, "shape": {"type": "sphere", "radius": 1},
+      "position": [0, 2, 0]})"), "body #1 (id 3): field 'mass'");
+}
+TEST_F(CliTest, NonPositiveMass) {
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "dynamic", "mass": 0, "shape": {"type": "sphere", "radius": 1},
+      "position": [0, 2, 0]})"), "body #1 (id 3): field 'mass'");
+}
+TEST_F(CliTest, NegativeExtent) {
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [1, -1, 1]},
+      "position": [0, 2, 0]})"), "body #1 (id 3): field 'shape.half_extents'");
+}
+TEST_F(CliTest, UnknownShape) {
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "dynamic", "mass": 1, "shape": {"type": "cone"},
+      "position": [0, 2, 0]})"), "unknown shape 'cone'");
+}
+TEST_F(CliTest, DuplicateId) {
+  expect_bad_input(bad_scene(R"({"id": 0, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 1},
+      "position": [0, 2, 0]})"), "body #1 (id 0): field 'id': duplicate id");
+}
+TEST_F(CliTest, MissingField) {
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "dynamic", "mass": 1, "position": [0, 2, 0]})"),
+                   "body #1 (id 3): field 'shape': missing");
+}
+TEST_F(CliTest, MistypedField) {
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": "big"},
+      "position": [0, 2, 0]})"), "body #1 (id 3): field 'shape.radius': must be a number");
+}
+TEST_F(CliTest, BodyBulletWouldDisable) {
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 1e6},
+      "position": [0, 2, 0]})"), "1e12");
+}
+TEST_F(CliTest, UnreadableFile) {
+  const std::string path = (dir_ / "missing.json").string();
+  expect_bad_input(path, "cannot open");
+}
+
+TEST_F(CliTest, UnknownSceneAndBadOptionsExitTwo) {
+  Outcome o = run_cli("run --scene no-such-scene");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("falling-cubes"), std::string::npos) << o.output;
+  o = run_cli("run --steps many");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  o = run_cli("run --scene falling-cubes --n 10 --dt -1");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("'dt'"), std::string::npos) << o.output;
+  o = run_cli("run --world gpu");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+}
+
+TEST_F(CliTest, BenchWritesDocumentedJson) {
+  const std::string out = (dir_ / "out.json").string();
+  const Outcome o = run_cli("bench falling-cubes --n 100 --steps 20 --repeat 2 --log-level warn --json " + out);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  std::ifstream in(out);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  for (const char* field : {"scene", "params", "seed", "territories", "threads", "precision", "dt", "iterations",
+                            "steps", "bodies", "state_hash", "wall_seconds", "step_ms", "baseline_wall_seconds",
+                            "ratio_vs_baseline"})
+    EXPECT_TRUE(j.contains(field)) << field << " missing in " << j.dump();
+  EXPECT_EQ(j["bodies"], 101);
+  EXPECT_EQ(j["steps"], 20);
+  EXPECT_EQ(j["state_hash"].get<std::string>().size(), 16u);
+  EXPECT_GT(j["baseline_wall_seconds"].get<double>(), 0.0);
+  EXPECT_NEAR(j["ratio_vs_baseline"].get<double>(),
+              j["wall_seconds"].get<double>() / j["baseline_wall_seconds"].get<double>(), 1e-9);
+  EXPECT_EQ(j["wall_seconds_all"].size(), 2u);
+}
+
+TEST_F(CliTest, ExportedSceneRunsToTheSameHash) {
+  const std::string file = (dir_ / "cubes.json").string();
+  Outcome o = run_cli("export-scene --scene falling-cubes --n 60 --seed 4 -o " + file);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const std::string a_json = (dir_ / "a.json").string(), b_json = (dir_ / "b.json").string();
+  o = run_cli("run --scene falling-cubes --n 60 --seed 4 --steps 50 --json " + a_json);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  o = run_cli("run --scene " + file + " --steps 50 --json " + b_json);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const auto a = nlohmann::json::parse(std::ifstream(a_json));
+  const auto b = nlohmann::json::parse(std::ifstream(b_json));
+  EXPECT_EQ(a["state_hash"], b["state_hash"]);
+}
+
+}  // namespace
