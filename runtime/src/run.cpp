@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "soda/loadbalance/thread_clock.h"
+#include "soda/worlds/canonical_world.h"
 #include "soda/worlds/stock_world.h"
 
 namespace soda {
@@ -102,7 +103,8 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
       return run_world(world, scene, config);
     }
     case WorldKind::Canonical: {
-      throw std::invalid_argument("the canonical world is not available in this build");
+      CanonicalWorld world(scene, order);
+      return run_world(world, scene, config);
     }
   }
   throw std::invalid_argument("unknown world kind");

@@ -1,0 +1,130 @@
+// Snapshots: a fresh world built from a snapshot (bodies inserted in a
+// shuffled order), directly or through bytes, continues the trajectory bit
+// for bit; malformed bytes are rejected with SnapshotFormatError.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include <btBulletDynamicsCommon.h>
+
+#include "soda/worlds/canonical_world.h"
+#include "worlds/world_test_util.h"
+
+namespace soda {
+namespace {
+
+using test::kSteps;
+constexpr int kSnapshotStep = 200;
+
+void expect_restore_reproduces(const std::string& name) {
+  const Scene s = test::scene(name);
+  CanonicalWorld reference(s);
+  test::run(reference, kSnapshotStep);
+  const WorldSnapshot snap = reference.snapshot();
+  const std::uint64_t at_snapshot = reference.state_hash(true);
+  std::size_t asleep_in_snapshot = 0;
+  for (const BodySnapshot& b : snap.bodies) asleep_in_snapshot += b.state.activation_state == ISLAND_SLEEPING;
+  if (name == "falling-cubes") {
+    EXPECT_GT(asleep_in_snapshot, 0u) << "the snapshot should hold sleepers";
+  }
+  test::run(reference, kSteps - kSnapshotStep);
+
+  CanonicalWorld restored(snap, test::shuffled_order(snap.bodies.size(), 11));
+  EXPECT_EQ(hash_hex(restored.state_hash(true)), hash_hex(at_snapshot));
+  test::run(restored, kSteps - kSnapshotStep);
+
+  const std::vector<std::uint8_t> bytes = serialize(snap);
+  CanonicalWorld from_bytes(deserialize_snapshot(bytes), test::reversed_order(snap.bodies.size()));
+  test::run(from_bytes, kSteps - kSnapshotStep);
+
+  std::printf("[ %s %s ] %d steps: uninterrupted %s, restored at %d (shuffled) %s, via %zu bytes %s; "
+              "%zu manifolds and %zu sleepers in snapshot; sleeping at end %zu %zu %zu\n",
+              name.c_str(), kPrecisionName, kSteps, hash_hex(reference.state_hash()).c_str(), kSnapshotStep,
+              hash_hex(restored.state_hash()).c_str(), bytes.size(), hash_hex(from_bytes.state_hash()).c_str(),
+              snap.manifolds.size(), asleep_in_snapshot, reference.sleeping_count(), restored.sleeping_count(),
+              from_bytes.sleeping_count());
+  EXPECT_GT(snap.manifolds.size(), 0u);
+  EXPECT_EQ(restored.steps_done(), kSteps);
+  EXPECT_EQ(hash_hex(reference.state_hash(true)), hash_hex(restored.state_hash(true)));
+  EXPECT_EQ(hash_hex(reference.state_hash(true)), hash_hex(from_bytes.state_hash(true)));
+  EXPECT_EQ(reference.sleeping_count(), restored.sleeping_count());
+  EXPECT_EQ(reference.sleeping_count(), from_bytes.sleeping_count());
+}
+
+TEST(Snapshot, FreshWorldRestoreFallingCubes) { expect_restore_reproduces("falling-cubes"); }
+TEST(Snapshot, FreshWorldRestoreCubePile) { expect_restore_reproduces("cube-pile"); }
+
+// The contact state is part of the state: dropping it changes the trajectory.
+TEST(Snapshot, ContactStateMatters) {
+  const Scene s = test::scene("cube-pile", 200);
+  CanonicalWorld a(s);
+  test::run(a, 150);
+  WorldSnapshot snap = a.snapshot();
+  snap.manifolds.clear();
+  CanonicalWorld b(snap);
+  test::run(a, 50);
+  test::run(b, 50);
+  std::printf("[ cube-pile %s ] with contact state %s, without %s\n", kPrecisionName,
+              hash_hex(a.state_hash()).c_str(), hash_hex(b.state_hash()).c_str());
+  EXPECT_NE(a.state_hash(), b.state_hash());
+}
+
+TEST(Snapshot, OneUlpInARestoredWorldChangesTheHash) {
+  const Scene s = test::scene("falling-cubes", 50);
+  CanonicalWorld a(s);
+  test::run(a, 30);
+  WorldSnapshot snap = a.snapshot();
+  btScalar& x = snap.bodies[17].state.origin[0];
+  x = std::nextafter(x, btScalar(1e30));
+  CanonicalWorld b(snap);
+  std::printf("[ one ulp %s ] world %s, restored with one ulp more %s\n", kPrecisionName,
+              hash_hex(a.state_hash()).c_str(), hash_hex(b.state_hash()).c_str());
+  EXPECT_NE(a.state_hash(), b.state_hash());
+}
+
+TEST(Snapshot, BytesRoundTripExactly) {
+  const Scene s = test::scene("cube-pile", 100);
+  CanonicalWorld a(s);
+  test::run(a, 100);
+  const WorldSnapshot snap = a.snapshot();
+  const std::vector<std::uint8_t> bytes = serialize(snap);
+  EXPECT_EQ(serialize(deserialize_snapshot(bytes)), bytes);
+  EXPECT_EQ(contact_hash(deserialize_snapshot(bytes).manifolds), contact_hash(snap.manifolds));
+}
+
+TEST(Snapshot, MalformedBytesThrow) {
+  const Scene s = test::scene("cube-pile", 30);
+  CanonicalWorld a(s);
+  test::run(a, 60);
+  const std::vector<std::uint8_t> bytes = serialize(a.snapshot());
+  // Every truncation.
+  for (std::size_t n = 0; n < bytes.size(); n += (n < 64 ? 1 : 7)) {
+    std::vector<std::uint8_t> cut(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(n));
+    EXPECT_THROW(deserialize_snapshot(cut), SnapshotFormatError) << "truncated to " << n;
+  }
+  auto with = [&](std::size_t at, std::uint8_t value) {
+    std::vector<std::uint8_t> b = bytes;
+    b[at] = value;
+    return b;
+  };
+  EXPECT_THROW(deserialize_snapshot(with(0, 'X')), SnapshotFormatError);           // magic
+  EXPECT_THROW(deserialize_snapshot(with(12, 3)), SnapshotFormatError);            // precision
+  std::vector<std::uint8_t> longer = bytes;
+  longer.push_back(0);
+  EXPECT_THROW(deserialize_snapshot(longer), SnapshotFormatError);                 // trailing
+  std::vector<std::uint8_t> huge = bytes;
+  const std::size_t body_count_at = 8 + 4 + 4 + 8 + 4 + 4 + 24 + 4 + 8;
+  for (int i = 0; i < 4; ++i) huge[body_count_at + i] = 0xff;
+  EXPECT_THROW(deserialize_snapshot(huge), SnapshotFormatError);                   // count
+  // Random single-byte corruptions never crash: they throw or decode.
+  for (std::size_t at = 0; at < bytes.size(); at += 13) {
+    try {
+      (void)deserialize_snapshot(with(at, static_cast<std::uint8_t>(bytes[at] ^ 0xa5)));
+    } catch (const SnapshotFormatError&) {
+    }
+  }
+}
+
+}  // namespace
+}  // namespace soda

@@ -1,0 +1,102 @@
+// worlds/ — one territory's physics. This header: the canonical world, a
+// Bullet world whose step is a pure function of its bodies' states and
+// contact state (docs/determinism.md).
+//
+// Invariants (each one is tested in tests/worlds/):
+//  1. the result of step() does not depend on the order bodies were inserted
+//     in, nor on bodies that share no island with a body (far-away bodies);
+//  2. islands and sleeping are decided from manifolds that hold contact points
+//     (never from broadphase pairs), per island, as Bullet decides them;
+//  3. a world rebuilt from snapshot() (bodies inserted in any order) steps
+//     exactly as the world the snapshot was taken from;
+//  4. a world owns all its Bullet objects (collision configuration,
+//     dispatcher, broadphase, solver): distinct worlds may step concurrently
+//     on distinct threads. One world is not thread-safe.
+//
+// Outside the contract: continuous collision detection (CCD motion clamping
+// sweeps against the whole world; bodies are created with CCD off),
+// constraints (joints; not supported yet: adding one throws on step), compound
+// shapes (several manifolds per pair).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "soda/scene/scene.h"
+#include "soda/worlds/body_state.h"
+#include "soda/worlds/world_snapshot.h"
+
+class btDiscreteDynamicsWorld;
+class btRigidBody;
+class btCollisionShape;
+
+namespace soda {
+
+class CanonicalDynamicsWorld;
+struct CanonicalWorldParts;
+
+/// What the last step's island stage saw (IslandStage in docs/determinism.md).
+struct StepStats {
+  std::size_t islands = 0;           // islands of dynamic bodies, lone bodies included
+  std::size_t awake_islands = 0;     // solved this step
+  std::size_t sleeping_islands = 0;  // skipped: every body asleep
+  std::size_t lone_bodies = 0;       // awake islands of one body without contacts
+  std::size_t contact_manifolds = 0; // manifolds with points, all islands
+  std::size_t solved_manifolds = 0;  // manifolds handed to the solver
+  std::size_t broadphase_pairs = 0;  // after the full stale-pair sweep
+};
+
+class CanonicalWorld {
+ public:
+  /// Builds the world from a scene; bodies are inserted in `insertion_order`
+  /// (indices into scene.bodies; empty = scene order). The result of every
+  /// step is the same for every order.
+  explicit CanonicalWorld(const Scene& scene, const std::vector<std::size_t>& insertion_order = {});
+
+  /// Rebuilds a world from a snapshot (indices into snapshot.bodies; empty =
+  /// id order). Steps exactly as the world the snapshot was taken from.
+  explicit CanonicalWorld(const WorldSnapshot& snapshot,
+                          const std::vector<std::size_t>& insertion_order = {});
+
+  ~CanonicalWorld();
+  CanonicalWorld(const CanonicalWorld&) = delete;
+  CanonicalWorld& operator=(const CanonicalWorld&) = delete;
+
+  /// One fixed step of settings.dt (substeps as configured).
+  void step();
+  std::int64_t steps_done() const { return steps_done_; }
+  const StepStats& last_step_stats() const;
+
+  /// Raw states of every body (statics included), sorted by id.
+  std::vector<BodyState> body_states() const;
+  /// soda::state_hash of body_states(); with include_contacts, the contact
+  /// state (contact_hash of contact_state()) is mixed in.
+  std::uint64_t state_hash(bool include_contacts = false) const;
+  std::size_t body_count() const;
+  std::size_t sleeping_count() const;
+
+  /// The full state as values. Cost: O(bodies + manifolds).
+  WorldSnapshot snapshot() const;
+  /// Every manifold that holds points, sorted by (id0, id1).
+  std::vector<ManifoldState> contact_state() const;
+  /// One body as a value (for migration and ghosts). Throws std::out_of_range.
+  BodySnapshot export_body(BodyId id) const;
+
+  /// Bullet's world, for inspection and for the stock-vs-canonical bench.
+  /// Adding or removing objects through it breaks the invariants.
+  btDiscreteDynamicsWorld& bullet();
+
+ private:
+  struct Entry;
+  void build(const SceneSettings& settings);
+  void insert_body(const Body& description, const BodyDynamicState* state);
+  void import_manifolds(const std::vector<ManifoldState>& manifolds);
+
+  SceneSettings settings_;
+  std::unique_ptr<CanonicalWorldParts> parts_;
+  std::vector<std::unique_ptr<Entry>> entries_;  // sorted by id after construction
+  std::int64_t steps_done_ = 0;
+};
+
+}  // namespace soda

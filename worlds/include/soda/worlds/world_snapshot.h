@@ -1,0 +1,107 @@
+// worlds/ — one territory's physics. This header: the full state of a
+// canonical world as plain values (no pointers), so that it can be restored
+// into a fresh world, carried across a process boundary, or split into bodies
+// and manifolds that migrate between worlds.
+//
+// What a snapshot captures (everything a step reads):
+//  1. every body, statics included: its description (shape, mass, friction,
+//     restitution) and its raw dynamic state (transform, interpolation
+//     transform, velocities, interpolation velocities, activation state,
+//     deactivation timer, hit fraction), in btScalar bits;
+//  2. the contact state: every persistent manifold that holds contact points,
+//     keyed by (id0, id1) = the ids of its body0/body1 (id0 < id1), with every
+//     field of every point in cache order, warm-start impulses included.
+// What it does not capture: manifolds without points and broadphase pairs
+// (both depend on the broadphase's history, not on the physics: a step does
+// not depend on them), solver scratch (rebuilt every step), forces (cleared
+// at the end of every step). Bodies are sorted by id, manifolds by (id0, id1).
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <LinearMath/btScalar.h>
+
+#include "soda/scene/scene.h"
+
+namespace soda {
+
+/// Raw dynamic state of one body: what Bullet holds, bit for bit.
+struct BodyDynamicState {
+  btScalar basis[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  // row major, as btMatrix3x3
+  btScalar origin[3] = {0, 0, 0};
+  btScalar interpolation_basis[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  btScalar interpolation_origin[3] = {0, 0, 0};
+  btScalar linear_velocity[3] = {0, 0, 0};
+  btScalar angular_velocity[3] = {0, 0, 0};
+  btScalar interpolation_linear_velocity[3] = {0, 0, 0};
+  btScalar interpolation_angular_velocity[3] = {0, 0, 0};
+  std::int32_t activation_state = 1;  // ACTIVE_TAG, ISLAND_SLEEPING, ...
+  btScalar deactivation_time = 0;     // s; the sleep timer
+  btScalar hit_fraction = 1;
+};
+
+/// One body: description (its pose/velocity fields are those it was created
+/// with and are NOT used on restore) + raw state (used on restore).
+struct BodySnapshot {
+  Body description;
+  BodyDynamicState state;
+};
+
+/// Every field of a btManifoldPoint that narrowphase or solver read.
+struct ContactPointState {
+  btScalar local_point_a[3], local_point_b[3];
+  btScalar position_world_on_b[3], position_world_on_a[3];
+  btScalar normal_world_on_b[3];
+  btScalar distance;
+  btScalar combined_friction, combined_rolling_friction, combined_spinning_friction;
+  btScalar combined_restitution;
+  std::int32_t part_id0, part_id1, index0, index1;
+  std::int32_t contact_point_flags;
+  btScalar applied_impulse, prev_rhs;
+  btScalar applied_impulse_lateral1, applied_impulse_lateral2;
+  btScalar contact_motion1, contact_motion2;
+  btScalar contact_cfm, combined_contact_stiffness1;  // union in Bullet (cfm | stiffness)
+  btScalar contact_erp, combined_contact_damping1;    // union in Bullet (erp | damping)
+  btScalar friction_cfm;
+  std::int32_t lifetime;  // steps
+  btScalar lateral_friction_dir1[3], lateral_friction_dir2[3];
+};
+
+/// The contact state of one pair: a persistent manifold's points in cache
+/// order (at most 4). id0 < id1 are the ids of Bullet's body0 and body1.
+struct ManifoldState {
+  BodyId id0 = 0;
+  BodyId id1 = 0;
+  std::vector<ContactPointState> points;
+};
+
+struct WorldSnapshot {
+  SceneSettings settings;
+  std::int64_t steps_done = 0;
+  std::vector<BodySnapshot> bodies;      // sorted by id
+  std::vector<ManifoldState> manifolds;  // sorted by (id0, id1); every one has points
+};
+
+/// Thrown by deserialize_snapshot for bytes that are not a valid snapshot of
+/// this build's precision (truncated, corrupted, wrong magic or precision).
+class SnapshotFormatError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Self-describing little-endian byte encoding (magic, version, btScalar
+/// size, then every field). Round trip is bit-exact.
+std::vector<std::uint8_t> serialize(const WorldSnapshot& snapshot);
+
+/// Inverse of serialize. Never undefined behaviour on bad input: throws
+/// SnapshotFormatError with the reason and byte offset.
+WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes);
+
+/// Canonical 64-bit hash (FNV-1a) of a contact state: manifolds in (id0, id1)
+/// order, every field of every point. Input order does not matter.
+std::uint64_t contact_hash(std::vector<ManifoldState> manifolds);
+
+}  // namespace soda

@@ -1,0 +1,221 @@
+#include "canonical_dynamics_world.h"
+
+#include <algorithm>
+#include <numeric>
+#include <stdexcept>
+
+#include <BulletCollision/BroadphaseCollision/btDbvtBroadphase.h>
+
+namespace soda {
+namespace {
+
+BodyId id_of(const btCollisionObject* o) { return static_cast<BodyId>(o->getUserIndex()); }
+
+}  // namespace
+
+CanonicalDynamicsWorld::CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtBroadphase* broadphase,
+                                               btConstraintSolver* solver,
+                                               btCollisionConfiguration* config)
+    : btDiscreteDynamicsWorld(dispatcher, broadphase, solver, config), broadphase_(broadphase) {
+  // Islands are never batched: one solveGroup per island (see header).
+  getSolverInfo().m_minimumSolverBatchSize = 1;
+}
+
+void CanonicalDynamicsWorld::add_body(btRigidBody* body) {
+  // btDbvtBroadphase::createProxy numbers proxies with ++m_gid; pair caches
+  // order a pair's proxies by that number (body0 = smaller).
+  broadphase_->m_gid = body->getUserIndex();
+  addRigidBody(body);
+  if (!body->isStaticOrKinematicObject()) {
+    dynamic_bodies_.push_back(body);
+    bodies_sorted_ = false;
+  } else {
+    body->setIslandTag(-1);
+  }
+}
+
+void CanonicalDynamicsWorld::sort_dynamic_bodies() {
+  std::sort(dynamic_bodies_.begin(), dynamic_bodies_.end(),
+            [](const btRigidBody* a, const btRigidBody* b) { return id_of(a) < id_of(b); });
+  for (std::size_t i = 0; i < dynamic_bodies_.size(); ++i)
+    dynamic_bodies_[i]->setUserIndex2(static_cast<int>(i));
+  bodies_sorted_ = true;
+}
+
+// Stock btDbvtBroadphase removes stale pairs (leaf volumes no longer
+// overlapping) a fraction (m_cupdates %) per step; remove all of them, every
+// step, so the pair set is a function of the leaf volumes alone.
+void CanonicalDynamicsWorld::computeOverlappingPairs() {
+  btCollisionWorld::computeOverlappingPairs();
+  btOverlappingPairCache* cache = broadphase_->getOverlappingPairCache();
+  btBroadphasePairArray& pairs = cache->getOverlappingPairArray();
+  for (int i = 0; i < pairs.size();) {
+    auto* a = static_cast<btDbvtProxy*>(pairs[i].m_pProxy0);
+    auto* b = static_cast<btDbvtProxy*>(pairs[i].m_pProxy1);
+    if (Intersect(a->leaf->volume, b->leaf->volume)) {
+      ++i;
+    } else {
+      cache->removeOverlappingPair(a, b, m_dispatcher1);  // moves the last pair to i
+    }
+  }
+  stats_.broadphase_pairs = static_cast<std::size_t>(pairs.size());
+}
+
+int CanonicalDynamicsWorld::find(int i) {
+  while (parent_[i] != i) {
+    parent_[i] = parent_[parent_[i]];
+    i = parent_[i];
+  }
+  return i;
+}
+
+// Step 1 and 2: islands from manifolds that hold points.
+void CanonicalDynamicsWorld::build_islands() {
+  const int n = static_cast<int>(dynamic_bodies_.size());
+  parent_.resize(n);
+  std::iota(parent_.begin(), parent_.end(), 0);
+  contact_manifolds_.clear();
+  btDispatcher* dispatcher = getDispatcher();
+  const int num_manifolds = dispatcher->getNumManifolds();
+  for (int i = 0; i < num_manifolds; ++i) {
+    btPersistentManifold* m = dispatcher->getManifoldByIndexInternal(i);
+    if (m->getNumContacts() == 0) continue;
+    contact_manifolds_.push_back(m);
+    const btCollisionObject* a = m->getBody0();
+    const btCollisionObject* b = m->getBody1();
+    if (a->mergesSimulationIslands() && b->mergesSimulationIslands()) {
+      const int ra = find(a->getUserIndex2());
+      const int rb = find(b->getUserIndex2());
+      if (ra != rb) parent_[std::max(ra, rb)] = std::min(ra, rb);  // root = smallest position
+    }
+  }
+  stats_.contact_manifolds = contact_manifolds_.size();
+
+  // Roots are the smallest member, so numbering roots in id order numbers
+  // islands by their smallest body id.
+  island_of_.resize(n);
+  int islands = 0;
+  for (int i = 0; i < n; ++i) {
+    const int r = find(i);
+    island_of_[i] = (r == i) ? islands++ : island_of_[r];
+  }
+  island_begin_.assign(islands + 1, 0);
+  for (int i = 0; i < n; ++i) ++island_begin_[island_of_[i] + 1];
+  for (int k = 0; k < islands; ++k) island_begin_[k + 1] += island_begin_[k];
+  island_bodies_.resize(n);
+  std::vector<int> cursor(island_begin_.begin(), island_begin_.end() - 1);
+  for (int i = 0; i < n; ++i) {
+    btRigidBody* body = dynamic_bodies_[i];
+    body->setIslandTag(island_of_[i]);
+    body->setCompanionId(-1);
+    island_bodies_[cursor[island_of_[i]]++] = body;
+  }
+  stats_.islands = static_cast<std::size_t>(islands);
+}
+
+// Step 3: as btSimulationIslandManager::buildIslands.
+void CanonicalDynamicsWorld::decide_sleeping() {
+  const int islands = static_cast<int>(island_begin_.size()) - 1;
+  for (int k = 0; k < islands; ++k) {
+    bool all_sleeping = true;
+    for (int j = island_begin_[k]; j < island_begin_[k + 1]; ++j) {
+      const int s = island_bodies_[j]->getActivationState();
+      if (s == ACTIVE_TAG || s == DISABLE_DEACTIVATION) {
+        all_sleeping = false;
+        break;
+      }
+    }
+    for (int j = island_begin_[k]; j < island_begin_[k + 1]; ++j) {
+      btCollisionObject* body = island_bodies_[j];
+      if (all_sleeping) {
+        body->setActivationState(ISLAND_SLEEPING);
+      } else if (body->getActivationState() == ISLAND_SLEEPING) {
+        body->setActivationState(WANTS_DEACTIVATION);
+        body->setDeactivationTime(btScalar(0));
+      }
+    }
+  }
+}
+
+// Step 4a: as the manifold loop of buildIslands, then a canonical order.
+void CanonicalDynamicsWorld::collect_island_manifolds() {
+  island_manifolds_.clear();
+  btDispatcher* dispatcher = getDispatcher();
+  for (btPersistentManifold* m : contact_manifolds_) {
+    auto* a = const_cast<btCollisionObject*>(m->getBody0());
+    auto* b = const_cast<btCollisionObject*>(m->getBody1());
+    if (a->getActivationState() == ISLAND_SLEEPING && b->getActivationState() == ISLAND_SLEEPING)
+      continue;
+    if (a->isKinematicObject() && a->getActivationState() != ISLAND_SLEEPING && a->hasContactResponse())
+      b->activate();
+    if (b->isKinematicObject() && b->getActivationState() != ISLAND_SLEEPING && b->hasContactResponse())
+      a->activate();
+    if (!dispatcher->needsResponse(a, b)) continue;
+    const int island = a->getIslandTag() >= 0 ? a->getIslandTag() : b->getIslandTag();
+    if (island < 0) continue;
+    island_manifolds_.push_back({static_cast<std::uint32_t>(island), id_of(a), id_of(b), m});
+  }
+  std::sort(island_manifolds_.begin(), island_manifolds_.end(),
+            [](const IslandManifold& x, const IslandManifold& y) {
+              if (x.island != y.island) return x.island < y.island;
+              if (x.id0 != y.id0) return x.id0 < y.id0;
+              return x.id1 < y.id1;
+            });
+  for (std::size_t i = 1; i < island_manifolds_.size(); ++i)
+    if (island_manifolds_[i].id0 == island_manifolds_[i - 1].id0 &&
+        island_manifolds_[i].id1 == island_manifolds_[i - 1].id1)
+      throw std::logic_error("CanonicalWorld: two manifolds for one pair (compound shapes are not supported)");
+  manifold_ptrs_.resize(island_manifolds_.size());
+  for (std::size_t i = 0; i < island_manifolds_.size(); ++i)
+    manifold_ptrs_[i] = island_manifolds_[i].manifold;
+}
+
+// Step 4b: one solveGroup per awake island.
+void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
+  const int islands = static_cast<int>(island_begin_.size()) - 1;
+  btConstraintSolver* solver = getConstraintSolver();
+  btDispatcher* dispatcher = getDispatcher();
+  lone_bodies_.clear();
+  stats_.awake_islands = stats_.sleeping_islands = stats_.solved_manifolds = 0;
+  std::size_t m = 0;
+  for (int k = 0; k < islands; ++k) {
+    const std::size_t m_begin = m;
+    while (m < island_manifolds_.size() && island_manifolds_[m].island == static_cast<std::uint32_t>(k)) ++m;
+    const int body_begin = island_begin_[k];
+    const int body_count = island_begin_[k + 1] - body_begin;
+    bool awake = false;
+    for (int j = body_begin; j < island_begin_[k + 1] && !awake; ++j) awake = island_bodies_[j]->isActive();
+    if (!awake) {
+      ++stats_.sleeping_islands;
+      continue;
+    }
+    ++stats_.awake_islands;
+    const int manifold_count = static_cast<int>(m - m_begin);
+    if (body_count == 1 && manifold_count == 0) {
+      lone_bodies_.push_back(island_bodies_[body_begin]);
+      continue;
+    }
+    stats_.solved_manifolds += static_cast<std::size_t>(manifold_count);
+    solver->solveGroup(&island_bodies_[body_begin], body_count,
+                       manifold_count ? &manifold_ptrs_[m_begin] : nullptr, manifold_count, nullptr, 0,
+                       solver_info, getDebugDrawer(), dispatcher);
+  }
+  stats_.lone_bodies = lone_bodies_.size();
+  if (!lone_bodies_.empty())
+    solver->solveGroup(lone_bodies_.data(), static_cast<int>(lone_bodies_.size()), nullptr, 0, nullptr, 0,
+                       solver_info, getDebugDrawer(), dispatcher);
+}
+
+void CanonicalDynamicsWorld::solveConstraints(btContactSolverInfo& solver_info) {
+  if (getNumConstraints() != 0)
+    throw std::logic_error("CanonicalWorld: constraints are not supported yet");
+  if (!bodies_sorted_) sort_dynamic_bodies();
+  getConstraintSolver()->prepareSolve(getNumCollisionObjects(), getDispatcher()->getNumManifolds());
+  build_islands();
+  decide_sleeping();
+  collect_island_manifolds();
+  solve_islands(solver_info);
+  getConstraintSolver()->allSolved(solver_info, getDebugDrawer());
+}
+
+}  // namespace soda

@@ -1,0 +1,80 @@
+// Internal: the btDiscreteDynamicsWorld subclass behind CanonicalWorld. It
+// replaces two stages of Bullet's internalSingleStepSimulation:
+//
+//   predictUnconstraintMotion        (stock: per body, order-free)
+//   performDiscreteCollisionDetection
+//     updateAabbs                    (stock: per body)
+//     computeOverlappingPairs        OVERRIDDEN: + full stale-pair sweep
+//     dispatchAllCollisionPairs      (stock: per pair; body0 = lower id)
+//   calculateSimulationIslands       OVERRIDDEN: no-op (Bullet's unites broadphase pairs)
+//   solveConstraints                 OVERRIDDEN: IslandStage (below)
+//   integrateTransforms              (stock: per body; CCD off)
+//   updateActivationState            (stock: per body timers)
+//
+// IslandStage, every step:
+//  1. union-find over dynamic bodies (id order) joined by manifolds that hold
+//     contact points (and whose bodies both merge islands);
+//  2. islands numbered by their smallest body id, bodies in id order;
+//  3. sleeping per island, as btSimulationIslandManager::buildIslands: all
+//     bodies want sleep -> ISLAND_SLEEPING; else sleepers are woken;
+//  4. each awake island's manifolds sorted by (id0, id1) and solved alone
+//     (one solveGroup call per island; batch size 1, so Bullet's early exit
+//     and iteration overrides are per island). Awake lone bodies without
+//     contacts are solved in one call: they have no solver rows, so each one's
+//     result is its own integration, whatever else is in the call.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <btBulletDynamicsCommon.h>
+
+#include "soda/worlds/canonical_world.h"
+
+namespace soda {
+
+class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
+ public:
+  CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtBroadphase* broadphase,
+                         btConstraintSolver* solver, btCollisionConfiguration* config);
+
+  /// Inserts a body whose user index is its global id: its broadphase proxy
+  /// gets unique id = global id + 1, so every pair's body0 is its lower id.
+  void add_body(btRigidBody* body);
+
+  const StepStats& stats() const { return stats_; }
+
+  void computeOverlappingPairs() override;
+  void calculateSimulationIslands() override {}
+  void solveConstraints(btContactSolverInfo& solver_info) override;
+
+ private:
+  void sort_dynamic_bodies();
+  int find(int i);
+  void build_islands();
+  void decide_sleeping();
+  void collect_island_manifolds();
+  void solve_islands(btContactSolverInfo& solver_info);
+
+  btDbvtBroadphase* broadphase_;
+  StepStats stats_;
+  bool bodies_sorted_ = true;
+  std::vector<btRigidBody*> dynamic_bodies_;  // sorted by id; user index 2 = position
+
+  // Per-step scratch, kept to avoid reallocation.
+  struct IslandManifold {
+    std::uint32_t island;
+    BodyId id0, id1;
+    btPersistentManifold* manifold;
+  };
+  std::vector<int> parent_;
+  std::vector<btPersistentManifold*> contact_manifolds_;
+  std::vector<int> island_of_;                     // per dynamic body
+  std::vector<int> island_begin_;                  // CSR offsets into island_bodies_
+  std::vector<btCollisionObject*> island_bodies_;  // by island, then id
+  std::vector<IslandManifold> island_manifolds_;   // by island, then (id0, id1)
+  std::vector<btPersistentManifold*> manifold_ptrs_;
+  std::vector<btCollisionObject*> lone_bodies_;
+};
+
+}  // namespace soda

@@ -1,0 +1,122 @@
+// CanonicalWorld: construction from a scene, the step, state readout.
+// Snapshots: canonical_snapshot.cpp; byte encoding: snapshot_bytes.cpp.
+#include "soda/worlds/canonical_world.h"
+
+#include <algorithm>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "canonical_world_parts.h"
+#include "soda/worlds/bullet_bodies.h"
+
+namespace soda {
+
+CanonicalWorld::CanonicalWorld(const Scene& scene, const std::vector<std::size_t>& insertion_order) {
+  build(scene.settings);
+  std::vector<std::size_t> order = insertion_order;
+  if (order.empty()) {
+    order.resize(scene.bodies.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+  }
+  if (order.size() != scene.bodies.size())
+    throw std::invalid_argument("CanonicalWorld: insertion order must list every body once");
+  for (std::size_t i : order) insert_body(scene.bodies.at(i), nullptr);
+  std::sort(entries_.begin(), entries_.end(),
+            [](const auto& a, const auto& b) { return a->description.id < b->description.id; });
+  for (std::size_t i = 1; i < entries_.size(); ++i)
+    if (entries_[i]->description.id == entries_[i - 1]->description.id)
+      throw std::invalid_argument("CanonicalWorld: duplicate body id " +
+                                  std::to_string(entries_[i]->description.id));
+}
+
+CanonicalWorld::~CanonicalWorld() {
+  if (!parts_) return;
+  btDiscreteDynamicsWorld& w = parts_->world;
+  for (int i = w.getNumCollisionObjects() - 1; i >= 0; --i)
+    w.removeCollisionObject(w.getCollisionObjectArray()[i]);
+}
+
+void CanonicalWorld::build(const SceneSettings& settings) {
+  settings_ = settings;
+  parts_ = std::make_unique<CanonicalWorldParts>();
+  parts_->world.setGravity(to_bt(settings_.gravity));
+  parts_->world.getSolverInfo().m_numIterations = settings_.iterations;
+}
+
+// As make_rigid_body, but with a raw start transform when restoring: the
+// world-space inertia is computed from the transform in the constructor.
+void CanonicalWorld::insert_body(const Body& description, const BodyDynamicState* state) {
+  if (description.id > kMaxBodyId)
+    throw std::invalid_argument("CanonicalWorld: body id above kMaxBodyId");
+  auto entry = std::make_unique<Entry>();
+  entry->description = description;
+  entry->shape = make_collision_shape(description.shape);
+  if (!state) {
+    entry->body = make_rigid_body(description, *entry->shape);
+  } else {
+    const btScalar mass = description.is_static ? btScalar(0) : btScalar(description.mass);
+    btVector3 inertia(0, 0, 0);
+    if (!description.is_static) entry->shape->calculateLocalInertia(mass, inertia);
+    btRigidBody::btRigidBodyConstructionInfo info(mass, nullptr, entry->shape.get(), inertia);
+    info.m_startWorldTransform = world_transform_of(*state);
+    info.m_friction = btScalar(description.friction);
+    info.m_restitution = btScalar(description.restitution);
+    entry->body = std::make_unique<btRigidBody>(info);
+    btRigidBody& rb = *entry->body;
+    rb.setUserIndex(static_cast<int>(description.id));
+    const BodyDynamicState& s = *state;
+    btTransform interpolation;
+    interpolation.getBasis().setValue(s.interpolation_basis[0], s.interpolation_basis[1], s.interpolation_basis[2],
+                                      s.interpolation_basis[3], s.interpolation_basis[4], s.interpolation_basis[5],
+                                      s.interpolation_basis[6], s.interpolation_basis[7], s.interpolation_basis[8]);
+    interpolation.setOrigin(btVector3(s.interpolation_origin[0], s.interpolation_origin[1], s.interpolation_origin[2]));
+    rb.setInterpolationWorldTransform(interpolation);
+    auto v = [](const btScalar* x) { return btVector3(x[0], x[1], x[2]); };
+    rb.setLinearVelocity(v(s.linear_velocity));
+    rb.setAngularVelocity(v(s.angular_velocity));
+    rb.setInterpolationLinearVelocity(v(s.interpolation_linear_velocity));
+    rb.setInterpolationAngularVelocity(v(s.interpolation_angular_velocity));
+    rb.setDeactivationTime(s.deactivation_time);
+    rb.setHitFraction(s.hit_fraction);
+    // Activation state: restored after the manifolds (see import_manifolds).
+  }
+  parts_->world.add_body(entry->body.get());
+  entries_.push_back(std::move(entry));
+}
+
+void CanonicalWorld::step() {
+  // maxSubSteps = 0: exactly one internal step of h per call (as StockWorld).
+  const btScalar h = btScalar(settings_.dt / settings_.substeps);
+  for (int i = 0; i < settings_.substeps; ++i) parts_->world.stepSimulation(h, 0, h);
+  ++steps_done_;
+}
+
+const StepStats& CanonicalWorld::last_step_stats() const { return parts_->world.stats(); }
+
+std::vector<BodyState> CanonicalWorld::body_states() const {
+  std::vector<BodyState> out;
+  out.reserve(entries_.size());
+  for (const auto& e : entries_) out.push_back(read_body_state(*e->body));
+  return out;
+}
+
+std::uint64_t CanonicalWorld::state_hash(bool include_contacts) const {
+  const std::uint64_t h = soda::state_hash(body_states());
+  if (!include_contacts) return h;
+  // Combine two FNV hashes into one (order matters: bodies first).
+  return (h ^ contact_hash(contact_state())) * 1099511628211ull + 0x9e3779b97f4a7c15ull;
+}
+
+std::size_t CanonicalWorld::body_count() const { return entries_.size(); }
+
+std::size_t CanonicalWorld::sleeping_count() const {
+  std::size_t n = 0;
+  for (const auto& e : entries_)
+    if (!e->body->isStaticOrKinematicObject() && e->body->getActivationState() == ISLAND_SLEEPING) ++n;
+  return n;
+}
+
+btDiscreteDynamicsWorld& CanonicalWorld::bullet() { return parts_->world; }
+
+}  // namespace soda

@@ -1,0 +1,33 @@
+// Internal: what one CanonicalWorld owns, in construction order.
+#pragma once
+
+#include <memory>
+
+#include <btBulletDynamicsCommon.h>
+
+#include "canonical_dynamics_world.h"
+#include "soda/worlds/canonical_world.h"
+
+namespace soda {
+
+/// Every Bullet object a world uses is its own: pool allocators of a
+/// collision configuration and dispatcher are not thread-safe.
+struct CanonicalWorldParts {
+  btDefaultCollisionConfiguration config;
+  btCollisionDispatcher dispatcher{&config};
+  btDbvtBroadphase broadphase;
+  btSequentialImpulseConstraintSolver solver;
+  CanonicalDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
+};
+
+struct CanonicalWorld::Entry {
+  Body description;
+  std::unique_ptr<btCollisionShape> shape;
+  std::unique_ptr<btRigidBody> body;
+};
+
+/// Raw state <-> Bullet body.
+BodyDynamicState read_dynamic_state(const btRigidBody& body);
+btTransform world_transform_of(const BodyDynamicState& state);
+
+}  // namespace soda
