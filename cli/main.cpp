@@ -120,6 +120,7 @@ int main(int argc, char** argv) {
   CLI::App app{"soda: one rigid-body scene, many Bullet worlds (" + std::string(soda::kPrecisionName) +
                " precision build)"};
   app.require_subcommand(1);
+  app.fallthrough();  // global options (--log-level) may follow the subcommand
   std::string log_level = "info";
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error | off")
       ->capture_default_str()

@@ -198,13 +198,13 @@ class PathTracker : public nlohmann::json_sax<json> {
       if (i == 1 && frames_[0].key == "bodies" && f.is_array) {
         where = "body #" + std::to_string(f.index);
         if (i + 1 < frames_.size() && frames_[i + 1].id >= 0)
-          where += " (id " + std::to_string(static_cast<long long>(frames_[i + 1].id)) + ")";
+          where.append(" (id ").append(std::to_string(static_cast<long long>(frames_[i + 1].id))).append(")");
         continue;
       }
       if (f.is_array) {
-        if (!field.empty()) field += "[" + std::to_string(f.index) + "]";
+        if (!field.empty()) field.append("[").append(std::to_string(f.index)).append("]");
       } else if (!f.key.empty()) {
-        if (!(i == 0 && f.key == "bodies")) field += (field.empty() ? "" : ".") + f.key;
+        if (!(i == 0 && f.key == "bodies")) field.append(field.empty() ? "" : ".").append(f.key);
       }
     }
     location = where;
