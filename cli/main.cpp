@@ -14,6 +14,7 @@
 
 #include "soda/bench/bench.h"
 #include "soda/bench/result_json.h"
+#include "soda/grid/partition.h"
 #include "soda/scene/registry.h"
 #include "soda/scene/scene_json.h"
 #include "soda/scene/validate.h"
@@ -108,6 +109,37 @@ int cmd_export(Options& o, const std::string& out) {
   return 0;
 }
 
+// Shows how a scene would be cut: bodies and cells per territory, balance,
+// neighbours. JSON with --json.
+int cmd_partition(Options& o, std::optional<double> cell_size) {
+  const soda::Scene scene = soda::load_or_make_scene(o.scene, o.params);
+  soda::GridOptions grid;
+  grid.cell_size = cell_size;
+  const soda::TerritoryMap map = soda::make_partition(o.config.partition, scene, o.config.territories, grid);
+  const soda::PartitionStats stats = soda::partition_stats(map, scene);
+  nlohmann::json j = {{"scene", o.scene},
+                      {"partition", o.config.partition},
+                      {"territories", map.world_count()},
+                      {"cell_size", map.grid().cell_size()},
+                      {"imbalance", stats.imbalance}};
+  std::printf("%s: %d territories (%s), cell size %.3f m, imbalance %.3f (max/mean bodies)\n", o.scene.c_str(),
+              map.world_count(), o.config.partition.c_str(), map.grid().cell_size(), stats.imbalance);
+  for (soda::WorldId w = 0; w < map.world_count(); ++w) {
+    const auto neighbours = map.neighbours(w);
+    std::string ns;
+    for (soda::WorldId n : neighbours) ns.append(ns.empty() ? "" : ",").append(std::to_string(n));
+    std::printf("  world %2d: %6lld bodies %6lld cells, neighbours [%s]\n", w,
+                static_cast<long long>(stats.bodies_per_world[static_cast<std::size_t>(w)]),
+                static_cast<long long>(stats.cells_per_world[static_cast<std::size_t>(w)]), ns.c_str());
+    j["worlds"].push_back({{"world", w},
+                           {"bodies", stats.bodies_per_world[static_cast<std::size_t>(w)]},
+                           {"cells", stats.cells_per_world[static_cast<std::size_t>(w)]},
+                           {"neighbours", neighbours}});
+  }
+  if (!o.json_path.empty()) soda::write_json(j, o.json_path);
+  return 0;
+}
+
 int cmd_scenes() {
   for (const soda::SceneGenerator& g : soda::scene_registry())
     std::printf("%-16s %s\n", g.name.c_str(), g.description.c_str());
@@ -139,6 +171,15 @@ int main(int argc, char** argv) {
   add_scene_options(*exp, export_o);
   exp->add_option("-o,--output", export_path, "Output path")->required();
   CLI::App* scenes = app.add_subcommand("scenes", "List the registered scene generators");
+  Options part_o;
+  std::optional<double> cell_size;
+  CLI::App* part = app.add_subcommand("partition", "Show how a scene is cut into territories");
+  add_scene_options(*part, part_o);
+  part->add_option("--territories", part_o.config.territories, "Number of territories")->capture_default_str();
+  part->add_option("--partition", part_o.config.partition, "kmeans | rcb | grid:AxBxC | territory-map file")
+      ->capture_default_str();
+  part->add_option("--cell-size", cell_size, "Cell edge in metres (default: the largest body's extent)");
+  part->add_option("--json", part_o.json_path, "Write the partition summary as JSON ('-': stdout)");
 
   try {
     app.parse(argc, argv);
@@ -157,10 +198,11 @@ int main(int argc, char** argv) {
     if (*bench) return cmd_bench(bench_o);
     if (*exp) return cmd_export(export_o, export_path);
     if (*scenes) return cmd_scenes();
+    if (*part) return cmd_partition(part_o, cell_size);
   } catch (const soda::SceneError& e) {
     std::fprintf(stderr, "soda: error: %s\n", e.what());
     return kExitBadInput;
-  } catch (const std::invalid_argument& e) {
+  } catch (const std::invalid_argument& e) {  // includes soda::GridError
     std::fprintf(stderr, "soda: error: %s\n", e.what());
     return kExitBadInput;
   } catch (const std::exception& e) {
