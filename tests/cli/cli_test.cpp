@@ -135,6 +135,24 @@ TEST_F(CliTest, BenchWritesDocumentedJson) {
   EXPECT_EQ(j["wall_seconds_all"].size(), 2u);
 }
 
+std::string hash_of(const Outcome& o) {
+  const auto at = o.output.find("state_hash ");
+  return at == std::string::npos ? "" : o.output.substr(at + 11, 16);
+}
+
+TEST_F(CliTest, ShuffleSeedDoesNotChangeTheCanonicalHash) {
+  std::string first;
+  for (const char* seed : {"0", "5", "9"}) {
+    const Outcome o = run_cli(std::string("run --scene cube-pile --n 120 --steps 200 --shuffle-seed ") + seed);
+    ASSERT_EQ(o.exit_code, 0) << o.output;
+    const std::string h = hash_of(o);
+    ASSERT_EQ(h.size(), 16u) << o.output;
+    std::printf("shuffle seed %s: state_hash %s\n", seed, h.c_str());
+    if (first.empty()) first = h;
+    EXPECT_EQ(h, first) << "seed " << seed;
+  }
+}
+
 TEST_F(CliTest, ExportedSceneRunsToTheSameHash) {
   const std::string file = (dir_ / "cubes.json").string();
   Outcome o = run_cli("export-scene --scene falling-cubes --n 60 --seed 4 -o " + file);
