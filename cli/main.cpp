@@ -40,7 +40,8 @@ struct Options {
 
 void add_scene_options(CLI::App& cmd, Options& o) {
   cmd.add_option("--scene", o.scene, "Registry scene name or a .json scene file")->capture_default_str();
-  cmd.add_option("--n", o.params.n, "Number of dynamic bodies (generated scenes)")->capture_default_str();
+  cmd.add_option("--n", o.params.n, "Scene size: cubes for falling-cubes and cube-pile (default 1000), see docs/scenes.md; 0: the scene's default")
+      ->capture_default_str();
   cmd.add_option("--seed", o.params.seed, "Seed of the scene generator")->capture_default_str();
   cmd.add_flag("--random-scale", o.params.random_scale, "falling-cubes: edges uniform in [0.2, 1.3] m");
 }

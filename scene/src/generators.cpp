@@ -41,6 +41,9 @@ Body make_cube(BodyId id, double edge, const Vec3& position, const Quat& orienta
   return c;
 }
 
+// falling-cubes and cube-pile: n = 0 means this many cubes.
+constexpr int kDefaultCubes = 1000;
+
 }  // namespace
 
 Scene make_falling_cubes(const SceneParams& params) {
@@ -48,7 +51,7 @@ Scene make_falling_cubes(const SceneParams& params) {
   scene.name = "falling-cubes";
   scene.seed = params.seed;
   SceneRandom rng(params.seed);
-  const int n = params.n;
+  const int n = params.n > 0 ? params.n : kDefaultCubes;
   const double footprint = 2.0 * std::sqrt(static_cast<double>(n));
   const double half = 0.5 * footprint;
   scene.bodies.push_back(make_ground(half));
@@ -109,7 +112,7 @@ Scene make_cube_pile(const SceneParams& params) {
   constexpr double kSpacing = 1.5;
   constexpr int kLayers = 10;
   constexpr double kFirstLayerY = 2.0;
-  const int n = params.n;
+  const int n = params.n > 0 ? params.n : kDefaultCubes;
   const int side = static_cast<int>(std::ceil(std::sqrt(n / static_cast<double>(kLayers))));
   const double offset = 0.5 * kSpacing * (side - 1);  // centres the columns on the origin
   scene.bodies.push_back(make_ground(offset + kSpacing));

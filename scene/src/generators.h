@@ -5,7 +5,46 @@
 
 namespace soda::detail {
 
+// generators.cpp: the thesis' scenes.
 Scene make_falling_cubes(const SceneParams& params);
 Scene make_cube_pile(const SceneParams& params);
+
+// border_scenes.cpp: small scenes that put contacts on territory borders.
+Scene make_seam_stack(const SceneParams& params);
+Scene make_cross_traffic(const SceneParams& params);
+Scene make_projectile(const SceneParams& params);
+Scene make_chain(const SceneParams& params);
+
+// stress_scenes.cpp: numerical stability (stress) and closed-form answers
+// (analytic).
+Scene make_tower(const SceneParams& params);
+Scene make_pyramid(const SceneParams& params);
+Scene make_mass_ratio(const SceneParams& params);
+Scene make_bullet_vs_wall(const SceneParams& params);
+Scene make_far_origin(const SceneParams& params);
+Scene make_dense_pile(const SceneParams& params);
+Scene make_free_fall(const SceneParams& params);
+Scene make_incline(const SceneParams& params);
+Scene make_resting_stack(const SceneParams& params);
+Scene make_rolling_sphere(const SceneParams& params);
+
+// Building blocks shared by border_scenes.cpp and stress_scenes.cpp (defined
+// in border_scenes.cpp). Units: metres, kilograms.
+
+/// default_n when n = 0, n when 1 <= n <= max_n; a larger n is a SceneError
+/// (never silently replaced): scenes whose n is a small count (a tower's height).
+int count_or_default(const SceneParams& params, int default_n, int max_n);
+/// Static ground box, id 0, top face at y = 0, centred under (centre_x, 0),
+/// half_footprint in x and z.
+Body flat_ground(double half_footprint, double friction, double centre_x = 0.0,
+                 double half_thickness = 0.5);
+/// Static box (walls, inclines); friction 0.5, restitution 0.
+Body static_box(BodyId id, const Vec3& half_extents, const Vec3& position,
+                const Quat& orientation = Quat::Identity());
+/// Dynamic box at rest; friction 0.5, restitution 0.
+Body dynamic_box(BodyId id, const Vec3& half_extents, double mass, const Vec3& position,
+                 const Quat& orientation = Quat::Identity());
+/// Dynamic sphere at rest; friction 0.5, restitution 0.
+Body dynamic_sphere(BodyId id, double radius, double mass, const Vec3& position);
 
 }  // namespace soda::detail

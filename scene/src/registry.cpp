@@ -18,6 +18,51 @@ const std::vector<SceneGenerator>& scene_registry() {
        "N unit cubes in columns 1.5 m apart, 10 layers from y = 2 m, falling into one connected "
        "heap: one giant island",
        detail::make_cube_pile},
+      // Border scenes (small; contacts on the borders x = 0 / z = 0).
+      {"seam-stack",
+       "two towers of N unit boxes (default 8, N <= 50) 1 mm apart: one on the plane x = 0, one on "
+       "the corner x = 0, z = 0 where four territories of grid:2x1x2 meet",
+       detail::make_seam_stack},
+      {"cross-traffic",
+       "12 unit boxes sliding at 5 m/s (mu 0.1): 8 from a ring of radius 6 m to the centre, 4 "
+       "tangentially across x = 0 and z = 0 (N ignored)",
+       detail::make_cross_traffic},
+      {"projectile",
+       "a sphere (r 0.25 m) at 20 m/s bouncing (restitution 0.8) in a 30 x 30 m walled arena, "
+       "4 unit boxes in its way (N ignored)",
+       detail::make_projectile},
+      {"chain",
+       "a row of N touching unit boxes (default 16, N <= 200) centred on x = 0, the first pushed at "
+       "3 m/s along +x: one island across every territory of grid:8x1x1",
+       detail::make_chain},
+      // Stress scenes (numerical stability).
+      {"tower", "N unit boxes (default 10, N <= 100) stacked exactly resting on the origin",
+       detail::make_tower},
+      {"pyramid",
+       "a 2-D pyramid of unit boxes with base N (default 10, N <= 50): N (N + 1) / 2 boxes",
+       detail::make_pyramid},
+      {"mass-ratio", "a 1 kg unit box under a unit box of N kg (N >= 1, 0 for the default 100)",
+       detail::make_mass_ratio},
+      {"bullet-vs-wall",
+       "a sphere of radius 0.05 m at N m/s (0 for the default 200) against a static wall 0.1 m "
+       "thick: tunnels without CCD",
+       detail::make_bullet_vs_wall},
+      {"far-origin",
+       "cube-pile with 50 cubes (same seed, same pile) moved N m along x (0 for the default 1e4)",
+       detail::make_far_origin},
+      {"dense-pile",
+       "N cubes of edge 0.5 m (0 for the default 1000) tilted slightly, dropped into a 4 x 4 m bin",
+       detail::make_dense_pile},
+      // Analytic scenes (closed-form answers; N ignored).
+      {"free-fall", "one sphere falling from y = 100 m; 180 steps of free flight",
+       detail::make_free_fall},
+      {"incline",
+       "a unit box sliding down a 30 degree incline with mu = 0.3: a = g (sin 30 - 0.3 cos 30)",
+       detail::make_incline},
+      {"resting-stack", "3 unit boxes stacked exactly resting: drift should be zero",
+       detail::make_resting_stack},
+      {"rolling-sphere", "a sphere (r 0.5 m) rolling without slipping at 2 m/s from x = -10 m",
+       detail::make_rolling_sphere},
   };
   return registry;
 }

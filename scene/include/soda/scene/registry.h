@@ -13,7 +13,7 @@
 namespace soda {
 
 struct SceneParams {
-  int n = 1000;                 // number of dynamic bodies
+  int n = 0;                    // size (bodies, boxes, ...; see docs/scenes.md); 0: the scene's default
   std::uint64_t seed = 1;       // every random choice derives from it
   bool random_scale = false;    // falling-cubes: edges uniform in [0.2, 1.3] m
 };
