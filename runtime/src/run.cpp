@@ -7,6 +7,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "soda/grid/partition.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/worlds/canonical_world.h"
 #include "soda/worlds/stock_world.h"
@@ -45,6 +46,69 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
   r.wall_seconds = static_cast<double>(wall_ns() - t0) * 1e-9;
   r.cpu_seconds = static_cast<double>(thread_cpu_ns() - cpu0) * 1e-9;
   r.step_time = StepTimeStats::from_ns(std::move(step_ns));
+  r.state_hash = world.state_hash();
+  r.sleeping_bodies = world.sleeping_count();
+  return r;
+}
+
+// K > 1: all steps in one call (the worlds run without a barrier between
+// steps); progress and step times come from world 0's thread.
+RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
+  if (config.world != WorldKind::Canonical)
+    throw std::invalid_argument("--territories > 1 runs the canonical world only (not --world stock)");
+  RunResult r;
+  r.world = config.world;
+  r.bodies = scene.bodies.size();
+  r.dynamic_bodies = scene.dynamic_count();
+  r.steps = config.steps;
+  r.territories = config.territories;
+  r.partition = config.partition;
+  const TerritoryMap map = make_partition(config.partition, scene, config.territories, GridOptions{});
+  const int k = map.world_count();
+  PartitionedOptions options;
+  if (config.threads == 1) {
+    options.schedule = Schedule::Sequential;
+    r.threads = 1;
+  } else if (config.threads == 0 || config.threads >= k) {
+    options.schedule = Schedule::ThreadPerWorld;
+    r.threads = k;
+  } else {
+    options.schedule = Schedule::Pool;
+    options.threads = config.threads;
+    r.threads = config.threads;
+  }
+  r.schedule = schedule_name(options.schedule);
+  options.serialise = config.serialise;
+  options.validate = config.validate;
+  std::vector<std::int64_t> step_ends;  // written by world 0's thread only
+  step_ends.reserve(static_cast<std::size_t>(config.steps));
+  std::int64_t t0 = 0;
+  std::int64_t next_progress = 0;
+  options.progress = [&](std::int64_t done) {
+    const std::int64_t now = wall_ns();
+    step_ends.push_back(now);
+    if (config.progress_seconds > 0 && now >= next_progress) {
+      const double elapsed = static_cast<double>(now - t0) * 1e-9;
+      const double eta = elapsed / static_cast<double>(done) * static_cast<double>(config.steps - done);
+      spdlog::info("{} partitioned ({} worlds, {}): world 0 at step {}/{} ({:.0f} %), {:.1f} s elapsed, about "
+                   "{:.1f} s to go",
+                   scene.name, k, r.schedule, done, config.steps, 100.0 * static_cast<double>(done) / config.steps,
+                   elapsed, eta);
+      next_progress = now + static_cast<std::int64_t>(config.progress_seconds * 1e9);
+    }
+  };
+  PartitionedWorld world(scene, map, options);
+  t0 = wall_ns();
+  next_progress = t0 + static_cast<std::int64_t>(config.progress_seconds * 1e9);
+  world.step(config.steps);
+  r.wall_seconds = static_cast<double>(wall_ns() - t0) * 1e-9;
+  std::vector<std::int64_t> step_ns;
+  for (std::size_t i = 0; i < step_ends.size(); ++i) step_ns.push_back(step_ends[i] - (i ? step_ends[i - 1] : t0));
+  r.step_time = StepTimeStats::from_ns(std::move(step_ns));
+  r.world_metrics = world.metrics();
+  for (const WorldMetrics& m : r.world_metrics) r.cpu_seconds += m.cpu_seconds;
+  r.messages = world.messages_sent();
+  r.message_bytes = world.bytes_sent();
   r.state_hash = world.state_hash();
   r.sleeping_bodies = world.sleeping_count();
   return r;
@@ -91,11 +155,8 @@ std::vector<std::size_t> insertion_order(std::size_t body_count, std::uint64_t s
 RunResult run_scene(const Scene& scene, const RunConfig& config) {
   if (config.steps < 0) throw std::invalid_argument("--steps must be >= 0");
   if (config.territories < 1) throw std::invalid_argument("--territories must be >= 1");
-  if (config.territories > 1)
-    throw std::invalid_argument(
-        "--territories " + std::to_string(config.territories) +
-        ": partitioned runs are not implemented yet (this build steps one world); "
-        "use `soda partition` to inspect partitions");
+  if (config.threads < 0) throw std::invalid_argument("--threads must be >= 0");
+  if (config.territories > 1) return run_partitioned(scene, config);
   const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), config.shuffle_seed);
   switch (config.world) {
     case WorldKind::Stock: {

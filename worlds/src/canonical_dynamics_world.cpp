@@ -13,6 +13,50 @@ BodyId id_of(const btCollisionObject* o) { return static_cast<BodyId>(o->getUser
 
 }  // namespace
 
+void add_body_with_canonical_proxy(btDiscreteDynamicsWorld& world, btDbvtBroadphase& broadphase,
+                                   btRigidBody* body) {
+  // btDbvtBroadphase::createProxy numbers proxies with ++m_gid; pair caches
+  // order a pair's proxies by that number (body0 = smaller).
+  broadphase.m_gid = body->getUserIndex();
+  world.addRigidBody(body);
+}
+
+std::size_t remove_stale_pairs(btDbvtBroadphase& broadphase, btDispatcher* dispatcher) {
+  btOverlappingPairCache* cache = broadphase.getOverlappingPairCache();
+  btBroadphasePairArray& pairs = cache->getOverlappingPairArray();
+  for (int i = 0; i < pairs.size();) {
+    auto* a = static_cast<btDbvtProxy*>(pairs[i].m_pProxy0);
+    auto* b = static_cast<btDbvtProxy*>(pairs[i].m_pProxy1);
+    if (Intersect(a->leaf->volume, b->leaf->volume)) {
+      ++i;
+    } else {
+      cache->removeOverlappingPair(a, b, dispatcher);  // moves the last pair to i
+    }
+  }
+  return static_cast<std::size_t>(pairs.size());
+}
+
+bool decide_island_sleeping(btCollisionObject* const* bodies, int count) {
+  bool all_sleeping = true;
+  for (int j = 0; j < count; ++j) {
+    const int s = bodies[j]->getActivationState();
+    if (s == ACTIVE_TAG || s == DISABLE_DEACTIVATION) {
+      all_sleeping = false;
+      break;
+    }
+  }
+  for (int j = 0; j < count; ++j) {
+    btCollisionObject* body = bodies[j];
+    if (all_sleeping) {
+      body->setActivationState(ISLAND_SLEEPING);
+    } else if (body->getActivationState() == ISLAND_SLEEPING) {
+      body->setActivationState(WANTS_DEACTIVATION);
+      body->setDeactivationTime(btScalar(0));
+    }
+  }
+  return !all_sleeping;
+}
+
 CanonicalDynamicsWorld::CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtBroadphase* broadphase,
                                                btConstraintSolver* solver,
                                                btCollisionConfiguration* config)
@@ -22,10 +66,7 @@ CanonicalDynamicsWorld::CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtB
 }
 
 void CanonicalDynamicsWorld::add_body(btRigidBody* body) {
-  // btDbvtBroadphase::createProxy numbers proxies with ++m_gid; pair caches
-  // order a pair's proxies by that number (body0 = smaller).
-  broadphase_->m_gid = body->getUserIndex();
-  addRigidBody(body);
+  add_body_with_canonical_proxy(*this, *broadphase_, body);
   if (!body->isStaticOrKinematicObject()) {
     dynamic_bodies_.push_back(body);
     bodies_sorted_ = false;
@@ -47,18 +88,7 @@ void CanonicalDynamicsWorld::sort_dynamic_bodies() {
 // step, so the pair set is a function of the leaf volumes alone.
 void CanonicalDynamicsWorld::computeOverlappingPairs() {
   btCollisionWorld::computeOverlappingPairs();
-  btOverlappingPairCache* cache = broadphase_->getOverlappingPairCache();
-  btBroadphasePairArray& pairs = cache->getOverlappingPairArray();
-  for (int i = 0; i < pairs.size();) {
-    auto* a = static_cast<btDbvtProxy*>(pairs[i].m_pProxy0);
-    auto* b = static_cast<btDbvtProxy*>(pairs[i].m_pProxy1);
-    if (Intersect(a->leaf->volume, b->leaf->volume)) {
-      ++i;
-    } else {
-      cache->removeOverlappingPair(a, b, m_dispatcher1);  // moves the last pair to i
-    }
-  }
-  stats_.broadphase_pairs = static_cast<std::size_t>(pairs.size());
+  stats_.broadphase_pairs = remove_stale_pairs(*broadphase_, m_dispatcher1);
 }
 
 int CanonicalDynamicsWorld::find(int i) {
@@ -116,25 +146,8 @@ void CanonicalDynamicsWorld::build_islands() {
 // Step 3: as btSimulationIslandManager::buildIslands.
 void CanonicalDynamicsWorld::decide_sleeping() {
   const int islands = static_cast<int>(island_begin_.size()) - 1;
-  for (int k = 0; k < islands; ++k) {
-    bool all_sleeping = true;
-    for (int j = island_begin_[k]; j < island_begin_[k + 1]; ++j) {
-      const int s = island_bodies_[j]->getActivationState();
-      if (s == ACTIVE_TAG || s == DISABLE_DEACTIVATION) {
-        all_sleeping = false;
-        break;
-      }
-    }
-    for (int j = island_begin_[k]; j < island_begin_[k + 1]; ++j) {
-      btCollisionObject* body = island_bodies_[j];
-      if (all_sleeping) {
-        body->setActivationState(ISLAND_SLEEPING);
-      } else if (body->getActivationState() == ISLAND_SLEEPING) {
-        body->setActivationState(WANTS_DEACTIVATION);
-        body->setDeactivationTime(btScalar(0));
-      }
-    }
-  }
+  for (int k = 0; k < islands; ++k)
+    decide_island_sleeping(&island_bodies_[island_begin_[k]], island_begin_[k + 1] - island_begin_[k]);
 }
 
 // Step 4a: as the manifold loop of buildIslands, then a canonical order.

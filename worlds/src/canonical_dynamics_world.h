@@ -33,6 +33,24 @@
 
 namespace soda {
 
+/// Adds a body whose user index is its global id to a world over a dbvt
+/// broadphase: its proxy gets unique id = global id + 1, so every pair's body0
+/// is its lower id (shared with the territory world).
+void add_body_with_canonical_proxy(btDiscreteDynamicsWorld& world, btDbvtBroadphase& broadphase,
+                                   btRigidBody* body);
+
+/// Removes every pair whose dbvt leaf volumes no longer overlap (stock Bullet
+/// removes a fraction per step), so that the pair set is a function of the
+/// leaf volumes alone. Returns the number of pairs left.
+std::size_t remove_stale_pairs(btDbvtBroadphase& broadphase, btDispatcher* dispatcher);
+
+/// The sleeping decision for one island, as
+/// btSimulationIslandManager::buildIslands: if no body is ACTIVE_TAG or
+/// DISABLE_DEACTIVATION every body becomes ISLAND_SLEEPING, else sleepers
+/// become WANTS_DEACTIVATION with timer 0. Returns true if the island is
+/// awake afterwards (it must be solved).
+bool decide_island_sleeping(btCollisionObject* const* bodies, int count);
+
 class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
  public:
   CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtBroadphase* broadphase,

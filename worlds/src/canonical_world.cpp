@@ -55,31 +55,8 @@ void CanonicalWorld::insert_body(const Body& description, const BodyDynamicState
   if (!state) {
     entry->body = make_rigid_body(description, *entry->shape);
   } else {
-    const btScalar mass = description.is_static ? btScalar(0) : btScalar(description.mass);
-    btVector3 inertia(0, 0, 0);
-    if (!description.is_static) entry->shape->calculateLocalInertia(mass, inertia);
-    btRigidBody::btRigidBodyConstructionInfo info(mass, nullptr, entry->shape.get(), inertia);
-    info.m_startWorldTransform = world_transform_of(*state);
-    info.m_friction = btScalar(description.friction);
-    info.m_restitution = btScalar(description.restitution);
-    entry->body = std::make_unique<btRigidBody>(info);
-    btRigidBody& rb = *entry->body;
-    rb.setUserIndex(static_cast<int>(description.id));
-    const BodyDynamicState& s = *state;
-    btTransform interpolation;
-    interpolation.getBasis().setValue(s.interpolation_basis[0], s.interpolation_basis[1], s.interpolation_basis[2],
-                                      s.interpolation_basis[3], s.interpolation_basis[4], s.interpolation_basis[5],
-                                      s.interpolation_basis[6], s.interpolation_basis[7], s.interpolation_basis[8]);
-    interpolation.setOrigin(btVector3(s.interpolation_origin[0], s.interpolation_origin[1], s.interpolation_origin[2]));
-    rb.setInterpolationWorldTransform(interpolation);
-    auto v = [](const btScalar* x) { return btVector3(x[0], x[1], x[2]); };
-    rb.setLinearVelocity(v(s.linear_velocity));
-    rb.setAngularVelocity(v(s.angular_velocity));
-    rb.setInterpolationLinearVelocity(v(s.interpolation_linear_velocity));
-    rb.setInterpolationAngularVelocity(v(s.interpolation_angular_velocity));
-    rb.setDeactivationTime(s.deactivation_time);
-    rb.setHitFraction(s.hit_fraction);
     // Activation state: restored after the manifolds (see import_manifolds).
+    entry->body = make_body_from_state(description, *entry->shape, *state);
   }
   parts_->world.add_body(entry->body.get());
   entries_.push_back(std::move(entry));

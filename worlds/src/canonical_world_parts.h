@@ -5,6 +5,7 @@
 
 #include <btBulletDynamicsCommon.h>
 
+#include "body_factory.h"
 #include "canonical_dynamics_world.h"
 #include "soda/worlds/canonical_world.h"
 
@@ -25,9 +26,5 @@ struct CanonicalWorld::Entry {
   std::unique_ptr<btCollisionShape> shape;
   std::unique_ptr<btRigidBody> body;
 };
-
-/// Raw state <-> Bullet body.
-BodyDynamicState read_dynamic_state(const btRigidBody& body);
-btTransform world_transform_of(const BodyDynamicState& state);
 
 }  // namespace soda

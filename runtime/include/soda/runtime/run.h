@@ -2,9 +2,10 @@
 // This header: running a scene to completion and measuring it, the engine
 // behind `soda run` and `soda bench`.
 //
-// Today a run is one world (territories = 1): the canonical world, or the
-// stock Bullet world for comparison. Partitioned runs (territories > 1) are
-// refused with a clear error until the partitioned runtime lands.
+// territories = 1: one world, the canonical world or the stock Bullet world
+// for comparison. territories = K > 1: the exact partitioned runtime
+// (partitioned_world.h) on the canonical world, whose state hash equals the
+// one-world run's.
 #pragma once
 
 #include <cstdint>
@@ -12,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "soda/runtime/partitioned_world.h"
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
 
@@ -27,9 +29,12 @@ const char* world_kind_name(WorldKind kind);
 struct RunConfig {
   WorldKind world = WorldKind::Canonical;
   int steps = 600;                   // steps to run
-  int territories = 1;               // K; only 1 is supported today
+  int territories = 1;               // K; > 1: partitioned runtime (canonical world only)
   std::string partition = "kmeans";  // kmeans | rcb | grid:AxBxC | FILE
-  int threads = 0;                   // 0: one per world
+  int threads = 0;                   // K > 1: 0 or >= K: one thread per world; 1: one thread
+                                     // (round-robin); 2 .. K-1: a pool of that many threads
+  bool serialise = false;            // K > 1: messages through bytes (as the tests do)
+  bool validate = false;             // K > 1: check ownership and holders every step (slow)
   std::uint64_t shuffle_seed = 0;    // 0: insert bodies in scene order
   double progress_seconds = 1.0;     // progress line period (<= 0: none)
 };
@@ -49,8 +54,15 @@ struct RunResult {
   int territories = 1;
   double wall_seconds = 0;          // stepping only, not scene set-up
   double cpu_seconds = 0;           // thread CPU time of the stepping thread(s)
-  StepTimeStats step_time;
+  StepTimeStats step_time;          // K > 1: intervals between world 0's step ends
   WorldKind world = WorldKind::Canonical;
+  // Partitioned runs (territories > 1) only:
+  std::string partition;            // the spec used
+  std::string schedule;             // sequential | thread-per-world | pool
+  int threads = 1;                  // threads that stepped the worlds
+  std::uint64_t messages = 0;       // messages between worlds
+  std::uint64_t message_bytes = 0;  // their bytes (0 unless serialised)
+  std::vector<WorldMetrics> world_metrics;  // one per world, by id
 };
 
 /// Insertion order of the scene's bodies for a shuffle seed (0: scene order).
@@ -58,8 +70,10 @@ struct RunResult {
 std::vector<std::size_t> insertion_order(std::size_t body_count, std::uint64_t shuffle_seed);
 
 /// Runs `scene` for config.steps steps. Throws std::invalid_argument with a
-/// clear message for an unsupported configuration (territories != 1,
-/// steps < 0). Blocks the calling thread; logs a progress line through spdlog
+/// clear message for an unsupported configuration (territories < 1,
+/// territories > 1 with the stock world, steps < 0), GridError for a bad
+/// partition, PartitionError when the scene leaves what the partitioned step
+/// supports. Blocks the calling thread; logs a progress line through spdlog
 /// every config.progress_seconds.
 RunResult run_scene(const Scene& scene, const RunConfig& config);
 

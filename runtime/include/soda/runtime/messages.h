@@ -1,0 +1,60 @@
+// runtime/ — the step, threads, messages and the public API. This header:
+// the messages worlds send each other during a partitioned step
+// (docs/partitioned-step.md). Plain values, no pointers: every message can
+// be turned into bytes and back (message_codec.h) without losing a bit.
+//
+// Per world and step t, to each direct neighbour n:
+//   Ghosts(t)     exactly one, possibly empty          (exchange_ghosts)
+//   Glue(t)       exactly one iff n sent it ghosts at t (build_islands)
+//   Fragments(t)  zero or more, to neighbours sharing a border island: fragment
+//                 headers (merge_islands; with data under solve_everywhere)
+//   Gather(t)     one per border island from each non-root world to its
+//                 parent in the island's tree: the data of its subtree
+//   Results(t)    one per border island to each child of the island's tree
+//                 (the last two not with PartitionedOptions::solve_everywhere)
+//   Migrants(t)   exactly one, possibly empty          (migrate; consumed at the end of t)
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "soda/grid/territory_map.h"
+#include "soda/worlds/border_records.h"
+
+namespace soda {
+
+/// Island fragments relayed during merge_islands.
+struct FragmentBatch {
+  std::vector<Fragment> fragments;
+};
+
+/// Solved border islands relayed from their root down the island's tree.
+struct ResultBatch {
+  std::vector<IslandResult> results;
+};
+
+/// The fragments (with data) of a subtree of one border island's tree, on
+/// their way to the island's root.
+struct GatherBatch {
+  BodyId island = 0;  // smallest body id of the island
+  std::vector<Fragment> fragments;
+};
+
+enum class MessageKind : std::uint8_t { Ghosts = 1, Glue = 2, Fragments = 3, Migrants = 4, Results = 5, Gather = 6 };
+const char* message_kind_name(MessageKind kind);
+
+struct Message {
+  WorldId from = kNoWorld;
+  WorldId to = kNoWorld;
+  std::int64_t step = 0;  // the internal step the message belongs to
+  std::variant<GhostBatch, GlueBatch, FragmentBatch, MigrantBatch, ResultBatch, GatherBatch> payload;
+
+  MessageKind kind() const { return static_cast<MessageKind>(payload.index() + 1); }
+};
+
+/// "Ghosts(12) 3->5", for diagnostics.
+std::string describe(const Message& message);
+
+}  // namespace soda

@@ -1,0 +1,143 @@
+// runtime/ — the exact partitioned runtime: one scene simulated by K worlds,
+// one per territory of a territory map, that talk only to their neighbours
+// through messages; the result is bit-identical to one CanonicalWorld on the
+// whole scene (same state_hash), for every K and every partition. Protocol:
+// docs/partitioned-step.md. No speculation yet: a world waits for its
+// neighbours' messages of step t before it goes on (never for anyone else).
+//
+//   soda::Scene scene = soda::make_scene("falling-cubes", {300, 1});
+//   soda::TerritoryMap map = soda::make_partition("kmeans", scene, 4, {});
+//   soda::PartitionedWorld world(scene, map, {.schedule = soda::Schedule::ThreadPerWorld});
+//   world.step(300);
+//   std::uint64_t h = world.state_hash();   // == CanonicalWorld(scene) after 300 steps
+//
+// Thread safety: a PartitionedWorld is driven by one thread at a time; step()
+// runs the worlds on its own threads (per Schedule) and returns when every
+// world has finished; the readers may be called between steps.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "soda/grid/territory_map.h"
+#include "soda/runtime/world_graph.h"
+#include "soda/scene/scene.h"
+#include "soda/worlds/body_state.h"
+#include "soda/worlds/territory_world.h"
+
+namespace soda {
+
+/// How the worlds' steps are scheduled onto threads. Results never depend
+/// on it (tests check); speed does.
+enum class Schedule {
+  Sequential,      // one thread, worlds advanced round-robin (deterministic order)
+  ThreadPerWorld,  // one thread per world, blocking on its mailbox
+  Pool,            // `threads` workers; a world is a task that parks while it waits
+};
+const char* schedule_name(Schedule schedule);
+
+struct PartitionedOptions {
+  Schedule schedule = Schedule::Sequential;
+  int threads = 0;         // Pool only: worker threads (>= 1)
+  bool serialise = true;   // every message through bytes (message_codec.h); false: values
+  bool validate = false;   // check ownership and pair holders after every step (slow)
+  /// Every world involved in a border island solves it itself (identical
+  /// results, no Results messages) instead of its root solving it once and
+  /// relaying the result down the island's tree.
+  bool solve_everywhere = false;
+  /// Called by world 0's thread after each of its scene steps (its step count).
+  std::function<void(std::int64_t)> progress = {};
+};
+
+/// Thrown when the validation mode finds a broken invariant; the message names
+/// the step, the bodies or pairs and the worlds.
+class ValidationError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Per-world measurements over the steps run so far. Times in seconds.
+struct WorldMetrics {
+  WorldId world = 0;
+  std::int64_t steps = 0;              // internal steps
+  double cpu_seconds = 0;              // thread CPU time spent stepping this world
+  double cpu_step_mean_ms = 0;         // per internal step
+  double cpu_step_max_ms = 0;
+  double blocked_seconds = 0;          // wall time waiting for neighbours' messages
+  std::size_t owned_bodies = 0;        // at the end
+  std::size_t ghosts = 0;              // at the end
+  std::size_t neighbours = 0;
+  // Sums over steps (counters of TerritoryWorld and of the merge):
+  std::uint64_t border_bodies = 0;
+  std::uint64_t ghosts_sent = 0;
+  std::uint64_t ghosts_received = 0;
+  std::uint64_t manifolds_attached = 0;
+  std::uint64_t manifolds_seeded = 0;
+  std::uint64_t manifolds_returned = 0;
+  std::uint64_t migrations_out = 0;
+  std::uint64_t migrations_in = 0;
+  std::uint64_t local_islands = 0;
+  std::uint64_t border_fragments = 0;
+  std::uint64_t merged_islands = 0;          // border islands this world took part in
+  std::uint64_t islands_solved = 0;          // ... that it solved (as their root)
+  std::uint64_t merged_island_bodies = 0;    // bodies of the islands solved here
+  std::uint64_t merged_island_worlds_sum = 0;  // worlds per merged island, summed
+  std::uint64_t merged_island_worlds_max = 0;
+  std::uint64_t relay_messages_sent = 0;     // Fragments and Results messages
+  std::uint64_t relay_messages_received = 0;
+  std::uint64_t fragments_relayed = 0;       // other worlds' fragments passed on
+  std::uint64_t messages_sent = 0;           // all kinds
+};
+
+class PartitionedWorld {
+ public:
+  /// One TerritoryWorld per world of `map`. Throws PartitionError (see
+  /// territory_world.h) or std::invalid_argument for bad options.
+  PartitionedWorld(const Scene& scene, TerritoryMap map, PartitionedOptions options = {});
+  ~PartitionedWorld();
+  PartitionedWorld(const PartitionedWorld&) = delete;
+  PartitionedWorld& operator=(const PartitionedWorld&) = delete;
+
+  /// Runs `n` scene steps (n * settings.substeps internal steps), as n calls
+  /// of CanonicalWorld::step. Rethrows the first error of any world
+  /// (PartitionError, ValidationError, MessageFormatError) after stopping all.
+  void step(int n = 1);
+  /// Scene steps done.
+  std::int64_t steps_done() const { return steps_done_; }
+
+  /// Raw states of every body, statics included, sorted by id.
+  std::vector<BodyState> body_states() const;
+  /// soda::state_hash(body_states()): equal to CanonicalWorld::state_hash().
+  std::uint64_t state_hash() const;
+  std::size_t sleeping_count() const;
+  std::size_t body_count() const;
+
+  int world_count() const;
+  const TerritoryWorld& world(WorldId id) const;
+  const WorldGraph& graph() const { return *graph_; }
+  std::vector<WorldMetrics> metrics() const;
+  /// Messages and bytes through the transport so far.
+  std::uint64_t messages_sent() const;
+  std::uint64_t bytes_sent() const;
+
+ private:
+  class Process;
+  void run_sequential(std::int64_t target);
+  void run_thread_per_world(std::int64_t target);
+  void run_pool(std::int64_t target);
+
+  PartitionedOptions options_;
+  int substeps_ = 1;
+  std::int64_t steps_done_ = 0;
+  std::unique_ptr<WorldGraph> graph_;
+  std::unique_ptr<class Transport> transport_;
+  std::unique_ptr<class Validator> validator_;
+  std::vector<std::unique_ptr<TerritoryWorld>> worlds_;
+  std::vector<std::unique_ptr<Process>> processes_;
+};
+
+}  // namespace soda

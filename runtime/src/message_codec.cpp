@@ -1,0 +1,279 @@
+// Messages <-> bytes (message_codec.h).
+#include "soda/runtime/message_codec.h"
+
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+#include "soda/worlds/value_codec.h"
+
+namespace soda {
+namespace {
+
+constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'M', 'S', 'G', '1'};
+constexpr std::uint32_t kVersion = 1;
+constexpr std::size_t kMinRecordBytes = kMinBodyBytes + 6 * sizeof(btScalar);
+
+[[noreturn]] void raise_message_error(const std::string& message) { throw MessageFormatError(message); }
+
+void write_record(ByteWriter& w, const BodyRecord& r) {
+  write_body(w, r.body);
+  w.put(r.total_force);
+  w.put(r.total_torque);
+}
+
+BodyRecord read_record(ByteReader& r) {
+  BodyRecord rec;
+  rec.body = read_body(r);
+  if (rec.body.description.is_static) r.fail("a static body in a message");
+  r.get(rec.total_force);
+  r.get(rec.total_torque);
+  return rec;
+}
+
+void write_manifolds(ByteWriter& w, const std::vector<ManifoldState>& ms) {
+  w.count(ms.size());
+  for (const ManifoldState& m : ms) write_manifold(w, m);
+}
+
+std::vector<ManifoldState> read_manifolds(ByteReader& r) {
+  std::vector<ManifoldState> ms(r.count(kMinManifoldBytes));
+  for (std::size_t i = 0; i < ms.size(); ++i) {
+    ms[i] = read_manifold(r);
+    if (i > 0 && !(std::make_pair(ms[i - 1].id0, ms[i - 1].id1) < std::make_pair(ms[i].id0, ms[i].id1)))
+      r.fail("manifolds not sorted by (id0, id1)");
+  }
+  return ms;
+}
+
+WorldId read_world(ByteReader& r) {
+  const auto w = r.get<WorldId>();
+  if (w < 0) r.fail("negative world id");
+  return w;
+}
+
+BodyId read_id(ByteReader& r) {
+  const auto id = r.get<BodyId>();
+  if (id > kMaxBodyId) r.fail("body id above kMaxBodyId");
+  return id;
+}
+
+template <class T, class Less>
+void check_sorted(ByteReader& r, const std::vector<T>& v, Less less, const char* what) {
+  for (std::size_t i = 1; i < v.size(); ++i)
+    if (!less(v[i - 1], v[i])) r.fail(std::string(what) + " not in ascending order");
+}
+
+// --- payloads ---------------------------------------------------------------
+
+void write_payload(ByteWriter& w, const GhostBatch& b) {
+  w.count(b.ghosts.size());
+  for (const GhostRecord& g : b.ghosts) {
+    write_record(w, g.record);
+    w.count(g.sent_to.size());
+    for (WorldId x : g.sent_to) w.put(x);
+  }
+  write_manifolds(w, b.kept_manifolds);
+}
+
+GhostBatch read_ghosts(ByteReader& r) {
+  GhostBatch b;
+  b.ghosts.resize(r.count(kMinRecordBytes));
+  for (GhostRecord& g : b.ghosts) {
+    g.record = read_record(r);
+    g.sent_to.resize(r.count(sizeof(WorldId)));
+    for (WorldId& x : g.sent_to) x = read_world(r);
+    check_sorted(r, g.sent_to, std::less<WorldId>(), "ghost targets");
+  }
+  check_sorted(r, b.ghosts, [](const GhostRecord& a, const GhostRecord& c) {
+    return a.record.body.description.id < c.record.body.description.id;
+  }, "ghosts");
+  b.kept_manifolds = read_manifolds(r);
+  return b;
+}
+
+void write_payload(ByteWriter& w, const GlueBatch& b) {
+  w.count(b.entries.size());
+  for (const GlueEntry& e : b.entries) w.put(e.body), w.put(e.fragment_root);
+}
+
+GlueBatch read_glue(ByteReader& r) {
+  GlueBatch b;
+  b.entries.resize(r.count(2 * sizeof(BodyId)));
+  for (GlueEntry& e : b.entries) {
+    e.body = read_id(r);
+    e.fragment_root = read_id(r);
+  }
+  return b;
+}
+
+void write_fragments(ByteWriter& w, const std::vector<Fragment>& fragments) {
+  w.count(fragments.size());
+  for (const Fragment& f : fragments) {
+    w.put(f.world), w.put(f.root), w.put(f.first_body);
+    w.count(f.links_out.size());
+    for (const LinkOut& l : f.links_out) w.put(l.owner), w.put(l.body);
+    w.count(f.links_in.size());
+    for (const LinkIn& l : f.links_in) w.put(l.world), w.put(l.fragment_root), w.put(l.body);
+    w.count(f.bodies.size());
+    for (const BodyRecord& rec : f.bodies) write_record(w, rec);
+    write_manifolds(w, f.manifolds);
+  }
+}
+
+std::vector<Fragment> read_fragment_list(ByteReader& r) {
+  std::vector<Fragment> fragments(r.count(4 + 4 + 4 + 4 * 4));
+  for (Fragment& f : fragments) {
+    f.world = read_world(r);
+    f.root = read_id(r);
+    f.first_body = r.get<BodyId>();
+    if (f.first_body != kNoBody && f.first_body > kMaxBodyId) r.fail("bad first body id");
+    f.links_out.resize(r.count(8));
+    for (LinkOut& l : f.links_out) l.owner = read_world(r), l.body = read_id(r);
+    check_sorted(r, f.links_out, std::less<LinkOut>(), "fragment links out");
+    f.links_in.resize(r.count(12));
+    for (LinkIn& l : f.links_in) l.world = read_world(r), l.fragment_root = read_id(r), l.body = read_id(r);
+    check_sorted(r, f.links_in, std::less<LinkIn>(), "fragment links in");
+    f.bodies.resize(r.count(kMinRecordBytes));
+    for (BodyRecord& rec : f.bodies) rec = read_record(r);
+    check_sorted(r, f.bodies, [](const BodyRecord& a, const BodyRecord& c) {
+      return a.body.description.id < c.body.description.id;
+    }, "fragment bodies");
+    f.manifolds = read_manifolds(r);
+    if (!f.bodies.empty() && f.bodies.front().body.description.id != f.first_body)
+      r.fail("fragment's first body differs from its bodies");
+  }
+  return fragments;
+}
+
+void write_payload(ByteWriter& w, const FragmentBatch& b) { write_fragments(w, b.fragments); }
+FragmentBatch read_fragments(ByteReader& r) { return FragmentBatch{read_fragment_list(r)}; }
+
+void write_payload(ByteWriter& w, const GatherBatch& b) {
+  w.put(b.island);
+  write_fragments(w, b.fragments);
+}
+
+GatherBatch read_gather(ByteReader& r) {
+  GatherBatch b;
+  b.island = read_id(r);
+  b.fragments = read_fragment_list(r);
+  return b;
+}
+
+void write_payload(ByteWriter& w, const MigrantBatch& b) {
+  w.count(b.migrants.size());
+  for (const Migrant& m : b.migrants) {
+    write_body(w, m.body);
+    write_manifolds(w, m.kept_manifolds);
+  }
+}
+
+MigrantBatch read_migrants(ByteReader& r) {
+  MigrantBatch b;
+  b.migrants.resize(r.count(kMinBodyBytes));
+  for (Migrant& m : b.migrants) {
+    m.body = read_body(r);
+    if (m.body.description.is_static) r.fail("a static body migrates");
+    m.kept_manifolds = read_manifolds(r);
+  }
+  check_sorted(r, b.migrants, [](const Migrant& a, const Migrant& c) {
+    return a.body.description.id < c.body.description.id;
+  }, "migrants");
+  return b;
+}
+
+void write_payload(ByteWriter& w, const ResultBatch& b) {
+  w.count(b.results.size());
+  for (const IslandResult& r : b.results) {
+    w.put(r.island);
+    w.count(r.bodies.size());
+    for (const BodyResult& x : r.bodies) {
+      w.put(x.id);
+      w.put(x.linear_velocity), w.put(x.angular_velocity), w.put(x.basis), w.put(x.origin);
+      w.put(x.activation_state), w.put(x.deactivation_time);
+    }
+    write_manifolds(w, r.manifolds);
+  }
+}
+
+ResultBatch read_results(ByteReader& r) {
+  constexpr std::size_t kBodyResultBytes = 4 + 18 * sizeof(btScalar) + 4 + sizeof(btScalar);
+  ResultBatch b;
+  b.results.resize(r.count(4 + 4 + 4));
+  for (IslandResult& res : b.results) {
+    res.island = read_id(r);
+    res.bodies.resize(r.count(kBodyResultBytes));
+    for (BodyResult& x : res.bodies) {
+      x.id = read_id(r);
+      r.get(x.linear_velocity), r.get(x.angular_velocity), r.get(x.basis), r.get(x.origin);
+      x.activation_state = r.get<std::int32_t>();
+      if (x.activation_state < 1 || x.activation_state > 5) r.fail("bad activation state");
+      x.deactivation_time = r.get<btScalar>();
+    }
+    check_sorted(r, res.bodies, [](const BodyResult& a, const BodyResult& c) { return a.id < c.id; },
+                 "island result bodies");
+    if (res.bodies.empty() || res.bodies.front().id != res.island) r.fail("island result without its first body");
+    res.manifolds = read_manifolds(r);
+  }
+  return b;
+}
+
+}  // namespace
+
+const char* message_kind_name(MessageKind kind) {
+  switch (kind) {
+    case MessageKind::Ghosts: return "Ghosts";
+    case MessageKind::Glue: return "Glue";
+    case MessageKind::Fragments: return "Fragments";
+    case MessageKind::Migrants: return "Migrants";
+    case MessageKind::Results: return "Results";
+    case MessageKind::Gather: return "Gather";
+  }
+  return "Unknown";
+}
+
+std::string describe(const Message& m) {
+  return std::string(message_kind_name(m.kind())) + "(" + std::to_string(m.step) + ") " + std::to_string(m.from) +
+         "->" + std::to_string(m.to);
+}
+
+std::vector<std::uint8_t> encode_message(const Message& m) {
+  ByteWriter w;
+  w.put(kMagic);
+  w.put(kVersion);
+  w.put(static_cast<std::uint32_t>(sizeof(btScalar)));
+  w.put(static_cast<std::uint8_t>(m.kind()));
+  w.put(m.from), w.put(m.to), w.put(m.step);
+  std::visit([&w](const auto& payload) { write_payload(w, payload); }, m.payload);
+  return std::move(w.bytes);
+}
+
+Message decode_message(const std::vector<std::uint8_t>& bytes) {
+  ByteReader r(bytes, "decode_message", raise_message_error);
+  char magic[8];
+  r.get(magic);
+  if (std::memcmp(magic, kMagic, sizeof magic) != 0) r.fail("not a SODA message (bad magic)");
+  if (r.get<std::uint32_t>() != kVersion) r.fail("unsupported message version");
+  if (r.get<std::uint32_t>() != sizeof(btScalar))
+    r.fail(std::string("message precision differs from this build's (") + (sizeof(btScalar) == 8 ? "double" : "float") + ")");
+  const auto kind = r.get<std::uint8_t>();
+  Message m;
+  m.from = read_world(r);
+  m.to = read_world(r);
+  m.step = r.get<std::int64_t>();
+  if (m.step < 0) r.fail("negative step");
+  switch (kind) {
+    case static_cast<std::uint8_t>(MessageKind::Ghosts): m.payload = read_ghosts(r); break;
+    case static_cast<std::uint8_t>(MessageKind::Glue): m.payload = read_glue(r); break;
+    case static_cast<std::uint8_t>(MessageKind::Fragments): m.payload = read_fragments(r); break;
+    case static_cast<std::uint8_t>(MessageKind::Migrants): m.payload = read_migrants(r); break;
+    case static_cast<std::uint8_t>(MessageKind::Results): m.payload = read_results(r); break;
+    case static_cast<std::uint8_t>(MessageKind::Gather): m.payload = read_gather(r); break;
+    default: r.fail("unknown message kind " + std::to_string(kind));
+  }
+  if (!r.done()) r.fail("trailing bytes");
+  return m;
+}
+
+}  // namespace soda

@@ -1,0 +1,227 @@
+// PartitionedWorld: construction, readout and the three schedules. The step
+// itself is the world process (world_process.h); a schedule only decides
+// which thread advances which world when.
+#include "soda/runtime/partitioned_world.h"
+
+#include <algorithm>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+#include "soda/loadbalance/thread_clock.h"
+#include "soda/runtime/transport.h"
+#include "validator.h"
+#include "world_process.h"
+
+namespace soda {
+
+const char* schedule_name(Schedule schedule) {
+  switch (schedule) {
+    case Schedule::Sequential: return "sequential";
+    case Schedule::ThreadPerWorld: return "thread-per-world";
+    case Schedule::Pool: return "pool";
+  }
+  return "unknown";
+}
+
+PartitionedWorld::PartitionedWorld(const Scene& scene, TerritoryMap map, PartitionedOptions options)
+    : options_(std::move(options)), substeps_(scene.settings.substeps) {
+  if (options_.schedule == Schedule::Pool && options_.threads < 1)
+    throw std::invalid_argument("PartitionedWorld: the pool schedule needs threads >= 1");
+  if (substeps_ < 1) throw std::invalid_argument("PartitionedWorld: substeps must be >= 1");
+  const int k = map.world_count();
+  graph_ = std::make_unique<WorldGraph>(map);
+  transport_ = options_.serialise ? make_serialising_transport(k) : make_in_memory_transport(k);
+  if (options_.validate) validator_ = std::make_unique<Validator>(scene, k);
+  for (WorldId w = 0; w < k; ++w) worlds_.push_back(std::make_unique<TerritoryWorld>(scene, w, map));
+  for (WorldId w = 0; w < k; ++w)
+    processes_.push_back(std::make_unique<Process>(*worlds_[static_cast<std::size_t>(w)], *transport_, *graph_,
+                                                   validator_.get(), w == 0 ? options_.progress : nullptr,
+                                                   substeps_, options_.solve_everywhere));
+}
+
+PartitionedWorld::~PartitionedWorld() = default;
+
+void PartitionedWorld::step(int n) {
+  if (n < 0) throw std::invalid_argument("PartitionedWorld::step: n must be >= 0");
+  const std::int64_t target = (steps_done_ + n) * substeps_;
+  for (auto& p : processes_) p->set_target(target);
+  switch (options_.schedule) {
+    case Schedule::Sequential: run_sequential(target); break;
+    case Schedule::ThreadPerWorld: run_thread_per_world(target); break;
+    case Schedule::Pool: run_pool(target); break;
+  }
+  steps_done_ += n;
+}
+
+// Round-robin in world order: deterministic, single-threaded.
+void PartitionedWorld::run_sequential(std::int64_t) {
+  for (;;) {
+    bool all_done = true, progressed = false;
+    for (auto& p : processes_) {
+      const Process::Advance a = p->advance();
+      progressed = progressed || a.progressed;
+      all_done = all_done && a.done;
+    }
+    if (all_done) return;
+    if (!progressed) {
+      std::string why = "PartitionedWorld: deadlock:";
+      for (auto& p : processes_) why += " [" + p->waiting_for() + "]";
+      throw std::logic_error(why);
+    }
+  }
+}
+
+namespace {
+
+// First error of any worker; closes the transport so that every other
+// worker stops.
+class ErrorSlot {
+ public:
+  void set(std::exception_ptr e, Transport& transport) {
+    {
+      std::lock_guard lock(mutex_);
+      if (!error_) error_ = e;
+    }
+    transport.close();
+  }
+  void rethrow() {
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ private:
+  std::mutex mutex_;
+  std::exception_ptr error_;
+};
+
+}  // namespace
+
+// One thread per world; a world with nothing to do blocks on its mailbox.
+void PartitionedWorld::run_thread_per_world(std::int64_t) {
+  ErrorSlot error;
+  std::vector<std::thread> threads;
+  for (std::size_t w = 0; w < processes_.size(); ++w)
+    threads.emplace_back([this, w, &error] {
+      Process& p = *processes_[w];
+      try {
+        for (;;) {
+          const Process::Advance a = p.advance();
+          if (a.done) return;
+          if (a.progressed) continue;
+          const std::int64_t t0 = wall_ns();
+          Message m = transport_->receive(static_cast<WorldId>(w));
+          p.add_blocked_ns(wall_ns() - t0);
+          p.deliver(std::move(m));
+        }
+      } catch (const TransportClosed&) {
+        // Another world failed; its error is reported.
+      } catch (...) {
+        error.set(std::current_exception(), *transport_);
+      }
+    });
+  for (std::thread& t : threads) t.join();
+  error.rethrow();
+}
+
+// `threads` workers run worlds as tasks: a world runs until it must wait,
+// then parks; a message for a parked world puts it back in the ready queue.
+void PartitionedWorld::run_pool(std::int64_t) {
+  ErrorSlot error;
+  std::mutex mutex;
+  std::condition_variable cv;
+  std::deque<WorldId> ready;
+  std::size_t finished = 0;
+  bool stop = false;
+  for (std::size_t w = 0; w < processes_.size(); ++w) ready.push_back(static_cast<WorldId>(w));
+  transport_->set_wake_hook([&](WorldId w) {
+    {
+      std::lock_guard lock(mutex);
+      ready.push_back(w);
+    }
+    cv.notify_one();
+  });
+  auto worker = [&] {
+    for (;;) {
+      WorldId w;
+      {
+        std::unique_lock lock(mutex);
+        cv.wait(lock, [&] { return stop || !ready.empty(); });
+        if (stop) return;
+        w = ready.front();
+        ready.pop_front();
+      }
+      Process& p = *processes_[static_cast<std::size_t>(w)];
+      try {
+        if (p.parked_at_ns) p.add_blocked_ns(wall_ns() - p.parked_at_ns);
+        p.parked_at_ns = 0;
+        for (;;) {
+          const Process::Advance a = p.advance();
+          if (a.done) {
+            std::lock_guard lock(mutex);
+            if (++finished == processes_.size()) {
+              stop = true;
+              cv.notify_all();
+            }
+            break;
+          }
+          if (a.progressed) continue;
+          p.parked_at_ns = wall_ns();
+          if (transport_->park(w)) break;  // from here on another worker may run it
+          p.parked_at_ns = 0;
+        }
+      } catch (...) {
+        error.set(std::current_exception(), *transport_);
+        std::lock_guard lock(mutex);
+        stop = true;
+        cv.notify_all();
+        return;
+      }
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int i = 0; i < options_.threads; ++i) threads.emplace_back(worker);
+  for (std::thread& t : threads) t.join();
+  transport_->set_wake_hook([](WorldId) {});
+  error.rethrow();
+}
+
+std::vector<BodyState> PartitionedWorld::body_states() const {
+  std::vector<BodyState> out = worlds_.front()->static_states();
+  for (const auto& w : worlds_) {
+    std::vector<BodyState> s = w->owned_states();
+    out.insert(out.end(), s.begin(), s.end());
+  }
+  std::sort(out.begin(), out.end(), [](const BodyState& a, const BodyState& b) { return a.id < b.id; });
+  return out;
+}
+
+std::uint64_t PartitionedWorld::state_hash() const { return soda::state_hash(body_states()); }
+
+std::size_t PartitionedWorld::sleeping_count() const {
+  std::size_t n = 0;
+  for (const auto& w : worlds_) n += w->sleeping_count();
+  return n;
+}
+
+std::size_t PartitionedWorld::body_count() const {
+  std::size_t n = worlds_.front()->static_count();
+  for (const auto& w : worlds_) n += w->owned_count();
+  return n;
+}
+
+int PartitionedWorld::world_count() const { return static_cast<int>(worlds_.size()); }
+
+const TerritoryWorld& PartitionedWorld::world(WorldId id) const { return *worlds_.at(static_cast<std::size_t>(id)); }
+
+std::vector<WorldMetrics> PartitionedWorld::metrics() const {
+  std::vector<WorldMetrics> out;
+  for (const auto& p : processes_) out.push_back(p->metrics());
+  return out;
+}
+
+std::uint64_t PartitionedWorld::messages_sent() const { return transport_->messages_sent(); }
+std::uint64_t PartitionedWorld::bytes_sent() const { return transport_->bytes_sent(); }
+
+}  // namespace soda

@@ -1,0 +1,78 @@
+#include "soda/runtime/world_graph.h"
+
+#include <algorithm>
+#include <deque>
+#include <stdexcept>
+#include <string>
+
+namespace soda {
+
+WorldGraph::WorldGraph(const TerritoryMap& map) {
+  const int k = map.world_count();
+  neighbours_.resize(static_cast<std::size_t>(k));
+  for (WorldId w = 0; w < k; ++w) neighbours_[static_cast<std::size_t>(w)] = map.neighbours(w);
+  distance_.assign(static_cast<std::size_t>(k), std::vector<int>(static_cast<std::size_t>(k), -1));
+  next_hop_.assign(static_cast<std::size_t>(k), std::vector<WorldId>(static_cast<std::size_t>(k), kNoWorld));
+  // BFS from every target: next_hop[from][to] = the smallest neighbour of
+  // `from` one hop closer to `to`.
+  for (WorldId to = 0; to < k; ++to) {
+    std::vector<int> d(static_cast<std::size_t>(k), -1);
+    std::deque<WorldId> queue{to};
+    d[static_cast<std::size_t>(to)] = 0;
+    while (!queue.empty()) {
+      const WorldId w = queue.front();
+      queue.pop_front();
+      for (WorldId n : neighbours_[static_cast<std::size_t>(w)])
+        if (d[static_cast<std::size_t>(n)] < 0) {
+          d[static_cast<std::size_t>(n)] = d[static_cast<std::size_t>(w)] + 1;
+          queue.push_back(n);
+        }
+    }
+    for (WorldId from = 0; from < k; ++from) {
+      const int df = d[static_cast<std::size_t>(from)];
+      distance_[static_cast<std::size_t>(from)][static_cast<std::size_t>(to)] = df;
+      if (df < 0) continue;
+      if (df == 0) {
+        next_hop_[static_cast<std::size_t>(from)][static_cast<std::size_t>(to)] = from;
+        continue;
+      }
+      for (WorldId n : neighbours_[static_cast<std::size_t>(from)])
+        if (d[static_cast<std::size_t>(n)] == df - 1) {
+          next_hop_[static_cast<std::size_t>(from)][static_cast<std::size_t>(to)] = n;
+          break;  // ascending: the smallest
+        }
+    }
+  }
+}
+
+const std::vector<WorldId>& WorldGraph::neighbours(WorldId world) const {
+  if (world < 0 || world >= world_count()) throw std::out_of_range("WorldGraph: no world " + std::to_string(world));
+  return neighbours_[static_cast<std::size_t>(world)];
+}
+
+bool WorldGraph::adjacent(WorldId a, WorldId b) const {
+  const auto& n = neighbours(a);
+  return std::binary_search(n.begin(), n.end(), b);
+}
+
+WorldId WorldGraph::next_hop(WorldId from, WorldId to) const {
+  neighbours(from), neighbours(to);  // range checks
+  return next_hop_[static_cast<std::size_t>(from)][static_cast<std::size_t>(to)];
+}
+
+int WorldGraph::distance(WorldId from, WorldId to) const {
+  neighbours(from), neighbours(to);
+  return distance_[static_cast<std::size_t>(from)][static_cast<std::size_t>(to)];
+}
+
+int WorldGraph::diameter() const {
+  int d = 0;
+  for (const auto& row : distance_)
+    for (int x : row) {
+      if (x < 0) return -1;
+      d = std::max(d, x);
+    }
+  return d;
+}
+
+}  // namespace soda

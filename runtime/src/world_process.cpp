@@ -1,0 +1,332 @@
+#include "world_process.h"
+
+#include <algorithm>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "soda/loadbalance/thread_clock.h"
+
+namespace soda {
+
+PartitionedWorld::Process::Process(TerritoryWorld& world, Transport& transport, const WorldGraph& graph,
+                                   Validator* validator, std::function<void(std::int64_t)> progress, int substeps,
+                                   bool solve_everywhere)
+    : world_(world),
+      transport_(transport),
+      graph_(graph),
+      validator_(validator),
+      progress_(std::move(progress)),
+      substeps_(substeps),
+      solve_everywhere_(solve_everywhere),
+      neighbours_(graph.neighbours(world.id())) {
+  sums_.world = world.id();
+  sums_.neighbours = neighbours_.size();
+}
+
+void PartitionedWorld::Process::deliver(Message m) {
+  if (m.to != world_.id())
+    throw std::logic_error("world " + std::to_string(world_.id()) + " got " + describe(m));
+  if (!graph_.adjacent(world_.id(), m.from))
+    throw PartitionError("world " + std::to_string(world_.id()) + " got " + describe(m) +
+                         " from a world that is not a neighbour");
+  if (m.kind() == MessageKind::Fragments || m.kind() == MessageKind::Results || m.kind() == MessageKind::Gather) {
+    // Late fragments of a step whose merge is over are dropped: the island
+    // they belong to is complete here (island_merge.h).
+    const bool late = m.step < step_ || (m.step == step_ && phase_ == Phase::AwaitMigrants);
+    if (!late) fragments_[m.step].push_back(std::move(m));
+    return;
+  }
+  if (m.step < step_) throw std::logic_error("world " + std::to_string(world_.id()) + " got a stale " + describe(m));
+  const Key key{static_cast<int>(m.kind()), m.step, m.from};
+  if (inbox_.count(key)) throw std::logic_error("world " + std::to_string(world_.id()) + " got " + describe(m) + " twice");
+  inbox_.emplace(key, std::move(m));
+}
+
+PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
+  while (std::optional<Message> m = transport_.try_receive(world_.id())) deliver(std::move(*m));
+  Advance result;
+  std::int64_t cpu0 = thread_cpu_ns();
+  for (;;) {
+    if (step_ >= target_ && phase_ == Phase::Predict) {
+      result.done = true;
+      break;
+    }
+    const std::int64_t before = step_;
+    if (!run_phase()) break;
+    result.progressed = true;
+    if (step_ != before) {  // a step ended: its CPU time is complete
+      const std::int64_t now = thread_cpu_ns();
+      step_cpu_ns_ += now - cpu0;
+      cpu_ns_ += step_cpu_ns_;
+      step_cpu_max_ns_ = std::max(step_cpu_max_ns_, step_cpu_ns_);
+      step_cpu_ns_ = 0;
+      cpu0 = now;
+    }
+  }
+  step_cpu_ns_ += thread_cpu_ns() - cpu0;
+  return result;
+}
+
+bool PartitionedWorld::Process::have_all(MessageKind kind, const std::vector<WorldId>& from) const {
+  for (WorldId n : from)
+    if (!inbox_.count(Key{static_cast<int>(kind), step_, n})) return false;
+  return true;
+}
+
+template <class Batch>
+std::vector<std::pair<WorldId, Batch>> PartitionedWorld::Process::take_all(MessageKind kind,
+                                                                           const std::vector<WorldId>& from) {
+  std::vector<std::pair<WorldId, Batch>> out;
+  for (WorldId n : from) {
+    auto it = inbox_.find(Key{static_cast<int>(kind), step_, n});
+    out.emplace_back(n, std::get<Batch>(std::move(it->second.payload)));
+    inbox_.erase(it);
+  }
+  return out;
+}
+
+void PartitionedWorld::Process::send(WorldId to, Message message) {
+  message.from = world_.id();
+  message.to = to;
+  message.step = step_;
+  ++sums_.messages_sent;
+  transport_.send(to, std::move(message));
+}
+
+bool PartitionedWorld::Process::run_phase() {
+  switch (phase_) {
+    case Phase::Predict: {
+      world_.predict();
+      for (WorldId n : neighbours_) send(n, Message{.payload = world_.ghost_batch_for(n)});
+      phase_ = Phase::AwaitGhosts;
+      return true;
+    }
+    case Phase::AwaitGhosts: {
+      if (!have_all(MessageKind::Ghosts, neighbours_)) return false;
+      world_.apply_ghosts(take_all<GhostBatch>(MessageKind::Ghosts, neighbours_));
+      world_.collide();
+      world_.build_islands();
+      for (WorldId n : neighbours_)
+        if (world_.received_ghosts_from(n)) send(n, Message{.payload = world_.glue_batch_for(n)});
+      phase_ = Phase::AwaitGlue;
+      return true;
+    }
+    case Phase::AwaitGlue: {
+      std::vector<WorldId> from;
+      for (WorldId n : neighbours_)
+        if (world_.sends_ghosts_to(n)) from.push_back(n);
+      if (!have_all(MessageKind::Glue, from)) return false;
+      merger_.start(world_.id(), world_.border_fragments(take_all<GlueBatch>(MessageKind::Glue, from)),
+                    solve_everywhere_);
+      flush_merger();
+      phase_ = Phase::Merging;
+      return true;
+    }
+    case Phase::Merging: {
+      bool progressed = false;
+      auto it = fragments_.find(step_);
+      if (it != fragments_.end()) {
+        std::vector<Message> batch = std::move(it->second);
+        fragments_.erase(it);
+        for (Message& m : batch) {
+          ++sums_.relay_messages_received;
+          if (m.kind() == MessageKind::Results) {
+            for (IslandResult& r : std::get<ResultBatch>(m.payload).results) take_result(std::move(r));
+          } else if (m.kind() == MessageKind::Gather) {
+            GatherBatch& g = std::get<GatherBatch>(m.payload);
+            take_gather(g.island, std::move(g.fragments));
+          } else if (!merger_.done()) {
+            merger_.receive(m.from, std::get<FragmentBatch>(std::move(m.payload)).fragments);
+          }
+          flush_merger();
+        }
+        progressed = true;
+      }
+      if (!merger_.done() || !islands_.empty()) return progressed;
+      if (!early_gathers_.empty())
+        throw std::logic_error("world " + std::to_string(world_.id()) + ": data for an island it is not in");
+      sums_.fragments_relayed += merger_.fragments_relayed();
+      world_.finish_islands();
+      world_.integrate();
+      for (auto& [n, batch] : world_.migrate()) send(n, Message{.payload = std::move(batch)});
+      phase_ = Phase::AwaitMigrants;
+      return true;
+    }
+    case Phase::AwaitMigrants: {
+      if (!have_all(MessageKind::Migrants, neighbours_)) return false;
+      world_.absorb_migrants(take_all<MigrantBatch>(MessageKind::Migrants, neighbours_));
+      end_step();
+      return true;
+    }
+  }
+  return false;
+}
+
+void PartitionedWorld::Process::flush_merger() {
+  for (auto& [n, fragments] : merger_.take_outgoing()) {
+    ++sums_.relay_messages_sent;
+    send(n, Message{.payload = FragmentBatch{std::move(fragments)}});
+  }
+  for (const std::vector<const Fragment*>& island : merger_.take_closed()) close_island(island);
+}
+
+// An island is complete here. Its root is the owner of its smallest body;
+// its tree is the BFS tree of its worlds (joined by its links, ascending)
+// from the root, the same in every world.
+void PartitionedWorld::Process::close_island(const std::vector<const Fragment*>& island) {
+  std::map<WorldId, std::set<WorldId>> adjacent;
+  BodyId smallest = kNoBody;
+  WorldId root = kNoWorld;
+  for (const Fragment* f : island) {
+    adjacent[f->world];
+    for (const LinkOut& l : f->links_out) adjacent[f->world].insert(l.owner), adjacent[l.owner].insert(f->world);
+    for (const LinkIn& l : f->links_in) adjacent[f->world].insert(l.world), adjacent[l.world].insert(f->world);
+    if (f->first_body < smallest) {
+      smallest = f->first_body;
+      root = f->world;
+    }
+  }
+  ++sums_.merged_islands;
+  sums_.merged_island_worlds_sum += adjacent.size();
+  sums_.merged_island_worlds_max = std::max<std::uint64_t>(sums_.merged_island_worlds_max, adjacent.size());
+  if (solve_everywhere_) {
+    world_.apply_island_result(world_.solve_border_island(island));
+    return;
+  }
+  std::map<WorldId, WorldId> parent{{root, root}};
+  std::vector<WorldId> queue{root};
+  for (std::size_t i = 0; i < queue.size(); ++i)
+    for (WorldId n : adjacent[queue[i]])
+      if (parent.emplace(n, queue[i]).second) queue.push_back(n);
+  Island& is = islands_[smallest];
+  is.root = root;
+  is.parent = parent.at(world_.id());
+  for (const auto& [w, p] : parent)
+    if (p == world_.id() && w != world_.id()) is.children.push_back(w);
+  for (const Fragment* f : island)
+    if (f->world == world_.id()) is.data.push_back(*f);
+  is.gathers_missing = is.children.size();
+  auto early = early_gathers_.find(smallest);
+  if (early != early_gathers_.end()) {
+    std::vector<Fragment> fragments = std::move(early->second);
+    early_gathers_.erase(early);
+    take_gather(smallest, std::move(fragments));  // may complete the gather
+    return;
+  }
+  if (is.gathers_missing == 0) gathered(smallest);
+}
+
+// A child's subtree data; data arriving before the island is complete here
+// waits. A child's Gather always holds the child's own fragments, so the
+// children heard from are the children with a fragment in the data.
+void PartitionedWorld::Process::take_gather(BodyId island, std::vector<Fragment> fragments) {
+  auto it = islands_.find(island);
+  if (it == islands_.end()) {
+    std::vector<Fragment>& e = early_gathers_[island];
+    e.insert(e.end(), std::make_move_iterator(fragments.begin()), std::make_move_iterator(fragments.end()));
+    return;
+  }
+  Island& is = it->second;
+  for (Fragment& f : fragments) is.data.push_back(std::move(f));
+  std::set<WorldId> worlds;
+  for (const Fragment& f : is.data) worlds.insert(f.world);
+  std::size_t heard = 0;
+  for (WorldId c : is.children) heard += worlds.count(c);
+  is.gathers_missing = is.children.size() - heard;
+  if (is.gathers_missing == 0) gathered(island);
+}
+
+// The subtree's data is here: the root solves, the others pass it up.
+void PartitionedWorld::Process::gathered(BodyId island) {
+  Island& is = islands_.at(island);
+  if (is.root != world_.id()) {
+    ++sums_.relay_messages_sent;
+    send(is.parent, Message{.payload = GatherBatch{island, std::move(is.data)}});
+    is.data.clear();
+    return;
+  }
+  std::sort(is.data.begin(), is.data.end(), [](const Fragment& a, const Fragment& b) {
+    return std::make_pair(a.world, a.root) < std::make_pair(b.world, b.root);
+  });
+  std::vector<const Fragment*> fragments;
+  for (const Fragment& f : is.data) fragments.push_back(&f);
+  take_result(world_.solve_border_island(fragments));
+}
+
+// A solved island: keep this world's part and pass it down the tree. (It
+// cannot arrive before the island is complete here: the root needs this
+// world's data first.)
+void PartitionedWorld::Process::take_result(IslandResult result) {
+  auto it = islands_.find(result.island);
+  if (it == islands_.end())
+    throw std::logic_error("world " + std::to_string(world_.id()) + ": result for island " +
+                           std::to_string(result.island) + ", which is not complete here");
+  world_.apply_island_result(result);
+  for (WorldId child : it->second.children) {
+    ++sums_.relay_messages_sent;
+    send(child, Message{.payload = ResultBatch{{result}}});
+  }
+  islands_.erase(it);
+}
+
+void PartitionedWorld::Process::end_step() {
+  const TerritoryCounters& c = world_.counters();
+  sums_.border_bodies += c.border_bodies;
+  sums_.ghosts_sent += c.ghosts_sent;
+  sums_.ghosts_received += c.ghosts_received;
+  sums_.manifolds_attached += c.manifolds_attached;
+  sums_.manifolds_seeded += c.manifolds_seeded;
+  sums_.manifolds_returned += c.manifolds_returned;
+  sums_.migrations_out += c.migrations_out;
+  sums_.migrations_in += c.migrations_in;
+  sums_.local_islands += c.local_islands;
+  sums_.border_fragments += c.border_fragments;
+  sums_.merged_island_bodies += c.border_island_bodies;
+  sums_.islands_solved += c.border_islands;
+  ++step_;
+  phase_ = Phase::Predict;
+  if (validator_)
+    validator_->report(WorldStepReport{world_.id(), step_, world_.owned_ids(), world_.ghost_count(),
+                                       world_.static_count(), world_.bullet_object_count(),
+                                       world_.held_contact_pairs()});
+  if (progress_ && step_ % substeps_ == 0) progress_(step_ / substeps_);
+}
+
+std::string PartitionedWorld::Process::waiting_for() const {
+  std::ostringstream s;
+  s << "world " << world_.id() << " at step " << step_ << " ";
+  auto missing = [&](MessageKind kind, const std::vector<WorldId>& from) {
+    s << "waits for " << message_kind_name(kind) << " from";
+    for (WorldId n : from)
+      if (!inbox_.count(Key{static_cast<int>(kind), step_, n})) s << " " << n;
+  };
+  switch (phase_) {
+    case Phase::Predict: s << "is done (target " << target_ << ")"; break;
+    case Phase::AwaitGhosts: missing(MessageKind::Ghosts, neighbours_); break;
+    case Phase::AwaitGlue: {
+      std::vector<WorldId> from;
+      for (WorldId n : neighbours_)
+        if (world_.sends_ghosts_to(n)) from.push_back(n);
+      missing(MessageKind::Glue, from);
+      break;
+    }
+    case Phase::Merging: s << "waits for island fragments"; break;
+    case Phase::AwaitMigrants: missing(MessageKind::Migrants, neighbours_); break;
+  }
+  return s.str();
+}
+
+WorldMetrics PartitionedWorld::Process::metrics() const {
+  WorldMetrics m = sums_;
+  m.steps = step_;
+  m.cpu_seconds = static_cast<double>(cpu_ns_) * 1e-9;
+  m.cpu_step_mean_ms = step_ ? static_cast<double>(cpu_ns_) * 1e-6 / static_cast<double>(step_) : 0.0;
+  m.cpu_step_max_ms = static_cast<double>(step_cpu_max_ns_) * 1e-6;
+  m.blocked_seconds = static_cast<double>(blocked_ns_) * 1e-9;
+  m.owned_bodies = world_.owned_count();
+  m.ghosts = world_.ghost_count();
+  return m;
+}
+
+}  // namespace soda

@@ -1,0 +1,222 @@
+// Messages: the byte encoding is exact and rejects malformed bytes with
+// MessageFormatError; the world graph routes; the island merger completes
+// islands from fragments alone; the validator names broken invariants.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "island_merge.h"
+#include "runtime/partitioned_test_util.h"
+#include "soda/runtime/message_codec.h"
+#include "soda/runtime/transport.h"
+#include "soda/runtime/world_graph.h"
+#include "validator.h"
+
+namespace soda {
+namespace {
+
+// A few bodies and manifolds of a settled pile, as values.
+struct Values {
+  std::vector<BodySnapshot> bodies;
+  std::vector<ManifoldState> manifolds;
+};
+
+Values pile_values() {
+  CanonicalWorld w(test::scene("cube-pile", 30));
+  for (int i = 0; i < 60; ++i) w.step();
+  WorldSnapshot s = w.snapshot();
+  Values v;
+  for (const BodySnapshot& b : s.bodies)
+    if (!b.description.is_static) v.bodies.push_back(b);
+  v.manifolds = s.manifolds;
+  return v;
+}
+
+std::vector<Message> sample_messages() {
+  const Values v = pile_values();
+  std::vector<Message> out;
+  GhostBatch g;
+  for (std::size_t i = 0; i < 5; ++i) {
+    BodyRecord r{v.bodies[i], {0, btScalar(-9.81), 0}, {btScalar(0.5), 0, btScalar(-0.25)}};
+    g.ghosts.push_back(GhostRecord{r, {1, 3}});
+  }
+  g.kept_manifolds.assign(v.manifolds.begin(), v.manifolds.begin() + 3);
+  out.push_back(Message{0, 1, 17, g});
+  out.push_back(Message{1, 0, 17, GlueBatch{{{3, 1}, {4, 1}, {9, 2}}}});
+  Fragment f;
+  f.world = 2;
+  f.root = 1;
+  f.links_out = {{0, 7}, {3, 2}};
+  f.links_in = {{1, 4, 5}};
+  for (std::size_t i = 0; i < 3; ++i) f.bodies.push_back(BodyRecord{v.bodies[i], {1, 2, 3}, {4, 5, 6}});
+  f.first_body = f.bodies.front().body.description.id;
+  f.manifolds.assign(v.manifolds.begin(), v.manifolds.begin() + 4);
+  out.push_back(Message{2, 3, 18, FragmentBatch{{f, f}}});
+  MigrantBatch m;
+  m.migrants.push_back(Migrant{v.bodies[0], {v.manifolds[0]}});
+  m.migrants.push_back(Migrant{v.bodies[1], {}});
+  out.push_back(Message{3, 2, 19, m});
+  out.push_back(Message{3, 2, 20, MigrantBatch{}});
+  IslandResult r;
+  r.island = v.bodies[0].description.id;
+  for (std::size_t i = 0; i < 4; ++i) {
+    BodyResult b;
+    b.id = v.bodies[i].description.id;
+    b.linear_velocity[1] = btScalar(-0.5) * btScalar(i);
+    b.origin[0] = btScalar(i);
+    b.activation_state = i == 2 ? 3 : 1;
+    b.deactivation_time = btScalar(0.25);
+    r.bodies.push_back(b);
+  }
+  r.manifolds.assign(v.manifolds.begin(), v.manifolds.begin() + 2);
+  out.push_back(Message{4, 1, 21, ResultBatch{{r, r}}});
+  Fragment header{3, 2, kNoBody, {{0, 2}}, {}, {}, {}};  // only a ghost: no first body
+  out.push_back(Message{1, 2, 22, GatherBatch{r.island, {f, header}}});
+  return out;
+}
+
+TEST(MessageCodec, RoundTripIsExact) {
+  for (const Message& m : sample_messages()) {
+    const std::vector<std::uint8_t> bytes = encode_message(m);
+    const Message back = decode_message(bytes);
+    EXPECT_EQ(back.from, m.from);
+    EXPECT_EQ(back.to, m.to);
+    EXPECT_EQ(back.step, m.step);
+    EXPECT_EQ(back.kind(), m.kind());
+    EXPECT_EQ(encode_message(back), bytes) << describe(m);
+    std::printf("[ codec %s ] %s: %zu bytes\n", kPrecisionName, describe(m).c_str(), bytes.size());
+  }
+}
+
+TEST(MessageCodec, MalformedBytesThrow) {
+  for (const Message& m : sample_messages()) {
+    const std::vector<std::uint8_t> bytes = encode_message(m);
+    for (std::size_t n = 0; n < bytes.size(); n += (n < 64 ? 1 : 5)) {
+      const std::vector<std::uint8_t> cut(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(n));
+      EXPECT_THROW(decode_message(cut), MessageFormatError) << describe(m) << " truncated to " << n;
+    }
+    auto with = [&](std::size_t at, std::uint8_t value) {
+      std::vector<std::uint8_t> b = bytes;
+      b[at] = value;
+      return b;
+    };
+    EXPECT_THROW(decode_message(with(0, 'X')), MessageFormatError);   // magic
+    EXPECT_THROW(decode_message(with(8, 9)), MessageFormatError);     // version
+    EXPECT_THROW(decode_message(with(12, 3)), MessageFormatError);    // precision
+    EXPECT_THROW(decode_message(with(16, 0)), MessageFormatError);    // kind
+    EXPECT_THROW(decode_message(with(16, 77)), MessageFormatError);   // kind
+    EXPECT_THROW(decode_message(with(20, 0xff)), MessageFormatError); // negative sender
+    std::vector<std::uint8_t> longer = bytes;
+    longer.push_back(0);
+    EXPECT_THROW(decode_message(longer), MessageFormatError);         // trailing
+    // Any single corrupted byte: it decodes or it throws, nothing else.
+    for (std::size_t at = 0; at < bytes.size(); at += 7) {
+      try {
+        (void)decode_message(with(at, static_cast<std::uint8_t>(bytes[at] ^ 0x5a)));
+      } catch (const MessageFormatError&) {
+      }
+    }
+  }
+  try {
+    (void)decode_message(std::vector<std::uint8_t>(10, 0));
+    ADD_FAILURE() << "no exception";
+  } catch (const MessageFormatError& e) {
+    std::printf("[ codec %s ] malformed: %s\n", kPrecisionName, e.what());
+    EXPECT_NE(std::string(e.what()).find("decode_message"), std::string::npos);
+  }
+}
+
+TEST(Transport, QueuesInOrderAndSerialises) {
+  for (bool serialise : {false, true}) {
+    auto t = serialise ? make_serialising_transport(3) : make_in_memory_transport(3);
+    const std::vector<Message> ms = sample_messages();
+    for (Message m : ms) {
+      m.to = 2;
+      t->send(2, m);
+    }
+    EXPECT_FALSE(t->try_receive(1).has_value());
+    for (const Message& m : ms) {
+      const std::optional<Message> r = t->try_receive(2);
+      ASSERT_TRUE(r.has_value());
+      EXPECT_EQ(r->step, m.step);
+      EXPECT_EQ(r->kind(), m.kind());
+    }
+    EXPECT_FALSE(t->try_receive(2).has_value());
+    EXPECT_EQ(t->messages_sent(), ms.size());
+    EXPECT_EQ(t->bytes_sent() > 0, serialise);
+    EXPECT_THROW(t->send(5, Message{0, 5, 0, GlueBatch{}}), std::out_of_range);
+    EXPECT_THROW(t->send(1, Message{0, 2, 0, GlueBatch{}}), std::invalid_argument);
+  }
+}
+
+TEST(WorldGraph, NextHopAlongAStrip) {
+  const Scene s = test::scene("chain", 16);
+  GridOptions g;
+  g.cell_size = 2.0;
+  g.box = CellBox{{-4, 0, -1}, {3, 0, 0}};
+  const WorldGraph graph(make_partition("grid:8x1x1", s, 8, g));
+  EXPECT_EQ(graph.diameter(), 7);
+  EXPECT_EQ(graph.neighbours(3), (std::vector<WorldId>{2, 4}));
+  EXPECT_TRUE(graph.adjacent(0, 1));
+  EXPECT_FALSE(graph.adjacent(0, 2));
+  EXPECT_EQ(graph.next_hop(0, 7), 1);
+  EXPECT_EQ(graph.next_hop(7, 0), 6);
+  EXPECT_EQ(graph.next_hop(4, 4), 4);
+  EXPECT_EQ(graph.distance(1, 6), 5);
+}
+
+// Fragments of one island along worlds 0 - 1 - 2 (ghost links), merged by
+// hand-carried messages: every world completes the same island.
+TEST(IslandMerger, CompletesAnIslandAcrossThreeWorlds) {
+  // World 0 holds a ghost of body 20 (owned by 1); world 1's fragment
+  // {20, ghost 30} is glued by 0 and holds a ghost of 30 (owned by 2), which
+  // world 2's fragment {30} is glued by.
+  Fragment f0{0, 10, 10, {{1, 20}}, {}, {}, {}};
+  Fragment f1{1, 20, 20, {{2, 30}}, {{0, 10, 20}}, {}, {}};
+  Fragment f2{2, 30, 30, {}, {{1, 20, 30}}, {}, {}};
+  IslandMerger m[3];
+  m[0].start(0, {f0}, false);
+  m[1].start(1, {f1}, false);
+  m[2].start(2, {f2}, false);
+  for (int round = 0; round < 4; ++round) {
+    std::vector<std::tuple<int, int, std::vector<Fragment>>> mail;
+    for (int w = 0; w < 3; ++w)
+      for (auto& [to, fs] : m[w].take_outgoing()) mail.emplace_back(w, to, std::move(fs));
+    for (auto& [from, to, fs] : mail) m[to].receive(from, std::move(fs));
+  }
+  for (int w = 0; w < 3; ++w) {
+    EXPECT_TRUE(m[w].done()) << "world " << w;
+    const auto closed = m[w].take_closed();
+    ASSERT_EQ(closed.size(), 1u) << "world " << w;
+    ASSERT_EQ(closed[0].size(), 3u);
+    EXPECT_EQ(closed[0][0]->root, 10u);
+    EXPECT_EQ(closed[0][2]->root, 30u);
+  }
+  EXPECT_GT(m[1].fragments_relayed(), 0u);  // world 1 passes 0's fragment on to 2 and back
+}
+
+TEST(Validator, NamesBrokenInvariants) {
+  const Scene s = test::scene("falling-cubes", 4);  // ground 0, cubes 1..4
+  Validator ok(s, 2);
+  ok.report(WorldStepReport{0, 1, {1, 2}, 0, 1, 3, {{1, 2}}});
+  ok.report(WorldStepReport{1, 1, {3, 4}, 1, 1, 4, {{3, 4}}});
+  EXPECT_EQ(ok.steps_checked(), 1);
+  Validator twice(s, 2);
+  twice.report(WorldStepReport{0, 5, {1, 2, 3}, 0, 1, 4, {}});
+  try {
+    twice.report(WorldStepReport{1, 5, {3, 4}, 0, 1, 3, {}});
+    ADD_FAILURE() << "no exception";
+  } catch (const ValidationError& e) {
+    std::printf("[ validator ] %s\n", e.what());
+    EXPECT_NE(std::string(e.what()).find("body 3 is owned by worlds 0 1"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("step 5"), std::string::npos);
+  }
+  Validator lost(s, 2);
+  lost.report(WorldStepReport{0, 2, {1}, 0, 1, 2, {{0, 1}}});
+  EXPECT_THROW(lost.report(WorldStepReport{1, 2, {3, 4}, 0, 1, 5, {{0, 1}}}), ValidationError);  // 2 lost, pair
+                                                                                                   // held twice,
+                                                                                                   // count wrong
+}
+
+}  // namespace
+}  // namespace soda

@@ -1,0 +1,101 @@
+// Shared helpers of the runtime/ suites: the one-world reference, partitioned
+// runs, and — when hashes differ — the first step and body that differ.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <numeric>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "soda/grid/partition.h"
+#include "soda/runtime/partitioned_world.h"
+#include "soda/scene/registry.h"
+#include "soda/worlds/canonical_world.h"
+
+namespace soda::test {
+
+inline Scene scene(const std::string& name, int n, std::uint64_t seed = 1) {
+  return make_scene(name, SceneParams{n, seed, false});
+}
+
+/// state_hash of the one-world reference after `steps` steps.
+inline std::uint64_t reference_hash(const Scene& s, int steps) {
+  CanonicalWorld w(s);
+  for (int i = 0; i < steps; ++i) w.step();
+  return w.state_hash();
+}
+
+inline bool same_bits(const BodyState& a, const BodyState& b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+/// Steps the reference and a partitioned run side by side and describes the
+/// first step and bodies that differ ("" if none within `steps`).
+inline std::string first_divergence(const Scene& s, const TerritoryMap& map, int steps,
+                                    PartitionedOptions options = {}) {
+  CanonicalWorld ref(s);
+  PartitionedWorld part(s, map, options);
+  for (int t = 1; t <= steps; ++t) {
+    ref.step();
+    part.step(1);
+    const std::vector<BodyState> a = ref.body_states();
+    const std::vector<BodyState> b = part.body_states();
+    if (a.size() != b.size()) return "step " + std::to_string(t) + ": body counts differ";
+    std::ostringstream out;
+    int shown = 0;
+    for (std::size_t i = 0; i < a.size() && shown < 5; ++i) {
+      if (same_bits(a[i], b[i])) continue;
+      ++shown;
+      out << "step " << t << " body " << a[i].id << ": ref origin (" << a[i].origin[0] << ", " << a[i].origin[1]
+          << ", " << a[i].origin[2] << ") v (" << a[i].linear_velocity[0] << ", " << a[i].linear_velocity[1] << ", "
+          << a[i].linear_velocity[2] << ") act " << a[i].activation_state << " | part origin (" << b[i].origin[0]
+          << ", " << b[i].origin[1] << ", " << b[i].origin[2] << ") v (" << b[i].linear_velocity[0] << ", "
+          << b[i].linear_velocity[1] << ", " << b[i].linear_velocity[2] << ") act " << b[i].activation_state
+          << "; ";
+    }
+    if (shown) return out.str();
+  }
+  return "";
+}
+
+/// Sums of the per-world metrics.
+inline WorldMetrics total(const std::vector<WorldMetrics>& ms) {
+  WorldMetrics t;
+  for (const WorldMetrics& m : ms) {
+    t.border_bodies += m.border_bodies;
+    t.ghosts_sent += m.ghosts_sent;
+    t.ghosts_received += m.ghosts_received;
+    t.manifolds_attached += m.manifolds_attached;
+    t.manifolds_seeded += m.manifolds_seeded;
+    t.manifolds_returned += m.manifolds_returned;
+    t.migrations_out += m.migrations_out;
+    t.migrations_in += m.migrations_in;
+    t.local_islands += m.local_islands;
+    t.border_fragments += m.border_fragments;
+    t.merged_islands += m.merged_islands;
+    t.islands_solved += m.islands_solved;
+    t.merged_island_bodies += m.merged_island_bodies;
+    t.merged_island_worlds_sum += m.merged_island_worlds_sum;
+    t.merged_island_worlds_max = std::max(t.merged_island_worlds_max, m.merged_island_worlds_max);
+    t.relay_messages_sent += m.relay_messages_sent;
+    t.relay_messages_received += m.relay_messages_received;
+    t.fragments_relayed += m.fragments_relayed;
+    t.messages_sent += m.messages_sent;
+    t.cpu_seconds += m.cpu_seconds;
+    t.blocked_seconds += m.blocked_seconds;
+  }
+  return t;
+}
+
+inline std::string summary(const WorldMetrics& t) {
+  std::ostringstream s;
+  s << "ghosts " << t.ghosts_sent << ", seeded " << t.manifolds_seeded << ", returned " << t.manifolds_returned
+    << ", migrations " << t.migrations_out << ", border islands " << t.islands_solved << " (max "
+    << t.merged_island_worlds_max << " worlds), relay msgs " << t.relay_messages_sent;
+  return s.str();
+}
+
+}  // namespace soda::test

@@ -1,0 +1,242 @@
+// worlds/ — one territory's physics. This header: the territory world, one
+// Bullet world holding the dynamic bodies one world owns, read-only ghosts of
+// its neighbours' border bodies and every static body of the scene, stepped
+// in stages between which the runtime exchanges messages. The protocol, the
+// rules and why they give results bit-identical to one CanonicalWorld on the
+// whole scene: docs/partitioned-step.md.
+//
+// Stages of one step, in order (each is one member function; the runtime
+// calls them, waiting for neighbours' values where marked <-):
+//   predict            gravity, damping, predicted transform of owned bodies;
+//                      halos; which neighbours get which ghosts
+//   exchange_ghosts    ghost_batch_for(n) ->, <- apply_ghosts(batches)
+//   collide            AABBs, pairs, narrowphase of the pairs held here
+//   build_islands      local islands solved at once; glue_batch_for(n) ->
+//   <- border_fragments(glue): fragments of border islands
+//   solve              solve_border_island(all fragments of one island), then
+//                      finish_islands()
+//   integrate          owned bodies only; sleep timers
+//   migrate            migrate() ->, <- absorb_migrants(batches)
+//
+// Invariants:
+//  1. a dynamic body is owned here iff the territory map gives its home cell
+//     (cell of its origin at the step boundary) to this world;
+//  2. ghosts are read-only: written only from a GhostRecord of this step,
+//     never predicted, solved in place or integrated here; a ghost not sent
+//     again at the next step is removed;
+//  3. narrowphase runs here only for pairs this world holds (rule H); the
+//     manifold of any other pair present here is kept empty;
+//  4. contact state is never lost: every manifold with points whose key body
+//     is owned here is live in this world (this world held the pair at the
+//     last step) or a value in the kept store;
+//  5. every island is solved as one solveGroup with its bodies by id and its
+//     manifolds by (id0, id1): local islands in place, border islands on
+//     copies built from their fragments.
+//
+// Thread safety: none; one world is used by one thread at a time. Distinct
+// worlds share no writable state (each owns its Bullet objects).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "soda/grid/territory_map.h"
+#include "soda/scene/scene.h"
+#include "soda/worlds/body_state.h"
+#include "soda/worlds/border_records.h"
+
+class btPersistentManifold;
+class btCollisionObject;
+
+namespace soda {
+
+/// A scene or a trajectory outside what the partitioned step supports (a halo
+/// reaching a world that is not a neighbour, a body moving to a non-neighbour,
+/// a body outside the exactness contract) or a broken protocol invariant (two
+/// owners for one body). The message names the body, the step and the worlds.
+class PartitionError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// What one world did in one step (reset by predict()).
+struct TerritoryCounters {
+  std::size_t owned_bodies = 0;
+  std::size_t ghosts = 0;                 // ghosts present after apply_ghosts
+  std::size_t border_bodies = 0;          // owned bodies sent as ghosts
+  std::size_t ghosts_sent = 0;            // ghost records, summed over neighbours
+  std::size_t ghosts_received = 0;
+  std::size_t manifolds_attached = 0;     // kept manifolds sent with ghosts
+  std::size_t manifolds_seeded = 0;       // held pairs written from a value before narrowphase
+  std::size_t manifolds_returned = 0;     // kept manifolds held elsewhere, back from a border island
+  std::size_t held_manifolds = 0;         // manifolds with points held here after collide
+  std::size_t local_islands = 0;          // awake islands solved in place (lone bodies included)
+  std::size_t border_fragments = 0;
+  std::size_t border_islands = 0;         // merged islands solved here (on copies)
+  std::size_t border_island_bodies = 0;   // their bodies, summed
+  std::size_t migrations_out = 0;
+  std::size_t migrations_in = 0;
+};
+
+class TerritoryWorld {
+ public:
+  /// Builds world `id` of `map` for a scene: every static body, and the
+  /// dynamic bodies whose home cell the map gives to `id`. Throws
+  /// PartitionError for a dynamic body outside the exactness contract (its
+  /// contact breaking threshold lets points outlive overlapping AABBs; see
+  /// docs/partitioned-step.md).
+  TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map);
+  ~TerritoryWorld();
+  TerritoryWorld(const TerritoryWorld&) = delete;
+  TerritoryWorld& operator=(const TerritoryWorld&) = delete;
+
+  WorldId id() const { return id_; }
+  const TerritoryMap& map() const { return map_; }
+  /// Internal steps completed (absorb_migrants ends a step).
+  std::int64_t steps_done() const { return steps_done_; }
+
+  // --- stages (see the header comment) ---------------------------------
+
+  /// predict. Throws PartitionError if an owned body's halo overlaps a cell
+  /// of a world that is not a neighbour.
+  void predict();
+  /// exchange_ghosts, sending half: the batch for one neighbour (possibly
+  /// empty). Valid between predict() and apply_ghosts().
+  GhostBatch ghost_batch_for(WorldId neighbour) const;
+  /// True if the batch for `neighbour` holds at least one ghost.
+  bool sends_ghosts_to(WorldId neighbour) const;
+  /// exchange_ghosts, receiving half: one batch from every neighbour.
+  void apply_ghosts(const std::vector<std::pair<WorldId, GhostBatch>>& batches);
+  /// True if `neighbour`'s batch of this step held at least one ghost.
+  bool received_ghosts_from(WorldId neighbour) const;
+  /// collide.
+  void collide();
+  /// build_islands: solves every island that no other world can touch.
+  void build_islands();
+  /// Glue for a neighbour that sent ghosts this step.
+  GlueBatch glue_batch_for(WorldId neighbour) const;
+  /// The glue of every neighbour this world sent ghosts to; returns this
+  /// world's fragments of border islands (ascending root) and solves the
+  /// components that no neighbour glued.
+  std::vector<Fragment> border_fragments(const std::vector<std::pair<WorldId, GlueBatch>>& glue);
+  /// solve: one merged border island on copies, given every fragment of it
+  /// (from every world involved, this one included); a pure function of the
+  /// fragments (any world computes the same result). Does not change this
+  /// world: apply_island_result does.
+  IslandResult solve_border_island(const std::vector<const Fragment*>& island);
+  /// Keeps this world's part of an island's result: its owned bodies, the
+  /// manifolds it holds, the manifolds it keeps that others hold.
+  void apply_island_result(const IslandResult& result);
+  /// After the last border island of the step: the kept store now holds the
+  /// step's contact state of pairs kept here and held elsewhere.
+  void finish_islands();
+  /// integrate.
+  void integrate();
+  /// migrate, sending half: one batch per neighbour (ascending), possibly
+  /// empty; the migrants leave this world now. Throws PartitionError if a
+  /// body's new home belongs to a world that is not a neighbour.
+  std::vector<std::pair<WorldId, MigrantBatch>> migrate();
+  /// migrate, receiving half: one batch from every neighbour. Ends the step.
+  void absorb_migrants(const std::vector<std::pair<WorldId, MigrantBatch>>& batches);
+
+  // --- readout -------------------------------------------------------------
+
+  const std::vector<WorldId>& neighbours() const;
+  const TerritoryCounters& counters() const { return counters_; }
+  /// Raw states of the owned dynamic bodies, ascending id.
+  std::vector<BodyState> owned_states() const;
+  /// Raw states of the static bodies, ascending id.
+  std::vector<BodyState> static_states() const;
+  std::vector<BodyId> owned_ids() const;
+  std::size_t owned_count() const;
+  std::size_t ghost_count() const;
+  std::size_t static_count() const;
+  /// Collision objects in the Bullet world (owned + ghosts + statics).
+  std::size_t bullet_object_count() const;
+  /// (id0, id1) of every live manifold with points, ascending: after a step,
+  /// the pairs this world held.
+  std::vector<std::pair<BodyId, BodyId>> held_contact_pairs() const;
+  /// Every manifold with points held here plus the kept store, by (id0, id1).
+  std::vector<ManifoldState> kept_contact_state() const;
+  /// Sleeping owned bodies.
+  std::size_t sleeping_count() const;
+
+  // Internal types, defined in worlds/src/territory_world_parts.h.
+  struct Entry;
+  struct Parts;
+  struct Component;
+  struct Copy;
+  class Dispatcher;
+
+ private:
+  using PairKey = std::pair<BodyId, BodyId>;
+
+  void insert_static(const Body& body);
+  Entry& insert_dynamic(const Body& description, const BodyDynamicState* state, bool owned, WorldId owner);
+  void remove_entry(BodyId id);
+  void sort_lists();
+  WorldId owner_of_origin(const Entry& e) const;
+  bool interior(const CellCoord& cell) const;
+  bool has(WorldId world, const Entry& e) const;
+  WorldId holder_of(const Entry& a, const Entry& b, const void* pair) const;
+  BodyId key_of(BodyId id0, BodyId id1) const;
+  bool owns(BodyId id) const;
+  void near_callback(void* pair);
+  void seed_pair(void* pair, const ManifoldState& state);
+  BodyRecord record_of(const Entry& e) const;
+  void update_aabbs();
+  void solve_local(const std::vector<int>& components);
+  void export_manifolds_involving(const std::vector<const Entry*>& leaving,
+                                  std::map<BodyId, MigrantBatch*>* payload_by_key);
+
+  WorldId id_;
+  TerritoryMap map_;
+  SceneSettings settings_;
+  std::unique_ptr<Parts> parts_;
+  std::unordered_map<BodyId, std::unique_ptr<Entry>> entries_;
+  std::vector<Entry*> owned_;    // ascending id once sort_lists() ran
+  std::vector<Entry*> ghosts_;   // ascending id once sort_lists() ran
+  std::vector<Entry*> statics_;  // ascending id once sort_lists() ran
+  bool lists_sorted_ = true;
+  std::vector<std::uint64_t> interior_;  // bit per box cell: owned here with all 26 neighbours
+  std::int64_t steps_done_ = 0;
+  TerritoryCounters counters_;
+
+  // Contact state kept here for pairs held elsewhere (or whose live manifold
+  // was destroyed with a leaving body), by (id0, id1).
+  std::map<PairKey, ManifoldState> kept_;
+  std::map<PairKey, ManifoldState> kept_next_;  // built by solve_border_island
+  // Values to write into held pairs before narrowphase: kept_ + attachments.
+  std::map<PairKey, ManifoldState> seeds_;
+  // Per step: ghost targets of owned bodies by neighbour, attachments by key.
+  std::map<WorldId, std::vector<const Entry*>> outgoing_;
+  std::map<BodyId, std::vector<ManifoldState>> attachments_;
+  std::vector<WorldId> ghost_senders_;
+  // Per step: the contact graph's components (CSR, see territory_islands.cpp).
+  struct Held {
+    int component;
+    BodyId id0, id1;
+    btPersistentManifold* manifold;
+  };
+  std::vector<Entry*> nodes_;                  // owned + ghosts, ascending id
+  std::vector<int> parent_;
+  std::vector<int> component_of_;              // per node
+  std::vector<int> component_begin_;           // CSR over nodes_ (component order)
+  std::vector<btCollisionObject*> component_objects_;
+  std::vector<Held> held_;                     // by (component, id0, id1)
+  std::vector<btPersistentManifold*> held_ptrs_;
+  std::vector<int> held_begin_;                // CSR over held_
+  std::vector<int> pending_of_;                // component -> index in components_ or -1
+  std::vector<Component> components_;          // pending components only
+  std::map<WorldId, GlueBatch> glue_out_;
+  std::map<PairKey, void*> held_by_key_;  // btPersistentManifold* of held manifolds in border fragments
+  // Copies for border island solves, by id (shape + body), reused.
+  std::unordered_map<BodyId, std::unique_ptr<Copy>> copies_;
+};
+
+}  // namespace soda

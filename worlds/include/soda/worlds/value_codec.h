@@ -1,0 +1,95 @@
+// worlds/ — one territory's physics. This header: the byte encoding of the
+// values worlds exchange (bodies with their raw state, manifolds), shared by
+// snapshots (world_snapshot.h) and the runtime's messages.
+//
+// Layout: little-endian host order (checked at compile time), no padding,
+// btScalar fields in this build's precision. Every read is bounds-checked and
+// every count is checked against the bytes left before anything is allocated:
+// malformed bytes throw, never read out of bounds.
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "soda/worlds/world_snapshot.h"
+
+namespace soda {
+
+/// Appends values as raw bytes.
+class ByteWriter {
+ public:
+  template <class T>
+  void put(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const auto* p = reinterpret_cast<const std::uint8_t*>(&v);
+    bytes.insert(bytes.end(), p, p + sizeof(T));
+  }
+  template <class T, std::size_t N>
+  void put(const T (&a)[N]) {
+    for (const T& v : a) put(v);
+  }
+  void vec3(const Vec3& v) { put(v.x()), put(v.y()), put(v.z()); }
+  void count(std::size_t n) { put(static_cast<std::uint32_t>(n)); }
+
+  std::vector<std::uint8_t> bytes;
+};
+
+/// Reads values back; every failure calls `raise(message)`, which must throw
+/// (the message names `context`, the reason and the byte offset).
+class ByteReader {
+ public:
+  using Raise = void (*)(const std::string& message);
+  ByteReader(const std::vector<std::uint8_t>& bytes, std::string context, Raise raise)
+      : bytes_(bytes), context_(std::move(context)), raise_(raise) {}
+
+  [[noreturn]] void fail(const std::string& what) const;
+  template <class T>
+  T get() {
+    static_assert(std::is_trivially_copyable_v<T>);
+    if (bytes_.size() - pos_ < sizeof(T)) fail("truncated");
+    T v;
+    std::memcpy(&v, bytes_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return v;
+  }
+  template <class T, std::size_t N>
+  void get(T (&a)[N]) {
+    for (T& v : a) v = get<T>();
+  }
+  template <class T>
+  void get(T& v) {
+    v = get<T>();
+  }
+  /// A finite double.
+  double finite();
+  Vec3 vec3();
+  /// A u32 count, checked against the bytes left (each item >= min_bytes_each).
+  std::uint32_t count(std::size_t min_bytes_each);
+  bool done() const { return pos_ == bytes_.size(); }
+
+ private:
+  const std::vector<std::uint8_t>& bytes_;
+  std::size_t pos_ = 0;
+  std::string context_;
+  Raise raise_;
+};
+
+/// Lower bounds of encoded sizes, for count checks.
+inline constexpr std::size_t kMinBodyBytes = 4 + 1 + 1 + 8 * 5 + 4;
+inline constexpr std::size_t kMinManifoldBytes = 4 + 4 + 4;
+
+/// A body: description (shape, mass, friction, ...) and raw state.
+void write_body(ByteWriter& w, const BodySnapshot& body);
+/// Checks ids, flags, shape kind, finite description numbers, activation state.
+BodySnapshot read_body(ByteReader& r);
+
+/// A manifold: ids and every field of every point.
+void write_manifold(ByteWriter& w, const ManifoldState& manifold);
+/// Checks id0 < id1 and 1..4 points.
+ManifoldState read_manifold(ByteReader& r);
+
+}  // namespace soda

@@ -1,0 +1,340 @@
+// TerritoryWorld, build_islands and solve (docs/partitioned-step.md):
+//  - the contact graph of this world: owned bodies and ghosts (id order)
+//    joined by the manifolds with points it holds;
+//  - a component without ghosts whose owned bodies were sent to nobody is a
+//    whole island: solved at once, in place, as the canonical world solves it;
+//  - the others wait for the neighbours' glue; those nobody glued are whole
+//    islands too; the rest are fragments of border islands, merged by the
+//    runtime and solved here on copies (solve_border_island).
+#include <algorithm>
+#include <numeric>
+#include <string>
+
+#include "canonical_dynamics_world.h"
+#include "soda/worlds/bullet_bodies.h"
+#include "territory_world_parts.h"
+
+namespace soda {
+namespace {
+
+int find(std::vector<int>& parent, int i) {
+  while (parent[i] != i) {
+    parent[i] = parent[parent[i]];
+    i = parent[i];
+  }
+  return i;
+}
+
+}  // namespace
+
+// Union-find over the nodes (dynamic bodies here, id order) joined by the
+// manifolds with points; components numbered by their smallest id; nodes and
+// manifolds laid out per component (CSR), manifolds by (id0, id1) inside.
+void TerritoryWorld::build_islands() {
+  sort_lists();
+  nodes_.resize(owned_.size() + ghosts_.size());
+  std::merge(owned_.begin(), owned_.end(), ghosts_.begin(), ghosts_.end(), nodes_.begin(),
+             [](const Entry* a, const Entry* b) { return a->id() < b->id(); });
+  for (Entry* e : statics_) e->node = -1;
+  const int n = static_cast<int>(nodes_.size());
+  for (int i = 0; i < n; ++i) nodes_[static_cast<std::size_t>(i)]->node = i;
+  parent_.resize(static_cast<std::size_t>(n));
+  std::iota(parent_.begin(), parent_.end(), 0);
+  held_.clear();
+  btDispatcher& d = parts_->dispatcher;
+  for (int i = 0; i < d.getNumManifolds(); ++i) {
+    btPersistentManifold* m = d.getManifoldByIndexInternal(i);
+    if (m->getNumContacts() == 0) continue;  // every manifold with points is held here (invariant 3)
+    const Entry& a = entry_of(m->getBody0());
+    const Entry& b = entry_of(m->getBody1());
+    held_.push_back(Held{a.node >= 0 ? a.node : b.node, a.id(), b.id(), m});  // node for now
+    if (a.node < 0 || b.node < 0) continue;
+    const int ra = find(parent_, a.node), rb = find(parent_, b.node);
+    if (ra != rb) parent_[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);  // root = smallest id
+  }
+  counters_.held_manifolds = held_.size();
+
+  // Components in root (smallest id) order.
+  component_of_.resize(static_cast<std::size_t>(n));
+  int count = 0;
+  for (int i = 0; i < n; ++i) {
+    const int r = find(parent_, i);
+    component_of_[static_cast<std::size_t>(i)] = r == i ? count++ : component_of_[static_cast<std::size_t>(r)];
+  }
+  component_begin_.assign(static_cast<std::size_t>(count) + 1, 0);
+  for (int i = 0; i < n; ++i) ++component_begin_[static_cast<std::size_t>(component_of_[static_cast<std::size_t>(i)]) + 1];
+  for (int k = 0; k < count; ++k) component_begin_[static_cast<std::size_t>(k) + 1] += component_begin_[static_cast<std::size_t>(k)];
+  component_objects_.resize(static_cast<std::size_t>(n));
+  std::vector<int> cursor(component_begin_.begin(), component_begin_.end() - 1);
+  std::vector<std::uint8_t> ghost_in(static_cast<std::size_t>(count), 0), ghosted(static_cast<std::size_t>(count), 0);
+  for (int i = 0; i < n; ++i) {
+    const std::size_t k = static_cast<std::size_t>(component_of_[static_cast<std::size_t>(i)]);
+    const Entry& e = *nodes_[static_cast<std::size_t>(i)];
+    component_objects_[static_cast<std::size_t>(cursor[k]++)] = e.body.get();
+    if (e.role == Role::Ghost) ghost_in[k] = 1;
+    if (e.role == Role::Owned && !e.sent_to.empty()) ghosted[k] = 1;
+  }
+  for (Held& h : held_) h.component = component_of_[static_cast<std::size_t>(h.component)];
+  std::sort(held_.begin(), held_.end(), [](const Held& x, const Held& y) {
+    if (x.component != y.component) return x.component < y.component;
+    if (x.id0 != y.id0) return x.id0 < y.id0;
+    return x.id1 < y.id1;
+  });
+  held_ptrs_.resize(held_.size());
+  held_begin_.assign(static_cast<std::size_t>(count) + 1, 0);
+  for (std::size_t i = 0; i < held_.size(); ++i) {
+    held_ptrs_[i] = held_[i].manifold;
+    ++held_begin_[static_cast<std::size_t>(held_[i].component) + 1];
+  }
+  for (int k = 0; k < count; ++k) held_begin_[static_cast<std::size_t>(k) + 1] += held_begin_[static_cast<std::size_t>(k)];
+
+  // Classify: whole islands (no ghost, no body sent anywhere) are solved now.
+  std::vector<int> local;
+  components_.clear();
+  pending_of_.assign(static_cast<std::size_t>(count), -1);
+  glue_out_.clear();
+  for (int k = 0; k < count; ++k) {
+    const std::size_t uk = static_cast<std::size_t>(k);
+    const int size = component_begin_[uk + 1] - component_begin_[uk];
+    if (!ghost_in[uk] && !ghosted[uk]) {
+      local.push_back(k);
+      continue;
+    }
+    if (size == 1 && ghost_in[uk]) continue;  // a ghost touching nothing here
+    pending_of_[uk] = static_cast<int>(components_.size());
+    Component c;
+    c.index = k;
+    c.root = entry_of(component_objects_[static_cast<std::size_t>(component_begin_[uk])]).id();
+    c.has_ghost = ghost_in[uk] != 0;
+    components_.push_back(std::move(c));
+    for (int j = component_begin_[uk]; j < component_begin_[uk + 1]; ++j) {
+      const Entry& e = entry_of(component_objects_[static_cast<std::size_t>(j)]);
+      if (e.role == Role::Ghost) glue_out_[e.owner].entries.push_back(GlueEntry{e.id(), c.root});
+    }
+  }
+  solve_local(local);
+}
+
+GlueBatch TerritoryWorld::glue_batch_for(WorldId neighbour) const {
+  auto it = glue_out_.find(neighbour);
+  return it == glue_out_.end() ? GlueBatch{} : it->second;
+}
+
+std::vector<Fragment> TerritoryWorld::border_fragments(const std::vector<std::pair<WorldId, GlueBatch>>& glue) {
+  for (const auto& [from, batch] : glue)
+    for (const GlueEntry& g : batch.entries) {
+      auto it = entries_.find(g.body);
+      if (it == entries_.end() || it->second->role != Role::Owned)
+        throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) +
+                             ": world " + std::to_string(from) + " glued body " + std::to_string(g.body) +
+                             ", which this world does not own");
+      const int k = component_of_[static_cast<std::size_t>(it->second->node)];
+      const int p = pending_of_[static_cast<std::size_t>(k)];
+      if (p < 0) throw std::logic_error("TerritoryWorld: a glued body in a component solved as local");
+      components_[static_cast<std::size_t>(p)].links_in.push_back(LinkIn{from, g.fragment_root, g.body});
+    }
+  std::vector<int> local;
+  std::vector<Fragment> fragments;
+  held_by_key_.clear();
+  for (Component& c : components_) {
+    const std::size_t uk = static_cast<std::size_t>(c.index);
+    if (!c.has_ghost && c.links_in.empty()) {
+      local.push_back(c.index);
+      continue;
+    }
+    Fragment f;
+    f.world = id_;
+    f.root = c.root;
+    for (int j = component_begin_[uk]; j < component_begin_[uk + 1]; ++j) {
+      const Entry& e = entry_of(component_objects_[static_cast<std::size_t>(j)]);
+      if (e.role == Role::Ghost) {
+        f.links_out.push_back(LinkOut{e.owner, e.id()});
+      } else {
+        f.bodies.push_back(record_of(e));
+      }
+    }
+    std::sort(f.links_out.begin(), f.links_out.end());
+    if (!f.bodies.empty()) f.first_body = f.bodies.front().body.description.id;
+    std::sort(c.links_in.begin(), c.links_in.end());
+    f.links_in = c.links_in;
+    for (int j = held_begin_[uk]; j < held_begin_[uk + 1]; ++j) {
+      btPersistentManifold* m = held_ptrs_[static_cast<std::size_t>(j)];
+      f.manifolds.push_back(read_manifold_state(*m));
+      held_by_key_[PairKey{f.manifolds.back().id0, f.manifolds.back().id1}] = m;
+    }
+    fragments.push_back(std::move(f));
+  }
+  counters_.border_fragments = fragments.size();
+  solve_local(local);
+  return fragments;
+}
+
+// As CanonicalDynamicsWorld's IslandStage, for whole islands of owned bodies.
+void TerritoryWorld::solve_local(const std::vector<int>& components) {
+  btConstraintSolver& solver = parts_->solver;
+  btContactSolverInfo& info = parts_->world.getSolverInfo();
+  std::vector<btCollisionObject*> lone;
+  for (int k : components) {
+    const std::size_t uk = static_cast<std::size_t>(k);
+    btCollisionObject** bodies = &component_objects_[static_cast<std::size_t>(component_begin_[uk])];
+    const int body_count = component_begin_[uk + 1] - component_begin_[uk];
+    const int manifold_count = held_begin_[uk + 1] - held_begin_[uk];
+    for (int j = 0; j < body_count; ++j) bodies[j]->setCompanionId(-1);
+    if (!decide_island_sleeping(bodies, body_count)) continue;
+    ++counters_.local_islands;
+    if (body_count == 1 && manifold_count == 0) {
+      lone.push_back(bodies[0]);
+      continue;
+    }
+    solver.solveGroup(bodies, body_count,
+                      manifold_count ? &held_ptrs_[static_cast<std::size_t>(held_begin_[uk])] : nullptr,
+                      manifold_count, nullptr, 0, info, nullptr, &parts_->dispatcher);
+  }
+  // Lone bodies have no solver rows: one call for all is exact (as in the
+  // canonical world).
+  if (!lone.empty())
+    solver.solveGroup(lone.data(), static_cast<int>(lone.size()), nullptr, 0, nullptr, 0, info, nullptr,
+                      &parts_->dispatcher);
+}
+
+IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragment*>& island) {
+  struct HeldManifold {
+    const ManifoldState* state;
+    WorldId holder;
+  };
+  std::vector<const BodyRecord*> records;
+  std::vector<HeldManifold> manifolds;
+  for (const Fragment* f : island) {
+    for (const BodyRecord& r : f->bodies) records.push_back(&r);
+    for (const ManifoldState& m : f->manifolds) manifolds.push_back(HeldManifold{&m, f->world});
+  }
+  std::sort(records.begin(), records.end(), [](const BodyRecord* a, const BodyRecord* b) {
+    return a->body.description.id < b->body.description.id;
+  });
+  std::sort(manifolds.begin(), manifolds.end(), [](const HeldManifold& a, const HeldManifold& b) {
+    return std::make_pair(a.state->id0, a.state->id1) < std::make_pair(b.state->id0, b.state->id1);
+  });
+  auto fail = [&](const std::string& what) {
+    throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) +
+                         ", border island of body " +
+                         (records.empty() ? std::string("?") : std::to_string(records[0]->body.description.id)) +
+                         ": " + what);
+  };
+  if (records.empty()) fail("no bodies");
+  for (std::size_t i = 1; i < records.size(); ++i)
+    if (records[i]->body.description.id == records[i - 1]->body.description.id)
+      fail("body " + std::to_string(records[i]->body.description.id) + " has two owners");
+  for (std::size_t i = 1; i < manifolds.size(); ++i)
+    if (manifolds[i].state->id0 == manifolds[i - 1].state->id0 && manifolds[i].state->id1 == manifolds[i - 1].state->id1)
+      fail("pair " + std::to_string(manifolds[i].state->id0) + "-" + std::to_string(manifolds[i].state->id1) +
+           " has two holders");
+
+  // Copies of the island's bodies, in the state their owners sent.
+  std::vector<btCollisionObject*> bodies;
+  bodies.reserve(records.size());
+  for (const BodyRecord* r : records) {
+    const BodySnapshot& b = r->body;
+    std::unique_ptr<Copy>& c = copies_[b.description.id];
+    if (!c) {
+      c = std::make_unique<Copy>();
+      c->shape = make_collision_shape(b.description.shape);
+      c->body = make_body_from_state(b.description, *c->shape, b.state);
+      c->body->setUserIndex(static_cast<int>(b.description.id));
+    }
+    btRigidBody& rb = *c->body;
+    write_dynamic_state(rb, b.state);
+    rb.clearForces();
+    rb.applyCentralForce(btVector3(r->total_force[0], r->total_force[1], r->total_force[2]));
+    rb.applyTorque(btVector3(r->total_torque[0], r->total_torque[1], r->total_torque[2]));
+    rb.setCompanionId(-1);
+    bodies.push_back(&rb);
+  }
+  auto object_of = [&](BodyId id) -> btCollisionObject* {
+    auto it = std::lower_bound(records.begin(), records.end(), id,
+                               [](const BodyRecord* r, BodyId x) { return r->body.description.id < x; });
+    if (it != records.end() && (*it)->body.description.id == id) return bodies[static_cast<std::size_t>(it - records.begin())];
+    auto s = entries_.find(id);
+    if (s == entries_.end() || s->second->role != Role::Static)
+      fail("manifold refers to body " + std::to_string(id) + ", which is neither in the island nor static");
+    return s->second->body.get();
+  };
+
+  IslandResult result;
+  result.island = records.front()->body.description.id;
+  result.manifolds.reserve(manifolds.size());
+  for (const HeldManifold& m : manifolds) result.manifolds.push_back(*m.state);
+  if (decide_island_sleeping(bodies.data(), static_cast<int>(bodies.size()))) {
+    std::vector<std::unique_ptr<btPersistentManifold>> copies;
+    std::vector<btPersistentManifold*> ptrs;
+    for (const HeldManifold& m : manifolds) {
+      btCollisionObject* b0 = object_of(m.state->id0);
+      btCollisionObject* b1 = object_of(m.state->id1);
+      // Thresholds as btCollisionDispatcher::getNewManifold gives them.
+      const btScalar breaking =
+          btMin(b0->getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold),
+                b1->getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold));
+      const btScalar processing = btMin(b0->getContactProcessingThreshold(), b1->getContactProcessingThreshold());
+      copies.push_back(std::make_unique<btPersistentManifold>(b0, b1, 0, breaking, processing));
+      write_manifold_points(*m.state, *copies.back());
+      ptrs.push_back(copies.back().get());
+    }
+    parts_->solver.solveGroup(bodies.data(), static_cast<int>(bodies.size()), ptrs.empty() ? nullptr : ptrs.data(),
+                              static_cast<int>(ptrs.size()), nullptr, 0, parts_->world.getSolverInfo(), nullptr,
+                              &parts_->dispatcher);
+    for (std::size_t i = 0; i < copies.size(); ++i) result.manifolds[i] = read_manifold_state(*copies[i]);
+  }
+  result.bodies.reserve(bodies.size());
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const btRigidBody& c = *static_cast<const btRigidBody*>(bodies[i]);
+    BodyResult r;
+    r.id = records[i]->body.description.id;
+    const btTransform& t = c.getWorldTransform();
+    for (int k = 0; k < 3; ++k) {
+      r.linear_velocity[k] = c.getLinearVelocity()[k];
+      r.angular_velocity[k] = c.getAngularVelocity()[k];
+      r.origin[k] = t.getOrigin()[k];
+      for (int j = 0; j < 3; ++j) r.basis[k * 3 + j] = t.getBasis()[k][j];
+    }
+    r.activation_state = c.getActivationState();
+    r.deactivation_time = c.getDeactivationTime();
+    result.bodies.push_back(r);
+  }
+  ++counters_.border_islands;
+  counters_.border_island_bodies += records.size();
+  return result;
+}
+
+void TerritoryWorld::apply_island_result(const IslandResult& result) {
+  for (const BodyResult& r : result.bodies) {
+    auto it = entries_.find(r.id);
+    if (it == entries_.end() || it->second->role != Role::Owned) continue;
+    btRigidBody& rb = *it->second->body;
+    rb.setLinearVelocity(btVector3(r.linear_velocity[0], r.linear_velocity[1], r.linear_velocity[2]));
+    rb.setAngularVelocity(btVector3(r.angular_velocity[0], r.angular_velocity[1], r.angular_velocity[2]));
+    btTransform t;
+    t.getBasis().setValue(r.basis[0], r.basis[1], r.basis[2], r.basis[3], r.basis[4], r.basis[5], r.basis[6],
+                          r.basis[7], r.basis[8]);
+    t.setOrigin(btVector3(r.origin[0], r.origin[1], r.origin[2]));
+    rb.setWorldTransform(t);
+    rb.forceActivationState(r.activation_state);
+    rb.setDeactivationTime(r.deactivation_time);
+  }
+  for (const ManifoldState& m : result.manifolds) {
+    const PairKey key{m.id0, m.id1};
+    auto held = held_by_key_.find(key);
+    if (held != held_by_key_.end()) {
+      write_manifold_points(m, *static_cast<btPersistentManifold*>(held->second));
+    } else if (owns(key_of(key.first, key.second))) {
+      kept_next_[key] = m;
+      ++counters_.manifolds_returned;
+    }
+  }
+}
+
+void TerritoryWorld::finish_islands() {
+  kept_ = std::move(kept_next_);
+  kept_next_.clear();
+  held_by_key_.clear();
+}
+
+}  // namespace soda

@@ -1,0 +1,376 @@
+// TerritoryWorld: construction, predict, exchange_ghosts, readout.
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include "canonical_dynamics_world.h"
+#include "soda/worlds/bullet_bodies.h"
+#include "territory_world_parts.h"
+
+namespace soda {
+namespace {
+
+Vec3 to_vec3(const btVector3& v) { return Vec3(double(v.x()), double(v.y()), double(v.z())); }
+
+// Largest contact breaking threshold for which a manifold point can only
+// exist while the two bodies' Bullet AABBs (each grown by
+// gContactBreakingThreshold) overlap: a kept point is within the threshold
+// along the normal and across it, so its two ends are at most sqrt(2) * t
+// apart, which must stay below the 2 * gContactBreakingThreshold the AABBs
+// were grown by together.
+btScalar max_exact_breaking_threshold() { return btScalar(std::sqrt(2.0)) * gContactBreakingThreshold; }
+
+}  // namespace
+
+TerritoryWorld::TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map)
+    : id_(id), map_(std::move(map)), settings_(scene.settings) {
+  if (id < 0 || id >= map_.world_count())
+    throw PartitionError("TerritoryWorld: world id " + std::to_string(id) + " outside the map's " +
+                         std::to_string(map_.world_count()) + " worlds");
+  parts_ = std::make_unique<Parts>(this);
+  parts_->world.setGravity(to_bt(settings_.gravity));
+  parts_->world.getSolverInfo().m_numIterations = settings_.iterations;
+  for (const Body& b : scene.bodies) {
+    if (b.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
+    if (b.is_static) {
+      insert_static(b);
+      continue;
+    }
+    // Home cell from the position as Bullet holds it (rounded to btScalar).
+    const btVector3 origin = to_bt(b.position);
+    if (map_.owner_of(to_vec3(origin)) != id_) continue;
+    Entry& e = insert_dynamic(b, nullptr, true, id_);
+    const btScalar t = e.shape->getContactBreakingThreshold(gContactBreakingThreshold);
+    if (t > max_exact_breaking_threshold())
+      throw PartitionError("body " + std::to_string(b.id) + " is outside the partitioned exactness contract: "
+                           "its contact breaking threshold " + std::to_string(double(t)) +
+                           " m exceeds sqrt(2) * gContactBreakingThreshold (bounding radius too large; "
+                           "docs/partitioned-step.md)");
+  }
+  // Interior cells: owned here, and so are their 26 neighbours. A body whose
+  // halo stays within the 1-ring of an interior home cell is no border body.
+  const CellBox& box = map_.box();
+  interior_.assign(static_cast<std::size_t>((box.count() + 63) / 64), 0);
+  for (const CellCoord& c : map_.cells_of(id_)) {
+    bool inside = true;
+    for (int dx = -1; dx <= 1 && inside; ++dx)
+      for (int dy = -1; dy <= 1 && inside; ++dy)
+        for (int dz = -1; dz <= 1 && inside; ++dz)
+          inside = map_.owner(CellCoord{c.x + dx, c.y + dy, c.z + dz}) == id_;
+    if (inside) {
+      const std::size_t i = box.index(c);
+      interior_[i / 64] |= std::uint64_t{1} << (i % 64);
+    }
+  }
+  sort_lists();
+}
+
+bool TerritoryWorld::interior(const CellCoord& c) const {
+  const CellBox& box = map_.box();
+  if (!box.contains(c)) return false;
+  const std::size_t i = box.index(c);
+  return (interior_[i / 64] >> (i % 64)) & 1;
+}
+
+void TerritoryWorld::sort_lists() {
+  if (lists_sorted_) return;
+  auto by_id = [](const Entry* a, const Entry* b) { return a->id() < b->id(); };
+  std::sort(owned_.begin(), owned_.end(), by_id);
+  std::sort(ghosts_.begin(), ghosts_.end(), by_id);
+  std::sort(statics_.begin(), statics_.end(), by_id);
+  lists_sorted_ = true;
+}
+
+TerritoryWorld::~TerritoryWorld() {
+  if (!parts_) return;
+  btDiscreteDynamicsWorld& w = parts_->world;
+  for (int i = w.getNumCollisionObjects() - 1; i >= 0; --i) w.removeCollisionObject(w.getCollisionObjectArray()[i]);
+}
+
+void TerritoryWorld::insert_static(const Body& b) {
+  auto e = std::make_unique<Entry>();
+  e->description = b;
+  e->shape = make_collision_shape(b.shape);
+  e->body = make_rigid_body(b, *e->shape);
+  e->role = Role::Static;
+  e->body->setUserPointer(e.get());
+  add_body_with_canonical_proxy(parts_->world, parts_->broadphase, e->body.get());
+  Entry* raw = e.get();
+  if (!entries_.emplace(b.id, std::move(e)).second)
+    throw PartitionError("TerritoryWorld: duplicate body id " + std::to_string(b.id));
+  statics_.push_back(raw);
+  lists_sorted_ = false;
+}
+
+TerritoryWorld::Entry& TerritoryWorld::insert_dynamic(const Body& description, const BodyDynamicState* state,
+                                                      bool owned, WorldId owner) {
+  auto e = std::make_unique<Entry>();
+  e->description = description;
+  e->shape = make_collision_shape(description.shape);
+  e->body = state ? make_body_from_state(description, *e->shape, *state) : make_rigid_body(description, *e->shape);
+  e->role = owned ? Role::Owned : Role::Ghost;
+  e->owner = owner;
+  e->body->setUserPointer(e.get());
+  add_body_with_canonical_proxy(parts_->world, parts_->broadphase, e->body.get());
+  if (state) {
+    // After insertion: addRigidBody leaves a dynamic body's state alone, but
+    // the construction made it ACTIVE_TAG.
+    e->body->forceActivationState(state->activation_state);
+    e->body->setDeactivationTime(state->deactivation_time);
+  }
+  Entry& ref = *e;
+  if (!entries_.emplace(description.id, std::move(e)).second)
+    throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) + ": body " +
+                         std::to_string(description.id) + " inserted twice");
+  (owned ? owned_ : ghosts_).push_back(&ref);
+  lists_sorted_ = false;
+  return ref;
+}
+
+void TerritoryWorld::remove_entry(BodyId id) {
+  auto it = entries_.find(id);
+  if (it == entries_.end()) throw std::logic_error("TerritoryWorld: removing an unknown body");
+  Entry* e = it->second.get();
+  std::vector<Entry*>& list = e->role == Role::Owned ? owned_ : (e->role == Role::Ghost ? ghosts_ : statics_);
+  list.erase(std::find(list.begin(), list.end(), e));  // keeps the order
+  parts_->world.removeRigidBody(e->body.get());
+  entries_.erase(it);
+}
+
+WorldId TerritoryWorld::owner_of_origin(const Entry& e) const {
+  return map_.owner_of(to_vec3(e.body->getWorldTransform().getOrigin()));
+}
+
+bool TerritoryWorld::owns(BodyId id) const {
+  auto it = entries_.find(id);
+  return it != entries_.end() && it->second->role == Role::Owned;
+}
+
+const std::vector<WorldId>& TerritoryWorld::neighbours() const { return map_.neighbours(id_); }
+
+// predict: what btDiscreteDynamicsWorld::stepSimulation does to every body
+// before collision detection (applyGravity, predictUnconstraintMotion,
+// createPredictiveContacts without CCD), for owned bodies only; then halos.
+void TerritoryWorld::predict() {
+  counters_ = TerritoryCounters{};
+  sort_lists();
+  const btScalar h = btScalar(settings_.dt / settings_.substeps);
+  outgoing_.clear();
+  attachments_.clear();
+  const std::vector<WorldId>& nbrs = neighbours();
+  const UniformGrid& grid = map_.grid();
+  for (Entry* ep : owned_) {
+    Entry& e = *ep;
+    ++counters_.owned_bodies;
+    btRigidBody& rb = *e.body;
+    if (rb.isActive()) rb.applyGravity();
+    rb.applyDamping(h);
+    rb.predictIntegratedTransform(h, rb.getInterpolationWorldTransform());
+    rb.setHitFraction(btScalar(1));
+    // Halo: the AABB Bullet gives this body for the step (collide reuses it).
+    bullet_aabb(rb, e.halo_min, e.halo_max);
+    e.sent_to.clear();
+    const Vec3 lo = to_vec3(e.halo_min), hi = to_vec3(e.halo_max);
+    if (!lo.allFinite() || !hi.allFinite())
+      throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) + ": body " +
+                           std::to_string(e.id()) + " has a non-finite AABB");
+    const CellBox cells = grid.cells_overlapping(lo, hi);
+    const CellCoord home = grid.cell_of(to_vec3(rb.getWorldTransform().getOrigin()));
+    const CellBox ring{{home.x - 1, home.y - 1, home.z - 1}, {home.x + 1, home.y + 1, home.z + 1}};
+    if (ring.contains(cells.lo) && ring.contains(cells.hi) && interior(home)) continue;
+    for (int x = cells.lo.x; x <= cells.hi.x; ++x)
+      for (int y = cells.lo.y; y <= cells.hi.y; ++y)
+        for (int z = cells.lo.z; z <= cells.hi.z; ++z) {
+          const WorldId w = map_.owner(CellCoord{x, y, z});
+          if (w == id_ || std::find(e.sent_to.begin(), e.sent_to.end(), w) != e.sent_to.end()) continue;
+          if (!std::binary_search(nbrs.begin(), nbrs.end(), w)) {
+            std::ostringstream msg;
+            msg << "world " << id_ << ", step " << steps_done_ << ": the halo of body " << e.id() << " (speed "
+                << double(rb.getLinearVelocity().length()) << " m/s, cell size " << grid.cell_size()
+                << " m) overlaps cell " << to_string(CellCoord{x, y, z}) << " of world " << w
+                << ", which is not a neighbour; relaying ghosts beyond neighbours is not implemented";
+            throw PartitionError(msg.str());
+          }
+          e.sent_to.push_back(w);
+        }
+    std::sort(e.sent_to.begin(), e.sent_to.end());
+    if (!e.sent_to.empty()) {
+      ++counters_.border_bodies;
+      for (WorldId w : e.sent_to) outgoing_[w].push_back(&e);
+    }
+  }
+  if (outgoing_.empty()) return;
+  // Contact state kept here whose key body is a border body travels with its
+  // ghosts: live manifolds with points (held here at the last step) ...
+  btDispatcher& d = parts_->dispatcher;
+  for (int i = 0; i < d.getNumManifolds(); ++i) {
+    const btPersistentManifold* m = d.getManifoldByIndexInternal(i);
+    if (m->getNumContacts() == 0) continue;
+    const Entry& a = entry_of(m->getBody0());
+    const Entry& k = a.role == Role::Static ? entry_of(m->getBody1()) : a;
+    if (k.role == Role::Owned && !k.sent_to.empty()) attachments_[k.id()].push_back(read_manifold_state(*m));
+  }
+  // ... and values of the kept store.
+  for (const auto& [pair, state] : kept_) {
+    const BodyId key = key_of(pair.first, pair.second);
+    auto it = entries_.find(key);
+    if (it != entries_.end() && it->second->role == Role::Owned && !it->second->sent_to.empty())
+      attachments_[key].push_back(state);
+  }
+  for (auto& [key, list] : attachments_)
+    std::sort(list.begin(), list.end(), [](const ManifoldState& a, const ManifoldState& b) {
+      return std::make_pair(a.id0, a.id1) < std::make_pair(b.id0, b.id1);
+    });
+  for (const auto& [w, list] : outgoing_) {
+    counters_.ghosts_sent += list.size();
+    for (const Entry* e : list) {
+      auto a = attachments_.find(e->id());
+      if (a != attachments_.end()) counters_.manifolds_attached += a->second.size();
+    }
+  }
+}
+
+BodyRecord TerritoryWorld::record_of(const Entry& e) const {
+  BodyRecord r;
+  r.body.description = e.description;
+  r.body.state = read_dynamic_state(*e.body);
+  const btVector3& f = e.body->getTotalForce();
+  const btVector3& t = e.body->getTotalTorque();
+  for (int i = 0; i < 3; ++i) r.total_force[i] = f[i], r.total_torque[i] = t[i];
+  return r;
+}
+
+bool TerritoryWorld::sends_ghosts_to(WorldId neighbour) const {
+  auto it = outgoing_.find(neighbour);
+  return it != outgoing_.end() && !it->second.empty();
+}
+
+GhostBatch TerritoryWorld::ghost_batch_for(WorldId neighbour) const {
+  GhostBatch batch;
+  auto it = outgoing_.find(neighbour);
+  if (it == outgoing_.end()) return batch;
+  for (const Entry* e : it->second) {
+    batch.ghosts.push_back(GhostRecord{record_of(*e), e->sent_to});
+    auto a = attachments_.find(e->id());
+    if (a != attachments_.end())
+      batch.kept_manifolds.insert(batch.kept_manifolds.end(), a->second.begin(), a->second.end());
+  }
+  std::sort(batch.kept_manifolds.begin(), batch.kept_manifolds.end(), [](const ManifoldState& a, const ManifoldState& b) {
+    return std::make_pair(a.id0, a.id1) < std::make_pair(b.id0, b.id1);
+  });
+  return batch;
+}
+
+void TerritoryWorld::apply_ghosts(const std::vector<std::pair<WorldId, GhostBatch>>& batches) {
+  for (Entry* e : ghosts_) e->refreshed = false;
+  seeds_ = kept_;
+  ghost_senders_.clear();
+  for (const auto& [from, batch] : batches) {
+    if (!batch.ghosts.empty()) ghost_senders_.push_back(from);
+    counters_.ghosts_received += batch.ghosts.size();
+    for (const GhostRecord& g : batch.ghosts) {
+      const Body& d = g.record.body.description;
+      auto it = entries_.find(d.id);
+      Entry* e = nullptr;
+      if (it == entries_.end()) {
+        e = &insert_dynamic(d, &g.record.body.state, false, from);
+      } else if (it->second->role == Role::Ghost) {
+        e = it->second.get();
+        if (e->refreshed)
+          throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) +
+                               ": ghost of body " + std::to_string(d.id) + " received from worlds " +
+                               std::to_string(e->owner) + " and " + std::to_string(from));
+        write_dynamic_state(*e->body, g.record.body.state);
+        e->owner = from;
+      } else {
+        throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) +
+                             ": world " + std::to_string(from) + " sent a ghost of body " + std::to_string(d.id) +
+                             ", which this world owns (two owners)");
+      }
+      e->sent_to = g.sent_to;
+      e->refreshed = true;
+    }
+    for (const ManifoldState& m : batch.kept_manifolds)
+      if (!seeds_.emplace(PairKey{m.id0, m.id1}, m).second)
+        throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) +
+                             ": two kept manifolds for pair " + std::to_string(m.id0) + "-" + std::to_string(m.id1));
+  }
+  std::vector<BodyId> stale;
+  for (const Entry* e : ghosts_)
+    if (!e->refreshed) stale.push_back(e->id());
+  for (BodyId id : stale) remove_entry(id);
+  std::sort(ghost_senders_.begin(), ghost_senders_.end());
+  counters_.ghosts = ghost_count();
+}
+
+bool TerritoryWorld::received_ghosts_from(WorldId neighbour) const {
+  return std::binary_search(ghost_senders_.begin(), ghost_senders_.end(), neighbour);
+}
+
+// --- readout -----------------------------------------------------------------
+
+std::vector<BodyState> TerritoryWorld::owned_states() const {
+  std::vector<BodyState> out;
+  for (const Entry* e : owned_) out.push_back(read_body_state(*e->body));
+  std::sort(out.begin(), out.end(), [](const BodyState& a, const BodyState& b) { return a.id < b.id; });
+  return out;
+}
+
+std::vector<BodyState> TerritoryWorld::static_states() const {
+  std::vector<BodyState> out;
+  for (const Entry* e : statics_) out.push_back(read_body_state(*e->body));
+  std::sort(out.begin(), out.end(), [](const BodyState& a, const BodyState& b) { return a.id < b.id; });
+  return out;
+}
+
+std::vector<BodyId> TerritoryWorld::owned_ids() const {
+  std::vector<BodyId> out;
+  for (const Entry* e : owned_) out.push_back(e->id());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::size_t TerritoryWorld::owned_count() const { return owned_.size(); }
+std::size_t TerritoryWorld::ghost_count() const { return ghosts_.size(); }
+std::size_t TerritoryWorld::static_count() const { return statics_.size(); }
+std::size_t TerritoryWorld::bullet_object_count() const {
+  return static_cast<std::size_t>(parts_->world.getNumCollisionObjects());
+}
+
+std::size_t TerritoryWorld::sleeping_count() const {
+  std::size_t n = 0;
+  for (const Entry* e : owned_)
+    if (e->body->getActivationState() == ISLAND_SLEEPING) ++n;
+  return n;
+}
+
+std::vector<std::pair<BodyId, BodyId>> TerritoryWorld::held_contact_pairs() const {
+  std::vector<std::pair<BodyId, BodyId>> out;
+  const btDispatcher& d = parts_->dispatcher;
+  for (int i = 0; i < d.getNumManifolds(); ++i) {
+    const btPersistentManifold* m = const_cast<btDispatcher&>(d).getManifoldByIndexInternal(i);
+    if (m->getNumContacts() == 0) continue;
+    out.emplace_back(static_cast<BodyId>(m->getBody0()->getUserIndex()),
+                     static_cast<BodyId>(m->getBody1()->getUserIndex()));
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::vector<ManifoldState> TerritoryWorld::kept_contact_state() const {
+  std::vector<ManifoldState> out;
+  btDispatcher& d = parts_->dispatcher;
+  for (int i = 0; i < d.getNumManifolds(); ++i) {
+    const btPersistentManifold* m = d.getManifoldByIndexInternal(i);
+    if (m->getNumContacts() > 0) out.push_back(read_manifold_state(*m));
+  }
+  for (const auto& [pair, state] : kept_) out.push_back(state);
+  std::sort(out.begin(), out.end(), [](const ManifoldState& a, const ManifoldState& b) {
+    return std::make_pair(a.id0, a.id1) < std::make_pair(b.id0, b.id1);
+  });
+  return out;
+}
+
+}  // namespace soda

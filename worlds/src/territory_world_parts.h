@@ -1,0 +1,81 @@
+// Internal: what a TerritoryWorld is made of. Stages live in
+// territory_world.cpp (construction, predict, exchange_ghosts, readout),
+// territory_collide.cpp (collide: holder rule, seeding), territory_islands.cpp
+// (build_islands, border fragments, solve) and territory_migrate.cpp
+// (integrate, migrate).
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <btBulletDynamicsCommon.h>
+
+#include "body_factory.h"
+#include "soda/worlds/territory_world.h"
+
+namespace soda {
+
+enum class Role { Owned, Ghost, Static };
+
+struct TerritoryWorld::Entry {
+  Body description;
+  std::unique_ptr<btCollisionShape> shape;
+  std::unique_ptr<btRigidBody> body;
+  Role role = Role::Owned;
+  WorldId owner = kNoWorld;        // this world for owned bodies, the sender for ghosts
+  std::vector<WorldId> sent_to;    // worlds that got this body as a ghost this step, ascending
+  bool refreshed = false;          // ghost: a record arrived this step
+  int node = -1;                   // island node this step (-1: static)
+  btVector3 halo_min, halo_max;    // owned: the halo computed by predict
+
+  BodyId id() const { return description.id; }
+};
+
+/// The dispatcher runs the near callback of the world it belongs to.
+class TerritoryWorld::Dispatcher final : public btCollisionDispatcher {
+ public:
+  Dispatcher(btCollisionConfiguration* config, TerritoryWorld* world)
+      : btCollisionDispatcher(config), world_(world) {
+    setNearCallback(&Dispatcher::near);
+  }
+
+ private:
+  static void near(btBroadphasePair& pair, btCollisionDispatcher& dispatcher, const btDispatcherInfo&) {
+    static_cast<Dispatcher&>(dispatcher).world_->near_callback(&pair);
+  }
+  TerritoryWorld* world_;
+};
+
+/// Every Bullet object of one territory world is its own (pool allocators
+/// are not thread-safe).
+struct TerritoryWorld::Parts {
+  explicit Parts(TerritoryWorld* owner) : dispatcher(&config, owner) {}
+  btDefaultCollisionConfiguration config;
+  Dispatcher dispatcher;
+  btDbvtBroadphase broadphase;
+  btSequentialImpulseConstraintSolver solver;
+  btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
+  btManifoldArray scratch;  // near callback
+};
+
+/// A component of this world's contact graph that waits for glue (it holds
+/// a ghost or a body sent as a ghost); its nodes and manifolds are ranges of
+/// the CSR arrays (territory_islands.cpp).
+struct TerritoryWorld::Component {
+  int index = 0;                   // component number
+  BodyId root = 0;                 // smallest id
+  bool has_ghost = false;
+  std::vector<LinkIn> links_in;
+};
+
+/// A body rebuilt from a BodyRecord for a border island solve.
+struct TerritoryWorld::Copy {
+  std::unique_ptr<btCollisionShape> shape;
+  std::unique_ptr<btRigidBody> body;
+};
+
+inline TerritoryWorld::Entry& entry_of(const btCollisionObject* object) {
+  return *static_cast<TerritoryWorld::Entry*>(object->getUserPointer());
+}
+
+}  // namespace soda

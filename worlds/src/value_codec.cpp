@@ -1,0 +1,127 @@
+// Byte encoding of bodies and manifolds (value_codec.h).
+#include "soda/worlds/value_codec.h"
+
+#include <bit>
+#include <cmath>
+
+namespace soda {
+
+static_assert(std::endian::native == std::endian::little, "value bytes are written in host order");
+
+namespace {
+
+template <class Io, class P>
+void visit_point(Io& io, P& p) {
+  io(p.local_point_a), io(p.local_point_b), io(p.position_world_on_b), io(p.position_world_on_a);
+  io(p.normal_world_on_b), io(p.distance), io(p.combined_friction), io(p.combined_rolling_friction);
+  io(p.combined_spinning_friction), io(p.combined_restitution), io(p.part_id0), io(p.part_id1);
+  io(p.index0), io(p.index1), io(p.contact_point_flags), io(p.applied_impulse), io(p.prev_rhs);
+  io(p.applied_impulse_lateral1), io(p.applied_impulse_lateral2), io(p.contact_motion1);
+  io(p.contact_motion2), io(p.contact_cfm), io(p.combined_contact_stiffness1), io(p.contact_erp);
+  io(p.combined_contact_damping1), io(p.friction_cfm), io(p.lifetime), io(p.lateral_friction_dir1);
+  io(p.lateral_friction_dir2);
+}
+
+
+}  // namespace
+
+void ByteReader::fail(const std::string& what) const {
+  raise_(context_ + ": " + what + " at byte " + std::to_string(pos_) + " of " + std::to_string(bytes_.size()));
+  throw std::logic_error("ByteReader: raise function returned");  // raise must throw
+}
+
+double ByteReader::finite() {
+  const double v = get<double>();
+  if (!std::isfinite(v)) fail("non-finite number");
+  return v;
+}
+
+Vec3 ByteReader::vec3() {
+  const double x = finite(), y = finite(), z = finite();
+  return Vec3(x, y, z);
+}
+
+std::uint32_t ByteReader::count(std::size_t min_bytes_each) {
+  const auto n = get<std::uint32_t>();
+  if (min_bytes_each && n > (bytes_.size() - pos_) / min_bytes_each) fail("count larger than the data");
+  return n;
+}
+
+void write_body(ByteWriter& w, const BodySnapshot& b) {
+  const Body& d = b.description;
+  w.put(d.id);
+  w.put(static_cast<std::uint8_t>(d.is_static));
+  w.put(static_cast<std::uint8_t>(d.shape.kind));
+  w.vec3(d.shape.half_extents);
+  w.put(d.shape.radius);
+  w.put(d.shape.height);
+  w.put(static_cast<std::uint32_t>(d.shape.points.size()));
+  for (const Vec3& p : d.shape.points) w.vec3(p);
+  w.put(d.mass), w.put(d.friction), w.put(d.restitution);
+  w.vec3(d.position);
+  w.put(d.orientation.w()), w.put(d.orientation.x()), w.put(d.orientation.y()), w.put(d.orientation.z());
+  w.vec3(d.linear_velocity);
+  w.vec3(d.angular_velocity);
+  const BodyDynamicState& s = b.state;
+  w.put(s.basis), w.put(s.origin), w.put(s.interpolation_basis), w.put(s.interpolation_origin);
+  w.put(s.linear_velocity), w.put(s.angular_velocity);
+  w.put(s.interpolation_linear_velocity), w.put(s.interpolation_angular_velocity);
+  w.put(s.activation_state), w.put(s.deactivation_time), w.put(s.hit_fraction);
+}
+
+BodySnapshot read_body(ByteReader& r) {
+  BodySnapshot b;
+  Body& d = b.description;
+  d.id = r.get<BodyId>();
+  if (d.id > kMaxBodyId) r.fail("body id above kMaxBodyId");
+  const auto is_static = r.get<std::uint8_t>();
+  if (is_static > 1) r.fail("bad static flag");
+  d.is_static = is_static == 1;
+  const auto kind = r.get<std::uint8_t>();
+  if (kind > static_cast<std::uint8_t>(ShapeKind::ConvexHull)) r.fail("unknown shape kind");
+  d.shape.kind = static_cast<ShapeKind>(kind);
+  d.shape.half_extents = r.vec3();
+  d.shape.radius = r.finite();
+  d.shape.height = r.finite();
+  const std::uint32_t np = r.count(24);
+  d.shape.points.resize(np);
+  for (Vec3& p : d.shape.points) p = r.vec3();
+  d.mass = r.finite(), d.friction = r.finite(), d.restitution = r.finite();
+  d.position = r.vec3();
+  const double qw = r.finite(), qx = r.finite(), qy = r.finite(), qz = r.finite();
+  d.orientation = Quat(qw, qx, qy, qz);
+  d.linear_velocity = r.vec3();
+  d.angular_velocity = r.vec3();
+  if (!d.is_static && !(d.mass > 0)) r.fail("dynamic body without positive mass");
+  BodyDynamicState& s = b.state;
+  r.get(s.basis), r.get(s.origin), r.get(s.interpolation_basis), r.get(s.interpolation_origin);
+  r.get(s.linear_velocity), r.get(s.angular_velocity);
+  r.get(s.interpolation_linear_velocity), r.get(s.interpolation_angular_velocity);
+  s.activation_state = r.get<std::int32_t>();
+  if (s.activation_state < 1 || s.activation_state > 5) r.fail("bad activation state");
+  s.deactivation_time = r.get<btScalar>();
+  s.hit_fraction = r.get<btScalar>();
+  return b;
+}
+
+void write_manifold(ByteWriter& w, const ManifoldState& m) {
+  w.put(m.id0), w.put(m.id1);
+  w.count(m.points.size());
+  auto io = [&w](const auto& field) { w.put(field); };
+  for (const ContactPointState& p : m.points) visit_point(io, p);
+}
+
+ManifoldState read_manifold(ByteReader& r) {
+  ManifoldState m;
+  m.id0 = r.get<BodyId>();
+  m.id1 = r.get<BodyId>();
+  if (!(m.id0 < m.id1) || m.id1 > kMaxBodyId) r.fail("manifold with bad body ids");
+  const std::uint32_t np = r.get<std::uint32_t>();
+  if (np < 1 || np > 4) r.fail("manifold point count not in 1..4");
+  m.points.resize(np);
+  auto io = [&r](auto& field) { r.get(field); };
+  for (ContactPointState& p : m.points) visit_point(io, p);
+  return m;
+}
+
+}  // namespace soda
