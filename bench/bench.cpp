@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include <spdlog/fmt/fmt.h>
 #include <spdlog/spdlog.h>
 
 namespace soda {
@@ -13,30 +14,52 @@ BenchResult bench_scene(const Scene& scene, const BenchConfig& config) {
   baseline_config.world = WorldKind::Stock;
   baseline_config.territories = 1;
   baseline_config.shuffle_seed = 0;
+  RunConfig one_config = config.run;
+  one_config.territories = 1;
+  const bool partitioned = config.run.territories > 1;
   BenchResult out;
+  auto keep_fastest = [](RunResult r, RunResult& best, std::vector<double>& walls) {
+    walls.push_back(r.wall_seconds);
+    if (walls.size() == 1 || r.wall_seconds < best.wall_seconds) best = std::move(r);
+  };
   for (int i = 0; i < config.repeat; ++i) {
-    auto run_baseline = [&] {
-      RunResult r = run_scene(scene, baseline_config);
-      out.baseline_walls.push_back(r.wall_seconds);
-      if (out.baseline_walls.size() == 1 || r.wall_seconds < out.baseline.wall_seconds) out.baseline = r;
-    };
-    auto run_tested = [&] {
-      RunResult r = run_scene(scene, config.run);
-      out.run_walls.push_back(r.wall_seconds);
-      if (out.run_walls.size() == 1 || r.wall_seconds < out.run.wall_seconds) out.run = r;
+    auto run_baseline = [&] { keep_fastest(run_scene(scene, baseline_config), out.baseline, out.baseline_walls); };
+    auto run_tested = [&] { keep_fastest(run_scene(scene, config.run), out.run, out.run_walls); };
+    auto run_one = [&] {
+      if (partitioned) keep_fastest(run_scene(scene, one_config), out.one_territory, out.one_territory_walls);
     };
     if (i % 2 == 0) {
       run_baseline();
+      run_one();
       run_tested();
     } else {
       run_tested();
+      run_one();
       run_baseline();
     }
-    spdlog::info("repeat {}/{}: baseline {:.3f} s, {} {:.3f} s", i + 1, config.repeat,
-                 out.baseline_walls.back(), world_kind_name(config.run.world), out.run_walls.back());
+    spdlog::info("repeat {}/{}: baseline {:.3f} s, {} {:.3f} s{}", i + 1, config.repeat, out.baseline_walls.back(),
+                 world_kind_name(config.run.world), out.run_walls.back(),
+                 partitioned ? fmt::format(" ({} territories; one territory {:.3f} s)", config.run.territories,
+                                           out.one_territory_walls.back())
+                             : std::string());
   }
   out.ratio_vs_baseline = out.baseline.wall_seconds > 0 ? out.run.wall_seconds / out.baseline.wall_seconds : 0.0;
+  if (partitioned && out.run.wall_seconds > 0)
+    out.speedup_vs_one_territory = out.one_territory.wall_seconds / out.run.wall_seconds;
   return out;
+}
+
+double slowest_world_cpu_seconds(const std::vector<WorldMetrics>& worlds) {
+  std::size_t steps = 0;
+  for (const WorldMetrics& w : worlds) steps = std::max(steps, w.cpu_step_ms.size());
+  double total_ms = 0;
+  for (std::size_t s = 0; s < steps; ++s) {
+    double slowest = 0;
+    for (const WorldMetrics& w : worlds)
+      if (s < w.cpu_step_ms.size()) slowest = std::max(slowest, w.cpu_step_ms[s]);
+    total_ms += slowest;
+  }
+  return total_ms * 1e-3;
 }
 
 }  // namespace soda

@@ -42,6 +42,46 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"real_time_factor", r.wall_seconds > 0 ? simulated / r.wall_seconds : 0.0},
       {"step_ms", step_time_json(r.step_time)},
   };
+  if (r.territories > 1) {
+    j["schedule"] = r.schedule;
+    j["threads"] = r.threads;
+    j["messages"] = r.messages;
+    j["message_bytes"] = r.message_bytes;
+    j["slowest_world_cpu_seconds"] = slowest_world_cpu_seconds(r.world_metrics);
+    nlohmann::json worlds = nlohmann::json::array();
+    for (const WorldMetrics& m : r.world_metrics)
+      worlds.push_back({{"world", m.world},
+                        {"cpu_seconds", m.cpu_seconds},
+                        {"cpu_step_mean_ms", m.cpu_step_mean_ms},
+                        {"cpu_step_max_ms", m.cpu_step_max_ms},
+                        {"blocked_seconds", m.blocked_seconds},
+                        {"owned_bodies", m.owned_bodies},
+                        {"ghosts", m.ghosts},
+                        {"neighbours", m.neighbours},
+                        {"border_bodies", m.border_bodies},
+                        {"ghosts_sent", m.ghosts_sent},
+                        {"ghosts_received", m.ghosts_received},
+                        {"manifolds_attached", m.manifolds_attached},
+                        {"manifolds_seeded", m.manifolds_seeded},
+                        {"manifolds_returned", m.manifolds_returned},
+                        {"migrations_out", m.migrations_out},
+                        {"migrations_in", m.migrations_in},
+                        {"local_islands", m.local_islands},
+                        {"border_fragments", m.border_fragments},
+                        {"merged_islands", m.merged_islands},
+                        {"islands_solved", m.islands_solved},
+                        {"merged_island_bodies", m.merged_island_bodies},
+                        {"merged_island_worlds_mean",
+                         m.merged_islands ? static_cast<double>(m.merged_island_worlds_sum) /
+                                                static_cast<double>(m.merged_islands)
+                                          : 0.0},
+                        {"merged_island_worlds_max", m.merged_island_worlds_max},
+                        {"relay_messages_sent", m.relay_messages_sent},
+                        {"relay_messages_received", m.relay_messages_received},
+                        {"fragments_relayed", m.fragments_relayed},
+                        {"messages_sent", m.messages_sent}});
+    j["worlds"] = std::move(worlds);
+  }
   return j;
 }
 
@@ -55,6 +95,19 @@ nlohmann::json bench_json(const RunDescription& d, const BenchResult& b) {
   j["baseline_state_hash"] = hash_hex(b.baseline.state_hash);
   j["baseline_step_ms"] = step_time_json(b.baseline.step_time);
   j["ratio_vs_baseline"] = b.ratio_vs_baseline;
+  if (b.run.territories > 1) {
+    j["one_territory_wall_seconds"] = b.one_territory.wall_seconds;
+    j["one_territory_wall_seconds_all"] = b.one_territory_walls;
+    j["one_territory_cpu_seconds"] = b.one_territory.cpu_seconds;
+    j["one_territory_state_hash"] = hash_hex(b.one_territory.state_hash);
+    j["state_hash_equals_one_territory"] = b.one_territory.state_hash == b.run.state_hash;
+    j["speedup_vs_one_territory"] = b.speedup_vs_one_territory;
+    const double slowest = slowest_world_cpu_seconds(b.run.world_metrics);
+    j["projected_speedup"] = slowest > 0 ? b.one_territory.cpu_seconds / slowest : 0.0;
+    j["projected_speedup_note"] =
+        "projection: one-territory CPU seconds / sum over steps of the slowest world's CPU time "
+        "(the thesis' measure); what the run would reach with one core per world";
+  }
   return j;
 }
 

@@ -80,6 +80,12 @@ void print_summary(const soda::RunResult& r) {
               soda::world_kind_name(r.world), soda::kPrecisionName, r.bodies, r.steps, r.wall_seconds,
               r.wall_seconds > 0 ? r.steps / r.wall_seconds : 0.0, soda::hash_hex(r.state_hash).c_str(),
               r.sleeping_bodies);
+  if (r.territories > 1)
+    std::printf("  %d territories (%s), %s on %d thread(s), %llu messages, per-world CPU %.3f s in all, "
+                "slowest world per step summed %.3f s\n",
+                r.territories, r.partition.c_str(), r.schedule.c_str(), r.threads,
+                static_cast<unsigned long long>(r.messages), r.cpu_seconds,
+                soda::slowest_world_cpu_seconds(r.world_metrics));
 }
 
 int cmd_run(Options& o) {
@@ -98,6 +104,14 @@ int cmd_bench(Options& o) {
   print_summary(b.run);
   std::printf("baseline (stock Bullet, same process): %.3f s; ratio_vs_baseline %.3f (min of %d interleaved repeats)\n",
               b.baseline.wall_seconds, b.ratio_vs_baseline, o.repeat);
+  if (b.run.territories > 1) {
+    const double slowest = soda::slowest_world_cpu_seconds(b.run.world_metrics);
+    std::printf("one territory (same world kind): %.3f s, state_hash %s (%s); speed-up %.3f; "
+                "projected speed-up with one core per world %.3f\n",
+                b.one_territory.wall_seconds, soda::hash_hex(b.one_territory.state_hash).c_str(),
+                b.one_territory.state_hash == b.run.state_hash ? "identical" : "DIFFERENT", b.speedup_vs_one_territory,
+                slowest > 0 ? b.one_territory.cpu_seconds / slowest : 0.0);
+  }
   if (!o.json_path.empty())
     soda::write_json(soda::bench_json({o.scene, o.params, &scene, o.config}, b), o.json_path);
   return 0;

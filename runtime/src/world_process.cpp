@@ -60,6 +60,7 @@ PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
       step_cpu_ns_ += now - cpu0;
       cpu_ns_ += step_cpu_ns_;
       step_cpu_max_ns_ = std::max(step_cpu_max_ns_, step_cpu_ns_);
+      step_cpu_history_ns_.push_back(step_cpu_ns_);
       step_cpu_ns_ = 0;
       cpu0 = now;
     }
@@ -323,6 +324,8 @@ WorldMetrics PartitionedWorld::Process::metrics() const {
   m.cpu_seconds = static_cast<double>(cpu_ns_) * 1e-9;
   m.cpu_step_mean_ms = step_ ? static_cast<double>(cpu_ns_) * 1e-6 / static_cast<double>(step_) : 0.0;
   m.cpu_step_max_ms = static_cast<double>(step_cpu_max_ns_) * 1e-6;
+  m.cpu_step_ms.reserve(step_cpu_history_ns_.size());
+  for (std::int64_t ns : step_cpu_history_ns_) m.cpu_step_ms.push_back(static_cast<double>(ns) * 1e-6);
   m.blocked_seconds = static_cast<double>(blocked_ns_) * 1e-9;
   m.owned_bodies = world_.owned_count();
   m.ghosts = world_.ghost_count();

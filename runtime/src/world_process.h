@@ -109,6 +109,7 @@ class PartitionedWorld::Process {
   std::int64_t cpu_ns_ = 0;
   std::int64_t step_cpu_ns_ = 0;  // current step so far
   std::int64_t step_cpu_max_ns_ = 0;
+  std::vector<std::int64_t> step_cpu_history_ns_;  // CPU time of every finished internal step
 };
 
 }  // namespace soda

@@ -67,6 +67,7 @@ struct WorldMetrics {
   double cpu_seconds = 0;              // thread CPU time spent stepping this world
   double cpu_step_mean_ms = 0;         // per internal step
   double cpu_step_max_ms = 0;
+  std::vector<double> cpu_step_ms;     // thread CPU time of every internal step, in order
   double blocked_seconds = 0;          // wall time waiting for neighbours' messages
   std::size_t owned_bodies = 0;        // at the end
   std::size_t ghosts = 0;              // at the end
