@@ -76,10 +76,16 @@ bool TerritoryWorld::interior(const CellCoord& c) const {
 
 void TerritoryWorld::sort_lists() {
   if (lists_sorted_) return;
+  // Lists only grow at the back (erase keeps the order), so each is a sorted
+  // prefix plus a short tail: sort the tail and merge, O(n + m log m) rather
+  // than a full sort every step (callgrind: the full sort was ~3 % of a
+  // 2-territory falling-cubes step).
   auto by_id = [](const Entry* a, const Entry* b) { return a->id() < b->id(); };
-  std::sort(owned_.begin(), owned_.end(), by_id);
-  std::sort(ghosts_.begin(), ghosts_.end(), by_id);
-  std::sort(statics_.begin(), statics_.end(), by_id);
+  for (std::vector<Entry*>* list : {&owned_, &ghosts_, &statics_}) {
+    const auto tail = std::is_sorted_until(list->begin(), list->end(), by_id);
+    std::sort(tail, list->end(), by_id);
+    std::inplace_merge(list->begin(), tail, list->end(), by_id);
+  }
   lists_sorted_ = true;
 }
 
