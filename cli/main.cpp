@@ -12,6 +12,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "commands.h"
 #include "soda/bench/bench.h"
 #include "soda/bench/result_json.h"
 #include "soda/grid/partition.h"
@@ -195,6 +196,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   part->add_option("--cell-size", cell_size, "Cell edge in metres (default: the largest body's extent)");
   part->add_option("--json", part_o.json_path, "Write the partition summary as JSON ('-': stdout)");
+  std::vector<soda::cli::Command> more = soda::cli::add_accuracy_commands(*bench);  // bench accuracy|accuracy-trace|analytic
+  more.push_back(soda::cli::add_stress_command(app));
 
   try {
     app.parse(argc, argv);
@@ -209,6 +212,8 @@ int main(int argc, char** argv) {
   spdlog::set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
 
   try {
+    for (const soda::cli::Command& c : more)
+      if (*c.app) return c.run();  // before `bench`: these are its subcommands
     if (*run) return cmd_run(run_o);
     if (*bench) return cmd_bench(bench_o);
     if (*exp) return cmd_export(export_o, export_path);

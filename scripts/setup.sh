@@ -9,6 +9,7 @@ packages=(
   libeigen3-dev libtbb-dev libspdlog-dev
   libcli11-dev nlohmann-json3-dev
   libgtest-dev
+  python3-matplotlib     # bench/plot_accuracy.py (plots only; the C++ never needs it)
 )
 
 missing=()

@@ -47,7 +47,7 @@ std::size_t StockWorld::body_count() const { return bodies_.bodies.size(); }
 std::size_t StockWorld::sleeping_count() const {
   std::size_t n = 0;
   for (const auto& b : bodies_.bodies)
-    if (b->getActivationState() == ISLAND_SLEEPING) ++n;
+    if (!b->isStaticObject() && b->getActivationState() == ISLAND_SLEEPING) ++n;  // statics sleep too in Bullet
   return n;
 }
 

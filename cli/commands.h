@@ -1,0 +1,26 @@
+// Subcommands defined outside main.cpp. Each add_* registers a subcommand
+// and returns it with the function that runs it once parsed.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+namespace soda::cli {
+
+struct Command {
+  CLI::App* app = nullptr;
+  std::function<int()> run;
+};
+
+/// Under `bench`: `accuracy` (the run time vs error sweep), `accuracy-trace`
+/// (one traced run, what the sweep spawns in the other precision's binary),
+/// `analytic` (the analytic scenes against their closed forms).
+/// cmd_accuracy.cpp; docs/accuracy.md.
+std::vector<Command> add_accuracy_commands(CLI::App& bench);
+
+/// `stress`: the numerical-stability suite. cmd_stress.cpp; docs/stress.md.
+Command add_stress_command(CLI::App& app);
+
+}  // namespace soda::cli
