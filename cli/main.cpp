@@ -55,7 +55,16 @@ void add_run_options(CLI::App& cmd, Options& o) {
   cmd.add_option("--territories", o.config.territories, "Number of territories (worlds)")->capture_default_str();
   cmd.add_option("--partition", o.config.partition, "kmeans | rcb | grid:AxBxC | territory-map file")
       ->capture_default_str();
-  cmd.add_option("--threads", o.config.threads, "Threads (0: one per world)")->capture_default_str();
+  cmd.add_option("--threads", o.config.threads,
+                 "Threads stepping the worlds: 0 or >= territories: one per world; 1: all worlds round-robin on "
+                 "one thread; in between: a pool")
+      ->capture_default_str();
+  cmd.add_flag("--validate", o.config.validate,
+               "Check after every step: one owner per body, one holder per contact pair, Bullet object counts "
+               "(territories > 1; slow; a violation stops the run naming step, bodies and worlds)");
+  cmd.add_flag("--serialise", o.config.serialise,
+               "Send every message between worlds through bytes, as a process boundary would (territories > 1)");
+  cmd.add_flag("--pin", o.config.pin, "Pin world threads to cores (one thread per world)");
   cmd.add_option("--shuffle-seed", o.config.shuffle_seed,
                  "Insert bodies in an order shuffled by this seed (0: scene order)")
       ->capture_default_str();

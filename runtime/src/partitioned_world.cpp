@@ -12,6 +12,7 @@
 
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/transport.h"
+#include "thread_pinning.h"
 #include "validator.h"
 #include "world_process.h"
 
@@ -101,9 +102,11 @@ class ErrorSlot {
 // One thread per world; a world with nothing to do blocks on its mailbox.
 void PartitionedWorld::run_thread_per_world(std::int64_t) {
   ErrorSlot error;
+  if (options_.pin) prepare_thread_pinning();
   std::vector<std::thread> threads;
   for (std::size_t w = 0; w < processes_.size(); ++w)
     threads.emplace_back([this, w, &error] {
+      if (options_.pin) pin_current_thread(static_cast<int>(w), "world " + std::to_string(w));
       Process& p = *processes_[w];
       try {
         for (;;) {
@@ -142,7 +145,8 @@ void PartitionedWorld::run_pool(std::int64_t) {
     }
     cv.notify_one();
   });
-  auto worker = [&] {
+  auto worker = [&](int index) {
+    if (options_.pin) pin_current_thread(index, "pool worker " + std::to_string(index));
     for (;;) {
       WorldId w;
       {
@@ -180,8 +184,9 @@ void PartitionedWorld::run_pool(std::int64_t) {
       }
     }
   };
+  if (options_.pin) prepare_thread_pinning();
   std::vector<std::thread> threads;
-  for (int i = 0; i < options_.threads; ++i) threads.emplace_back(worker);
+  for (int i = 0; i < options_.threads; ++i) threads.emplace_back(worker, i);
   for (std::thread& t : threads) t.join();
   transport_->set_wake_hook([](WorldId) {});
   error.rethrow();

@@ -80,6 +80,7 @@ RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
   r.schedule = schedule_name(options.schedule);
   options.serialise = config.serialise;
   options.validate = config.validate;
+  options.pin = config.pin;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
   step_ends.reserve(static_cast<std::size_t>(config.steps));
   std::int64_t t0 = 0;

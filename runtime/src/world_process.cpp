@@ -5,7 +5,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "run_control.h"
 #include "soda/loadbalance/thread_clock.h"
+#include "soda/runtime/scene_reader.h"
 
 namespace soda {
 
@@ -48,7 +50,7 @@ PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
   Advance result;
   std::int64_t cpu0 = thread_cpu_ns();
   for (;;) {
-    if (step_ >= target_ && phase_ == Phase::Predict) {
+    if (phase_ == Phase::Predict && !may_start()) {
       result.done = true;
       break;
     }
@@ -160,8 +162,63 @@ bool PartitionedWorld::Process::run_phase() {
       end_step();
       return true;
     }
+    case Phase::Publish: return try_publish();
   }
   return false;
+}
+
+bool PartitionedWorld::Process::may_start() {
+  return output_.control ? output_.control->may_start(world_.id(), step_) : step_ < target_;
+}
+
+// Publish: the entry is made once, when the step ends; a full buffer keeps
+// it pending. A stopped buffer drops it (the run is being stopped).
+bool PartitionedWorld::Process::try_publish() {
+  if (!pending_) {
+    const std::int64_t scene_step = step_ / substeps_;
+    pending_.emplace();
+    pending_->step = scene_step;
+    pending_->time = scene_time(scene_step, output_.dt);
+    const std::vector<BodyState> states = world_.owned_states();
+    pending_->poses.reserve(states.size());
+    for (const BodyState& b : states) pending_->poses.push_back(body_pose(b));
+  }
+  if (output_.buffer->try_publish(std::move(*pending_))) {
+    published(true);
+    return true;
+  }
+  if (!output_.buffer->stopped()) {
+    if (!room_wait_since_ns_) room_wait_since_ns_ = wall_ns();
+    return false;
+  }
+  published(false);
+  return true;
+}
+
+void PartitionedWorld::Process::publish_blocking() {
+  if (!pending_) {
+    if (try_publish()) return;
+  }
+  if (!room_wait_since_ns_) room_wait_since_ns_ = wall_ns();
+  published(output_.buffer->publish(std::move(*pending_)));
+}
+
+// Without speculation no step is ever rolled back: the commit step follows
+// the writer, one behind, so that the newest entry stays readable even with
+// no reader (a reader added later starts from it).
+void PartitionedWorld::Process::published(bool kept) {
+  if (room_wait_since_ns_) room_blocked_ns_ += wall_ns() - room_wait_since_ns_;
+  room_wait_since_ns_ = 0;
+  const std::int64_t scene_step = pending_->step;
+  pending_.reset();
+  phase_ = Phase::Predict;
+  if (!kept) {
+    ++entries_dropped_;
+    return;
+  }
+  ++entries_published_;
+  output_.buffer->set_commit_step(scene_step - 1);
+  output_.control->published(world_.id(), scene_step);
 }
 
 void PartitionedWorld::Process::flush_merger() {
@@ -291,7 +348,10 @@ void PartitionedWorld::Process::end_step() {
     validator_->report(WorldStepReport{world_.id(), step_, world_.owned_ids(), world_.ghost_count(),
                                        world_.static_count(), world_.bullet_object_count(),
                                        world_.held_contact_pairs()});
-  if (progress_ && step_ % substeps_ == 0) progress_(step_ / substeps_);
+  if (step_ % substeps_ != 0) return;
+  if (progress_) progress_(step_ / substeps_);
+  if (output_.after_step) output_.after_step(world_.id(), step_ / substeps_);
+  if (output_.buffer) phase_ = Phase::Publish;
 }
 
 std::string PartitionedWorld::Process::waiting_for() const {
@@ -314,6 +374,7 @@ std::string PartitionedWorld::Process::waiting_for() const {
     }
     case Phase::Merging: s << "waits for island fragments"; break;
     case Phase::AwaitMigrants: missing(MessageKind::Migrants, neighbours_); break;
+    case Phase::Publish: s << "waits for room in its transform buffer"; break;
   }
   return s.str();
 }
@@ -327,6 +388,9 @@ WorldMetrics PartitionedWorld::Process::metrics() const {
   m.cpu_step_ms.reserve(step_cpu_history_ns_.size());
   for (std::int64_t ns : step_cpu_history_ns_) m.cpu_step_ms.push_back(static_cast<double>(ns) * 1e-6);
   m.blocked_seconds = static_cast<double>(blocked_ns_) * 1e-9;
+  m.buffer_blocked_seconds = static_cast<double>(room_blocked_ns_) * 1e-9;
+  m.entries_published = entries_published_;
+  m.entries_dropped = entries_dropped_;
   m.owned_bodies = world_.owned_count();
   m.ghosts = world_.ghost_count();
   return m;

@@ -18,21 +18,31 @@
 //                  Then integrate; migrate: send Migrants(t) to every
 //                  neighbour
 //   AwaitMigrants  <- Migrants(t) from every neighbour; absorb; step t done
+//   Publish        (Simulation only, after each scene step) the owned bodies'
+//                  poses to the world's transform buffer; waits while it is
+//                  full (advance() returns, waiting_for_room() is true)
+//
+// Under PartitionedWorld::step the world runs up to a fixed target; under a
+// Simulation (attach()) it asks the RunControl before beginning each step.
 #pragma once
 
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <tuple>
 #include <vector>
 
 #include "island_merge.h"
+#include "soda/rollback/transform_buffer.h"
 #include "soda/runtime/partitioned_world.h"
 #include "soda/runtime/transport.h"
 #include "validator.h"
 
 namespace soda {
+
+class RunControl;
 
 class PartitionedWorld::Process {
  public:
@@ -41,6 +51,27 @@ class PartitionedWorld::Process {
 
   /// Run until `internal_steps` steps are done.
   void set_target(std::int64_t internal_steps) { target_ = internal_steps; }
+
+  /// What a Simulation adds: the step limit comes from `control` (asked
+  /// before each step begins); after each scene step `after_step` runs and
+  /// the poses go to `buffer` as (scene step, scene step * dt).
+  struct Output {
+    RunControl* control = nullptr;
+    TransformBuffer<btScalar>* buffer = nullptr;
+    double dt = 0;
+    std::function<void(WorldId, std::int64_t)> after_step;
+  };
+  /// Before the first advance().
+  void attach(Output output) { output_ = std::move(output); }
+  /// True when the world stopped because its transform buffer is full (the
+  /// Publish stage): it goes on once a reader frees an entry, or the buffer
+  /// is stopped (the entry is then dropped).
+  bool waiting_for_room() const { return phase_ == Phase::Publish; }
+  /// Publish stage on a thread of the world's own: waits for room (blocking
+  /// in TransformBuffer::publish), publishes or drops the entry.
+  void publish_blocking();
+  /// Internal steps done.
+  std::int64_t steps_done() const { return step_; }
 
   struct Advance {
     bool progressed = false;  // some stage ran
@@ -61,7 +92,7 @@ class PartitionedWorld::Process {
   WorldMetrics metrics() const;
 
  private:
-  enum class Phase { Predict, AwaitGhosts, AwaitGlue, Merging, AwaitMigrants };
+  enum class Phase { Predict, AwaitGhosts, AwaitGlue, Merging, AwaitMigrants, Publish };
   using Key = std::tuple<int, std::int64_t, WorldId>;  // (kind, step, from)
 
   bool run_phase();
@@ -75,6 +106,9 @@ class PartitionedWorld::Process {
   void gathered(BodyId island);
   void take_result(IslandResult result);
   void end_step();
+  bool may_start();
+  bool try_publish();
+  void published(bool kept);
 
   TerritoryWorld& world_;
   Transport& transport_;
@@ -88,6 +122,9 @@ class PartitionedWorld::Process {
   Phase phase_ = Phase::Predict;
   std::int64_t step_ = 0;    // internal step in progress (= steps done)
   std::int64_t target_ = 0;
+  Output output_;
+  std::optional<TransformEntry<btScalar>> pending_;  // Publish: the entry waiting for room
+  std::int64_t room_wait_since_ns_ = 0;               // Publish: when it first found the buffer full
   std::map<Key, Message> inbox_;
   std::map<std::int64_t, std::vector<Message>> fragments_;  // Fragments and Results, by step
   IslandMerger merger_;
@@ -106,6 +143,9 @@ class PartitionedWorld::Process {
   // Metrics.
   WorldMetrics sums_;
   std::int64_t blocked_ns_ = 0;
+  std::int64_t room_blocked_ns_ = 0;
+  std::uint64_t entries_published_ = 0;
+  std::uint64_t entries_dropped_ = 0;
   std::int64_t cpu_ns_ = 0;
   std::int64_t step_cpu_ns_ = 0;  // current step so far
   std::int64_t step_cpu_max_ns_ = 0;

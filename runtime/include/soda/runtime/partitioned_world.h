@@ -49,6 +49,11 @@ struct PartitionedOptions {
   /// results, no Results messages) instead of its root solving it once and
   /// relaying the result down the island's tree.
   bool solve_everywhere = false;
+  /// Pin the stepping threads to cores: ThreadPerWorld, world i's thread;
+  /// Pool, worker i; on CPU (i mod the CPUs this process may use). A failure
+  /// to pin is a logged warning. Sequential runs on the caller's thread and
+  /// never pins it.
+  bool pin = false;
   /// Called by world 0's thread after each of its scene steps (its step count).
   std::function<void(std::int64_t)> progress = {};
 };
@@ -69,6 +74,10 @@ struct WorldMetrics {
   double cpu_step_max_ms = 0;
   std::vector<double> cpu_step_ms;     // thread CPU time of every internal step, in order
   double blocked_seconds = 0;          // wall time waiting for neighbours' messages
+  // Simulation only (simulation.h): its transform buffer.
+  double buffer_blocked_seconds = 0;   // wall time waiting for room (readers' back-pressure)
+  std::uint64_t entries_published = 0;
+  std::uint64_t entries_dropped = 0;   // found the buffer full while the run was being stopped
   std::size_t owned_bodies = 0;        // at the end
   std::size_t ghosts = 0;              // at the end
   std::size_t neighbours = 0;
@@ -95,6 +104,8 @@ struct WorldMetrics {
 };
 
 class PartitionedWorld {
+  friend class SimulationEngine;  // runs the world processes in the background (simulation.h)
+
  public:
   /// One TerritoryWorld per world of `map`. Throws PartitionError (see
   /// territory_world.h) or std::invalid_argument for bad options.

@@ -35,6 +35,7 @@ struct RunConfig {
                                      // (round-robin); 2 .. K-1: a pool of that many threads
   bool serialise = false;            // K > 1: messages through bytes (as the tests do)
   bool validate = false;             // K > 1: check ownership and holders every step (slow)
+  bool pin = false;                  // K > 1: pin world threads (pool workers) to cores
   std::uint64_t shuffle_seed = 0;    // 0: insert bodies in scene order
   double progress_seconds = 1.0;     // progress line period (<= 0: none)
 };

@@ -1,0 +1,116 @@
+// runtime/ — the public embedding API. This header: reading the whole
+// scene's state at a time τ from every world's transform buffer (the
+// thesis' render thread). Include soda/runtime/simulation.h, which brings it.
+//
+// Every world publishes, after each scene step t, an entry (t, t * dt) with
+// the poses of the bodies it owns at that step boundary. A SceneReader joins
+// the K entries of one step into a SceneFrame; since migrants are absorbed
+// within the step that sends them, every dynamic body is in exactly one
+// world's entry (checked on every read: a body twice or missing throws).
+//
+//   soda::SceneReader reader = sim.add_reader();       // any thread
+//   std::thread render([&] {
+//     for (int k = 0; k <= 300; ++k)                     // 60 Hz of simulated time
+//       if (auto frame = reader.read_at(k / 60.0))       // waits for every world
+//         draw(frame->poses);                            // every body once, by id
+//   });
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "soda/rollback/transform_buffer.h"
+#include "soda/rollback/transform_entry.h"
+#include "soda/worlds/body_state.h"
+
+namespace soda {
+
+/// Pose and velocities of one body, in the precision Bullet was built with.
+using ScenePose = BodyPose<btScalar>;
+/// Poses interpolated between two frames (transform_entry.h).
+using SceneSample = PoseSample<btScalar>;
+
+/// A body's pose from its raw state: the position is the origin, the
+/// orientation btMatrix3x3::getRotation of the basis, the velocities as they
+/// are. A pure function: a frame equals, bit for bit, body_pose() of the
+/// one-world CanonicalWorld's body_states() at the same step.
+ScenePose body_pose(const BodyState& state);
+
+/// The whole scene at one step boundary.
+struct SceneFrame {
+  std::int64_t step = 0;         // scene step
+  double time = 0.0;             // step * dt, seconds
+  std::vector<ScenePose> poses;  // every dynamic body exactly once, ascending id
+  /// The pose of `id`, or null if it is not a dynamic body of the scene.
+  const ScenePose* find(BodyId id) const;
+};
+
+struct SimulationCore;  // internal, shared by a Simulation and its readers
+
+/// A cursor into every world's transform buffer (one reader per buffer),
+/// made by Simulation::add_reader(). Entries are freed at the minimum of the
+/// readers' cursors and the commit step, so a reader that does not read
+/// holds the worlds back once their buffers are full (back-pressure: it
+/// slows the run down, nothing more). Destroy a reader you no longer read.
+///
+/// Reads go forward: a read at τ moves the cursor of every world to its
+/// newest entry at or before τ, freeing what lies behind it; a later read at
+/// an earlier τ finds it freed (nullopt), except the frame it last read,
+/// which stays readable.
+///
+/// Thread safety: one thread at a time per reader (each reader may live on a
+/// thread of its own, e.g. a render thread); readers and the Simulation's
+/// calls may run concurrently. A reader may outlive its Simulation: reads
+/// then serve what is still held, and never wait.
+class SceneReader {
+ public:
+  SceneReader(SceneReader&&) noexcept;
+  SceneReader& operator=(SceneReader&&) noexcept;
+  SceneReader(const SceneReader&) = delete;
+  SceneReader& operator=(const SceneReader&) = delete;
+  /// Unregisters from every buffer (its pins go). Any thread but the one
+  /// reading with it.
+  ~SceneReader();
+
+  /// The scene at the closest step at or before `time` (s >= 0): waits until
+  /// every world has published that step. nullopt if the step is no longer
+  /// held (the reader moved past it), or the Simulation was stopped before
+  /// every world published it. Throws SimulationError if a world failed
+  /// while it waited, std::invalid_argument for a negative or NaN time,
+  /// std::logic_error if the worlds' entries do not hold every body exactly
+  /// once. Reader's thread.
+  std::optional<SceneFrame> read_at(double time);
+
+  /// As read_at, but never waits: nullopt also when some world has not
+  /// published the step yet (keep the previous frame). Reader's thread.
+  std::optional<SceneFrame> try_read_at(double time);
+
+  /// Poses at `time` interpolated between the frame at or before it and the
+  /// next one (interpolate_entries: positions and velocities linear,
+  /// orientations slerped); waits for both. At a step's own time the poses
+  /// are that frame's, bit for bit. If the run stops before the next frame
+  /// exists, the earlier frame's poses (no extrapolation). nullopt and
+  /// errors as read_at. Reader's thread.
+  std::optional<SceneSample> interpolate(double time);
+
+  /// Step of the last frame this reader returned; -1 before its first read.
+  /// Reader's thread.
+  std::int64_t last_step() const { return last_step_; }
+
+ private:
+  friend class Simulation;
+  enum class Got { Frame, NotYet, Gone };
+  explicit SceneReader(std::shared_ptr<SimulationCore> core);
+  Got gather(std::int64_t step, bool move_cursors, std::vector<std::shared_ptr<const TransformEntry<btScalar>>>& out);
+  SceneFrame assemble(std::int64_t step, const std::vector<std::shared_ptr<const TransformEntry<btScalar>>>& entries) const;
+  std::optional<SceneFrame> read(double time, bool wait);
+  void release() noexcept;
+
+  std::shared_ptr<SimulationCore> core_;
+  std::vector<BufferReaderId> ids_;  // one per world
+  std::int64_t last_step_ = -1;
+};
+
+}  // namespace soda

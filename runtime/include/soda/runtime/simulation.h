@@ -1,0 +1,189 @@
+// runtime/ — the step, threads, messages and the public API. This header is
+// the one include for embedding SODA: a Simulation runs one scene on K
+// Bullet worlds, one per territory, in the background (a thread per world, a
+// pool, or one thread), each world publishing its bodies after every step to
+// a transform buffer of its own; SceneReaders read the whole scene at a
+// simulated time τ from those buffers. The result is bit-identical to one
+// CanonicalWorld on the whole scene, whatever K, the partition, the threads
+// or the readers. Guide: docs/embedding.md.
+//
+//   #include "soda/runtime/simulation.h"
+//   soda::Scene scene = soda::make_scene("falling-cubes", {500, 1});
+//   soda::Simulation sim(scene, {.territories = 4});
+//   soda::SceneReader reader = sim.add_reader();
+//   std::thread render([&] {                    // the render thread
+//     for (int k = 0; k <= 300; ++k)
+//       if (auto frame = reader.read_at(k / 60.0)) draw(frame->poses);
+//   });
+//   sim.start(5.0);                             // the worlds run freely up to 5 s
+//   sim.advance_to(5.0);                        // wait until every world published 5 s
+//   render.join();
+//   sim.stop();                                 // idempotent; the destructor calls it
+//   std::uint64_t h = sim.state_hash();         // == CanonicalWorld after 300 steps
+//
+// Thread safety: stated per member. In short: start, advance_to, run_for,
+// stop, add_reader and the observers may be called from any thread; the
+// readouts (state_hash, body_states, ...) wait for the worlds to be parked
+// at their step limit or stopped; each SceneReader is used by one thread at
+// a time. Errors: if a world fails (its thread throws), every waiting call —
+// advance_to, run_for, a reader's wait, stop, the readouts — throws a
+// SimulationError naming the world and the original message; nothing hangs
+// and nothing exits silently.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "soda/grid/grid.h"
+#include "soda/grid/partition.h"
+#include "soda/grid/territory_map.h"
+#include "soda/runtime/partitioned_world.h"
+#include "soda/runtime/scene_reader.h"
+#include "soda/scene/registry.h"
+#include "soda/scene/scene.h"
+#include "soda/worlds/body_state.h"
+
+namespace soda {
+
+struct SimulationConfig {
+  int territories = 1;               // K worlds
+  std::string partition = "kmeans";  // kmeans | rcb | grid:AxBxC | territory-map file (make_partition)
+  GridOptions grid = {};             // cell size, origin, box of the partition
+  int threads = 0;                   // 0 or >= K: a thread per world; 1: one thread for all
+                                     // worlds (round-robin); 2 .. K-1: a pool of that many
+  bool pin = false;                  // pin world threads (pool workers) to cores, i mod #CPUs
+  std::size_t buffer_capacity = 64;  // entries per world's transform buffer (>= 2): how far a
+                                     // world may run ahead of the slowest reader, in steps
+  bool serialise = false;            // every message between worlds through bytes
+  bool validate = false;             // check ownership and pair holders every step (slow)
+  /// Called by a world's thread after each of its scene steps (world id,
+  /// scene step), before the step's entry is published. An exception thrown
+  /// here fails that world, as a physics error would. Keep it short.
+  std::function<void(WorldId, std::int64_t)> after_step = {};
+};
+
+/// A world failed. world(): the world whose thread threw (kNoWorld if no
+/// single world is to blame, e.g. a deadlock report of the one-thread
+/// schedule); message(): the original exception's what(); cause(): the
+/// original exception (PartitionError, ValidationError, MessageFormatError,
+/// whatever after_step threw, ...).
+class SimulationError : public std::runtime_error {
+ public:
+  SimulationError(WorldId world, const std::string& message, std::exception_ptr cause);
+  WorldId world() const noexcept { return world_; }
+  const std::string& message() const noexcept { return message_; }
+  std::exception_ptr cause() const noexcept { return cause_; }
+
+ private:
+  WorldId world_;
+  std::string message_;
+  std::exception_ptr cause_;
+};
+
+class SimulationEngine;  // internal
+
+/// One scene on K worlds in the background, read through SceneReaders; see
+/// the example at the top of this header and docs/embedding.md. Lifecycle:
+/// constructed (step 0 published, no thread) -> running up to a step limit
+/// (start, advance_to, run_for raise it; worlds park at it) -> stopped.
+class Simulation {
+ public:
+  /// Cuts the scene into config.territories territories (config.partition,
+  /// config.grid), builds one world per territory and publishes step 0 (the
+  /// scene as given, time 0). No thread runs yet. Throws
+  /// std::invalid_argument for a bad config, GridError for a bad partition,
+  /// PartitionError for a scene outside the partitioned step's contract.
+  explicit Simulation(const Scene& scene, SimulationConfig config = {});
+  /// As above with a ready territory map (config.territories, partition and
+  /// grid are ignored).
+  Simulation(const Scene& scene, TerritoryMap map, SimulationConfig config = {});
+  /// stop(); a SimulationError is swallowed here (logged).
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  // --- running -------------------------------------------------------------
+
+  /// Lets the worlds run freely in the background, without waiting for
+  /// anyone but their neighbours and the readers' back-pressure, up to
+  /// `end_time` (the step at or before it), or until stop() when there is
+  /// none. Raises the step limit only, never lowers it (advance_to raises it
+  /// too). Throws std::logic_error after stop(), SimulationError if a world
+  /// has failed. Any thread; never waits.
+  void start(std::optional<double> end_time = std::nullopt);
+
+  /// Waits until every world has published the step at or before `time`,
+  /// first raising the step limit to it if it is lower (so without start()
+  /// the worlds run exactly to `time` and park there). True once published;
+  /// false if stop() was called first (from another thread); throws
+  /// SimulationError if a world failed, std::invalid_argument for a negative
+  /// or NaN time. Readers that are never read stall it once the buffers are
+  /// full: read them on other threads. Any thread.
+  bool advance_to(double time);
+
+  /// advance_to(published_time() + seconds): `seconds` of simulated time
+  /// beyond what every world has published now. Any thread.
+  bool run_for(double seconds);
+
+  /// Stops the worlds at one step boundary — the highest step any of them
+  /// had begun, which the others complete — releases every waiter (blocked
+  /// readers return what is held or nullopt; writers waiting for room drop
+  /// their entries) and joins the threads. Idempotent; irreversible. Throws
+  /// the SimulationError if a world failed (every time it is called). Any
+  /// thread; returns after at most one more step of the slowest world.
+  void stop();
+
+  // --- readers -------------------------------------------------------------
+
+  /// A new reader with a cursor in every world's buffer; it pins every held
+  /// entry until its first read. Any thread.
+  SceneReader add_reader();
+
+  // --- observers (any thread, never wait; a snapshot) ----------------------
+
+  double dt() const;
+  /// The scene step at or before `time` (to within 1e-9 of a step, a time
+  /// computed as k * dt or k / rate counts as step k). Throws
+  /// std::invalid_argument for a negative or NaN time.
+  std::int64_t step_at(double time) const;
+  /// step * dt: the time an entry of `step` carries.
+  double time_of(std::int64_t step) const;
+  /// The newest scene step every world has published (0 at construction).
+  std::int64_t published_step() const;
+  double published_time() const { return time_of(published_step()); }
+  bool stopped() const;
+  /// The error that failed the run, if any.
+  std::optional<SimulationError> error() const;
+  int world_count() const;
+  Schedule schedule() const;
+  int thread_count() const;  // threads that step the worlds
+
+  // --- readouts: wait until every world is parked at the step limit, or
+  //     stopped; throw std::logic_error while the worlds run without limit
+  //     (start() without end time; stop() first), SimulationError after a
+  //     failure. Any thread, but not concurrently with a call that raises
+  //     the limit. -----------------------------------------------------------
+
+  /// Scene steps every world has done.
+  std::int64_t steps_done() const;
+  /// Raw states of every body, statics included, sorted by id.
+  std::vector<BodyState> body_states() const;
+  /// soda::state_hash(body_states()): equal to CanonicalWorld::state_hash()
+  /// after steps_done() steps.
+  std::uint64_t state_hash() const;
+  std::size_t sleeping_count() const;
+  std::size_t body_count() const;
+  std::vector<WorldMetrics> metrics() const;
+
+ private:
+  std::unique_ptr<SimulationEngine> engine_;
+};
+
+}  // namespace soda

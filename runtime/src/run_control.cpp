@@ -1,0 +1,224 @@
+#include "run_control.h"
+
+#include <algorithm>
+
+namespace soda {
+
+RunControl::RunControl(int worlds, int substeps)
+    : substeps_(substeps),
+      started_(static_cast<std::size_t>(worlds), 0),
+      parked_at_(static_cast<std::size_t>(worlds), -1),
+      published_(static_cast<std::size_t>(worlds), 0) {}
+
+bool RunControl::may_start(WorldId world, std::int64_t steps_done) {
+  std::lock_guard lock(mutex_);
+  const auto w = static_cast<std::size_t>(world);
+  if (shut_down_ || steps_done >= limit_) {
+    if (parked_at_[w] != steps_done) {
+      parked_at_[w] = steps_done;
+      watch_cv_.notify_all();
+    }
+    return false;
+  }
+  parked_at_[w] = -1;
+  started_[w] = std::max(started_[w], steps_done + 1);
+  return true;
+}
+
+bool RunControl::wait_limit_above(std::int64_t steps_done) const {
+  std::unique_lock lock(mutex_);
+  world_cv_.wait(lock, [&] { return shut_down_ || frozen_ || limit_ > steps_done; });
+  return !shut_down_ && limit_ > steps_done;
+}
+
+bool RunControl::finished(std::int64_t steps_done) const {
+  std::lock_guard lock(mutex_);
+  return shut_down_ || (frozen_ && steps_done >= limit_);
+}
+
+bool RunControl::raise_limit(std::int64_t internal_steps) {
+  {
+    std::lock_guard lock(mutex_);
+    if (frozen_ || shut_down_) return false;
+    if (internal_steps <= limit_) return true;
+    limit_ = internal_steps;
+    bump_wake_locked();
+  }
+  call_hook();
+  return true;
+}
+
+std::int64_t RunControl::freeze() {
+  std::int64_t limit;
+  {
+    std::lock_guard lock(mutex_);
+    if (!frozen_) {
+      const std::int64_t begun = *std::max_element(started_.begin(), started_.end());
+      limit_ = (begun + substeps_ - 1) / substeps_ * substeps_;
+      frozen_ = true;
+      bump_wake_locked();
+    }
+    limit = limit_;
+  }
+  call_hook();
+  return limit;
+}
+
+std::int64_t RunControl::limit() const {
+  std::lock_guard lock(mutex_);
+  return limit_;
+}
+
+bool RunControl::all_parked() const {
+  std::lock_guard lock(mutex_);
+  return all_parked_locked();
+}
+
+bool RunControl::all_parked_locked() const {
+  return std::all_of(parked_at_.begin(), parked_at_.end(), [&](std::int64_t p) { return p >= limit_; });
+}
+
+void RunControl::wait_all_parked() const {
+  std::unique_lock lock(mutex_);
+  watch_cv_.wait(lock, [&] { return error_ || all_parked_locked(); });
+  if (error_) throw_error_locked();
+}
+
+std::uint64_t RunControl::wake_epoch() const {
+  std::lock_guard lock(mutex_);
+  return wake_epoch_;
+}
+
+void RunControl::wake() {
+  {
+    std::lock_guard lock(mutex_);
+    bump_wake_locked();
+  }
+  call_hook();
+}
+
+void RunControl::wait_wake(std::uint64_t seen) const {
+  std::unique_lock lock(mutex_);
+  world_cv_.wait(lock, [&] { return shut_down_ || wake_epoch_ != seen; });
+}
+
+void RunControl::set_wake_hook(std::function<void()> hook) {
+  std::lock_guard lock(mutex_);
+  hook_ = std::move(hook);
+}
+
+void RunControl::bump_wake_locked() {
+  ++wake_epoch_;
+  world_cv_.notify_all();
+}
+
+// The hook is copied under the lock and called outside it; it owns what it
+// touches (shared pointers), so clearing it meanwhile is harmless.
+void RunControl::call_hook() {
+  std::function<void()> hook;
+  {
+    std::lock_guard lock(mutex_);
+    hook = hook_;
+  }
+  if (hook) hook();
+}
+
+void RunControl::published(WorldId world, std::int64_t step) {
+  std::lock_guard lock(mutex_);
+  std::int64_t& p = published_[static_cast<std::size_t>(world)];
+  p = std::max(p, step);
+  ++watch_epoch_;
+  watch_cv_.notify_all();
+}
+
+std::int64_t RunControl::published_step() const {
+  std::lock_guard lock(mutex_);
+  return *std::min_element(published_.begin(), published_.end());
+}
+
+std::uint64_t RunControl::watch_epoch() const {
+  std::lock_guard lock(mutex_);
+  return watch_epoch_;
+}
+
+void RunControl::wait_watch(std::uint64_t seen) const {
+  std::unique_lock lock(mutex_);
+  watch_cv_.wait(lock, [&] { return watch_epoch_ != seen; });
+}
+
+bool RunControl::wait_published(std::int64_t step) const {
+  std::unique_lock lock(mutex_);
+  watch_cv_.wait(lock, [&] {
+    return error_ || stopping_ || *std::min_element(published_.begin(), published_.end()) >= step;
+  });
+  if (error_) throw_error_locked();
+  return *std::min_element(published_.begin(), published_.end()) >= step;
+}
+
+void RunControl::request_stop() {
+  std::lock_guard lock(mutex_);
+  stopping_ = true;
+  ++watch_epoch_;
+  watch_cv_.notify_all();
+}
+
+bool RunControl::stopping() const {
+  std::lock_guard lock(mutex_);
+  return stopping_;
+}
+
+bool RunControl::fail(WorldId world, std::exception_ptr error) {
+  std::string message = "unknown error";
+  try {
+    std::rethrow_exception(error);
+  } catch (const std::exception& e) {
+    message = e.what();
+  } catch (...) {
+  }
+  bool first = false;
+  {
+    std::lock_guard lock(mutex_);
+    if (!error_) {
+      error_.emplace(world, message, error);
+      first = true;
+    }
+    shut_down_ = true;
+    ++watch_epoch_;
+    watch_cv_.notify_all();
+    bump_wake_locked();
+  }
+  call_hook();
+  return first;
+}
+
+bool RunControl::failed() const {
+  std::lock_guard lock(mutex_);
+  return error_.has_value();
+}
+
+bool RunControl::shut_down() const {
+  std::lock_guard lock(mutex_);
+  return shut_down_;
+}
+
+std::optional<SimulationError> RunControl::error() const {
+  std::lock_guard lock(mutex_);
+  return error_;
+}
+
+void RunControl::rethrow_if_failed() const {
+  std::lock_guard lock(mutex_);
+  if (error_) throw_error_locked();
+}
+
+bool RunControl::error_reported() const {
+  std::lock_guard lock(mutex_);
+  return error_reported_;
+}
+
+void RunControl::throw_error_locked() const {
+  error_reported_ = true;
+  throw SimulationError(*error_);
+}
+
+}  // namespace soda

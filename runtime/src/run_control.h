@@ -1,0 +1,127 @@
+// Internal: what a Simulation's driver, its world threads and its readers
+// share besides the transform buffers — the step limit, wake-ups of parked
+// worlds, the published frontier, the stop flag and the first error. One
+// mutex; waits block on condition variables.
+//
+// Invariants (under the mutex):
+//  1. The limit (internal steps, a multiple of substeps) only grows until
+//     freeze(); after it, it never changes again.
+//  2. freeze() sets the limit to the highest step any world has begun
+//     (rounded up to a scene step), so every world can reach it and none has
+//     gone past it: a stopped run ends with every world at one step boundary.
+//  3. published_step() (the newest scene step every world has published)
+//     never decreases.
+//  4. The first fail() wins; after it every wait returns at once.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <vector>
+
+#include "soda/runtime/simulation.h"
+
+namespace soda {
+
+/// Simulated time at the end of scene step `step` (what entries carry).
+inline double scene_time(std::int64_t step, double dt) { return static_cast<double>(step) * dt; }
+
+class RunControl {
+ public:
+  /// "No limit": far beyond any step count a run can reach.
+  static constexpr std::int64_t kUnlimited = std::int64_t{1} << 60;
+
+  RunControl(int worlds, int substeps);
+
+  // --- step limit (internal steps) -----------------------------------------
+
+  /// World thread, before it begins step steps_done + 1: true (and the start
+  /// is recorded) if steps_done < limit and the run is not shut down; false
+  /// otherwise (the world is parked at the limit).
+  bool may_start(WorldId world, std::int64_t steps_done);
+  /// World thread with a thread of its own, parked at the limit: waits until
+  /// the limit exceeds steps_done (true) or never will (frozen, shut down:
+  /// false).
+  bool wait_limit_above(std::int64_t steps_done) const;
+  /// True once the world at steps_done will never step again (frozen at or
+  /// below it, or shut down).
+  bool finished(std::int64_t steps_done) const;
+  /// Driver: raises the limit (never lowers it). False if frozen.
+  bool raise_limit(std::int64_t internal_steps);
+  /// Stop: invariant 2. Returns the frozen limit.
+  std::int64_t freeze();
+  std::int64_t limit() const;
+  /// Every world is parked at the current limit.
+  bool all_parked() const;
+  /// Waits until every world is parked at the current limit; throws the
+  /// SimulationError if a world fails first.
+  void wait_all_parked() const;
+
+  // --- wake-ups (worlds parked for room or at the limit) --------------------
+
+  std::uint64_t wake_epoch() const;
+  /// Bumps the wake epoch (a reader moved a cursor, a buffer was stopped).
+  void wake();
+  /// Waits until the wake epoch differs from `seen` or the run is shut down.
+  void wait_wake(std::uint64_t seen) const;
+  /// Called after every bump (wake, raise_limit, freeze, fail), outside the
+  /// lock. The pool uses it to re-queue parked worlds.
+  void set_wake_hook(std::function<void()> hook);
+
+  // --- watchers (driver, readers) --------------------------------------------
+
+  /// World thread: it published scene step `step`.
+  void published(WorldId world, std::int64_t step);
+  /// The newest scene step every world has published.
+  std::int64_t published_step() const;
+  std::uint64_t watch_epoch() const;
+  /// Waits until the watch epoch (bumped by published, request_stop, fail)
+  /// differs from `seen`.
+  void wait_watch(std::uint64_t seen) const;
+  /// Waits until every world published `step` (true), or the run is stopping
+  /// (false); throws the SimulationError if a world failed first.
+  bool wait_published(std::int64_t step) const;
+
+  // --- stop and errors ---------------------------------------------------------
+
+  void request_stop();
+  bool stopping() const;
+  /// Records the first error (later ones are dropped) and shuts down: every
+  /// wait returns. Returns true for the first.
+  bool fail(WorldId world, std::exception_ptr error);
+  bool failed() const;
+  bool shut_down() const;
+  /// Throws (a copy of) the recorded SimulationError, if any.
+  void rethrow_if_failed() const;
+  std::optional<SimulationError> error() const;
+  /// True once the error was thrown to some caller.
+  bool error_reported() const;
+
+ private:
+  void bump_wake_locked();
+  bool all_parked_locked() const;
+  [[noreturn]] void throw_error_locked() const;
+  void call_hook();
+
+  const int substeps_;
+  mutable std::mutex mutex_;
+  mutable std::condition_variable world_cv_;  // limit, wake epoch, shutdown
+  mutable std::condition_variable watch_cv_;  // published, parked, stop, error
+  std::int64_t limit_ = 0;
+  bool frozen_ = false;
+  std::vector<std::int64_t> started_;   // per world: steps begun
+  std::vector<std::int64_t> parked_at_;  // per world: steps done when it parked at the limit; -1 running
+  std::vector<std::int64_t> published_;  // per world: newest scene step published
+  std::uint64_t wake_epoch_ = 0;
+  std::uint64_t watch_epoch_ = 0;
+  bool stopping_ = false;
+  bool shut_down_ = false;
+  std::optional<SimulationError> error_;
+  mutable bool error_reported_ = false;
+  std::function<void()> hook_;
+};
+
+}  // namespace soda

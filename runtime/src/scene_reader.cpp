@@ -1,0 +1,181 @@
+// SceneReader: whole-scene frames from every world's transform buffer.
+//
+// Why a read cannot deadlock the worlds (docs/embedding.md, "Back-pressure"):
+// every pass of a read moves this reader's cursor in EVERY world to that
+// world's newest entry at or before the wanted step, so it pins at most one
+// entry per world at or before that step. A world blocked for room is then
+// either ahead of the wanted step (and not needed by this read) or held by
+// another reader; the worlds the read waits for need only their neighbours,
+// which are never more than one step ahead of them.
+#include "soda/runtime/scene_reader.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+#include <LinearMath/btMatrix3x3.h>
+#include <LinearMath/btQuaternion.h>
+
+#include "simulation_core.h"
+
+namespace soda {
+
+ScenePose body_pose(const BodyState& s) {
+  ScenePose p;
+  p.id = s.id;
+  const btMatrix3x3 basis(s.basis[0], s.basis[1], s.basis[2], s.basis[3], s.basis[4], s.basis[5], s.basis[6],
+                          s.basis[7], s.basis[8]);
+  btQuaternion q;
+  basis.getRotation(q);
+  for (int i = 0; i < 3; ++i) {
+    p.position[i] = s.origin[i];
+    p.linear_velocity[i] = s.linear_velocity[i];
+    p.angular_velocity[i] = s.angular_velocity[i];
+  }
+  p.orientation[0] = q.x();
+  p.orientation[1] = q.y();
+  p.orientation[2] = q.z();
+  p.orientation[3] = q.w();
+  return p;
+}
+
+const ScenePose* SceneFrame::find(BodyId id) const {
+  auto it = std::lower_bound(poses.begin(), poses.end(), id, [](const ScenePose& p, BodyId i) { return p.id < i; });
+  return it != poses.end() && it->id == id ? &*it : nullptr;
+}
+
+SceneReader::SceneReader(std::shared_ptr<SimulationCore> core) : core_(std::move(core)) {
+  for (auto& b : core_->buffers) ids_.push_back(b->add_reader());
+}
+
+SceneReader::SceneReader(SceneReader&& other) noexcept
+    : core_(std::move(other.core_)), ids_(std::move(other.ids_)), last_step_(other.last_step_) {
+  other.ids_.clear();
+}
+
+SceneReader& SceneReader::operator=(SceneReader&& other) noexcept {
+  if (this != &other) {
+    release();
+    core_ = std::move(other.core_);
+    ids_ = std::move(other.ids_);
+    other.ids_.clear();
+    last_step_ = other.last_step_;
+  }
+  return *this;
+}
+
+SceneReader::~SceneReader() { release(); }
+
+void SceneReader::release() noexcept {
+  if (!core_ || ids_.empty()) return;
+  try {
+    for (std::size_t w = 0; w < ids_.size(); ++w) core_->buffers[w]->remove_reader(ids_[w]);
+    core_->control.wake();  // entries it pinned may be free now
+  } catch (...) {
+  }
+  ids_.clear();
+}
+
+// One pass over every world (never stopping early: every cursor must move,
+// see the top of the file). With move_cursors, read_at(reader) moves this
+// reader's cursor to the world's newest entry at or before the step;
+// without, entries are looked up without a cursor (for the step after the
+// reader's, which its cursor keeps from being freed).
+SceneReader::Got SceneReader::gather(std::int64_t step, bool move_cursors,
+                                     std::vector<std::shared_ptr<const TransformEntry<btScalar>>>& out) {
+  if (!core_ || ids_.empty()) throw std::logic_error("SceneReader: used after being moved from");
+  const double time = core_->time_of(step);
+  out.assign(ids_.size(), nullptr);
+  bool gone = false, not_yet = false, moved = false;
+  for (std::size_t w = 0; w < ids_.size(); ++w) {
+    TransformBuffer<btScalar>& buffer = *core_->buffers[w];
+    std::shared_ptr<const TransformEntry<btScalar>> e;
+    if (move_cursors) {
+      const std::int64_t before = buffer.cursor(ids_[w]);
+      e = buffer.read_at(ids_[w], time);
+      moved = moved || (e && e->step != before);
+    } else {
+      e = buffer.read_at(time);
+    }
+    // The newest entry of a world is never freed (its commit step is one
+    // behind), so nothing at or before `time` held means it was freed.
+    if (!e) gone = true;
+    else if (e->step != step) not_yet = true;
+    else out[w] = std::move(e);
+  }
+  if (moved) core_->control.wake();
+  return gone ? Got::Gone : not_yet ? Got::NotYet : Got::Frame;
+}
+
+SceneFrame SceneReader::assemble(std::int64_t step,
+                                 const std::vector<std::shared_ptr<const TransformEntry<btScalar>>>& entries) const {
+  SceneFrame f;
+  f.step = step;
+  f.time = core_->time_of(step);
+  std::size_t n = 0;
+  for (const auto& e : entries) n += e->poses.size();
+  f.poses.reserve(n);
+  for (const auto& e : entries) f.poses.insert(f.poses.end(), e->poses.begin(), e->poses.end());
+  std::sort(f.poses.begin(), f.poses.end(), [](const ScenePose& a, const ScenePose& b) { return a.id < b.id; });
+  for (std::size_t i = 1; i < f.poses.size(); ++i) {
+    if (f.poses[i].id != f.poses[i - 1].id) continue;
+    std::string worlds;
+    for (std::size_t w = 0; w < entries.size(); ++w)
+      for (const ScenePose& p : entries[w]->poses)
+        if (p.id == f.poses[i].id) worlds.append(" ").append(std::to_string(w));
+    std::string what = "SceneReader: body ";
+    what.append(std::to_string(f.poses[i].id)).append(" is in more than one world at step ");
+    what.append(std::to_string(step)).append(" (worlds").append(worlds).append(")");
+    throw std::logic_error(what);
+  }
+  if (f.poses.size() != core_->dynamic_bodies)
+    throw std::logic_error("SceneReader: step " + std::to_string(step) + " holds " + std::to_string(f.poses.size()) +
+                           " bodies, the scene has " + std::to_string(core_->dynamic_bodies) + " dynamic bodies");
+  return f;
+}
+
+std::optional<SceneFrame> SceneReader::read(double time, bool wait) {
+  const std::int64_t step = core_ ? core_->step_at(time) : 0;
+  std::vector<std::shared_ptr<const TransformEntry<btScalar>>> entries;
+  for (;;) {
+    const std::uint64_t seen = core_ ? core_->control.watch_epoch() : 0;
+    switch (gather(step, true, entries)) {
+      case Got::Frame: last_step_ = step; return assemble(step, entries);
+      case Got::Gone: return std::nullopt;
+      case Got::NotYet: break;
+    }
+    if (!wait) return std::nullopt;
+    core_->control.rethrow_if_failed();
+    if (core_->control.stopping()) return std::nullopt;
+    core_->control.wait_watch(seen);
+  }
+}
+
+std::optional<SceneFrame> SceneReader::read_at(double time) { return read(time, true); }
+
+std::optional<SceneFrame> SceneReader::try_read_at(double time) { return read(time, false); }
+
+std::optional<SceneSample> SceneReader::interpolate(double time) {
+  std::optional<SceneFrame> before = read(time, true);
+  if (!before) return std::nullopt;
+  auto entry_of = [](SceneFrame&& f) {
+    TransformEntry<btScalar> e;
+    e.step = f.step;
+    e.time = f.time;
+    e.poses = std::move(f.poses);
+    return e;
+  };
+  const TransformEntry<btScalar> a = entry_of(std::move(*before));
+  if (a.time == time) return interpolate_entries(a, a, time);
+  std::vector<std::shared_ptr<const TransformEntry<btScalar>>> entries;
+  for (;;) {
+    const std::uint64_t seen = core_->control.watch_epoch();
+    const Got got = gather(a.step + 1, false, entries);
+    if (got == Got::Frame) return interpolate_entries(a, entry_of(assemble(a.step + 1, entries)), time);
+    core_->control.rethrow_if_failed();
+    if (got == Got::Gone || core_->control.stopping()) return interpolate_entries(a, a, time);
+    core_->control.wait_watch(seen);
+  }
+}
+
+}  // namespace soda

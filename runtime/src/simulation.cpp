@@ -1,0 +1,103 @@
+// Simulation: the public face of SimulationEngine (simulation_engine.h).
+#include "soda/runtime/simulation.h"
+
+#include <cmath>
+
+#include "simulation_engine.h"
+
+namespace soda {
+
+SimulationError::SimulationError(WorldId world, const std::string& message, std::exception_ptr cause)
+    : std::runtime_error(world == kNoWorld ? "simulation failed: " + message
+                                          : "world " + std::to_string(world) + " failed: " + message),
+      world_(world),
+      message_(message),
+      cause_(std::move(cause)) {}
+
+namespace {
+
+TerritoryMap partition_for(const Scene& scene, const SimulationConfig& config) {
+  if (config.territories < 1) throw std::invalid_argument("SimulationConfig: territories must be >= 1");
+  return make_partition(config.partition, scene, config.territories, config.grid);
+}
+
+}  // namespace
+
+Simulation::Simulation(const Scene& scene, SimulationConfig config)
+    : Simulation(scene, partition_for(scene, config), config) {}
+
+Simulation::Simulation(const Scene& scene, TerritoryMap map, SimulationConfig config)
+    : engine_(std::make_unique<SimulationEngine>(scene, std::move(map), std::move(config))) {}
+
+Simulation::~Simulation() = default;
+
+namespace {
+
+// Scene steps to internal steps, saturating at "no limit".
+std::int64_t internal_steps(std::int64_t scene_steps, int substeps) {
+  if (scene_steps >= RunControl::kUnlimited / substeps) return RunControl::kUnlimited;
+  return scene_steps * substeps;
+}
+
+}  // namespace
+
+void Simulation::start(std::optional<double> end_time) {
+  const std::int64_t end = end_time ? engine_->core->step_at(*end_time) : RunControl::kUnlimited;
+  engine_->start(internal_steps(end, engine_->substeps()));
+}
+
+bool Simulation::advance_to(double time) {
+  const std::int64_t step = engine_->core->step_at(time);
+  return engine_->advance_to(step);
+}
+
+bool Simulation::run_for(double seconds) {
+  if (std::isnan(seconds) || seconds < 0) throw std::invalid_argument("Simulation::run_for: seconds must be >= 0");
+  return advance_to(published_time() + seconds);
+}
+
+void Simulation::stop() { engine_->stop(); }
+
+SceneReader Simulation::add_reader() { return SceneReader(engine_->core); }
+
+double Simulation::dt() const { return engine_->core->dt; }
+std::int64_t Simulation::step_at(double time) const { return engine_->core->step_at(time); }
+double Simulation::time_of(std::int64_t step) const { return engine_->core->time_of(step); }
+std::int64_t Simulation::published_step() const { return engine_->core->control.published_step(); }
+bool Simulation::stopped() const { return engine_->stopped(); }
+std::optional<SimulationError> Simulation::error() const { return engine_->core->control.error(); }
+int Simulation::world_count() const { return engine_->world->world_count(); }
+Schedule Simulation::schedule() const { return engine_->schedule; }
+int Simulation::thread_count() const { return engine_->threads; }
+
+std::int64_t Simulation::steps_done() const {
+  engine_->wait_idle("steps_done");
+  return engine_->world->world(0).steps_done() / engine_->substeps();
+}
+
+std::vector<BodyState> Simulation::body_states() const {
+  engine_->wait_idle("body_states");
+  return engine_->world->body_states();
+}
+
+std::uint64_t Simulation::state_hash() const {
+  engine_->wait_idle("state_hash");
+  return engine_->world->state_hash();
+}
+
+std::size_t Simulation::sleeping_count() const {
+  engine_->wait_idle("sleeping_count");
+  return engine_->world->sleeping_count();
+}
+
+std::size_t Simulation::body_count() const {
+  engine_->wait_idle("body_count");
+  return engine_->world->body_count();
+}
+
+std::vector<WorldMetrics> Simulation::metrics() const {
+  engine_->wait_idle("metrics");
+  return engine_->world->metrics();
+}
+
+}  // namespace soda
