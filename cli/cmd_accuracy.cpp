@@ -21,22 +21,6 @@
 namespace soda::cli {
 namespace {
 
-// "1/60" or a number, in seconds.
-double parse_dt(const std::string& text) {
-  try {
-    std::size_t used = 0;
-    if (text.rfind("1/", 0) == 0) {
-      const double d = std::stod(text.substr(2), &used);
-      if (used == text.size() - 2 && d > 0) return 1.0 / d;
-    } else {
-      const double v = std::stod(text, &used);
-      if (used == text.size() && v > 0) return v;
-    }
-  } catch (const std::exception&) {
-  }
-  throw std::invalid_argument("not a step size: '" + text + "' (use 1/60 or 0.0166)");
-}
-
 WorldKind parse_world(const std::string& w) {
   if (w == "canonical") return WorldKind::Canonical;
   if (w == "stock") return WorldKind::Stock;
@@ -65,15 +49,15 @@ int run_accuracy(AccuracyOptions& o) {
     if (o.duration_option->count() == 0) s.duration = 2.0;
   }
   s.dts.clear();
-  for (const std::string& d : o.dts) s.dts.push_back(parse_dt(d));
+  for (const std::string& d : o.dts) s.dts.push_back(parse_step_size(d));
   s.combos.clear();
   for (const std::string& c : o.combos) {
     const auto x = c.find('x');
     if (x == std::string::npos) throw std::invalid_argument("--combos: expected DTxITERATIONS, got '" + c + "'");
-    s.combos.emplace_back(parse_dt(c.substr(0, x)), std::stoi(c.substr(x + 1)));
+    s.combos.emplace_back(parse_step_size(c.substr(0, x)), std::stoi(c.substr(x + 1)));
   }
-  s.default_dt = parse_dt(o.default_dt);
-  s.reference_dt = parse_dt(o.reference_dt);
+  s.default_dt = parse_step_size(o.default_dt);
+  s.reference_dt = parse_step_size(o.reference_dt);
   if (o.no_ccd) s.ccd_axis = false;
   if (o.no_floor) s.floor_row = false;
   if (o.no_territories) s.territories.clear();
@@ -124,7 +108,7 @@ struct TraceOptions {
 };
 
 int run_trace(TraceOptions& o) {
-  o.request.dt = parse_dt(o.dt);
+  o.request.dt = parse_step_size(o.dt);
   o.request.world = parse_world(o.world);
   const Trace t = record_request(o.request);
   write_trace(t, o.out);
@@ -233,6 +217,21 @@ std::vector<Command> add_accuracy_commands(CLI::App& bench) {
   ana->add_option("--csv", an->csv, "Also write the checks as CSV");
   out.push_back({ana, [an] { return run_analytic(*an); }});
   return out;
+}
+
+double parse_step_size(const std::string& text) {
+  try {
+    std::size_t used = 0;
+    if (text.rfind("1/", 0) == 0) {
+      const double d = std::stod(text.substr(2), &used);
+      if (used == text.size() - 2 && d > 0) return 1.0 / d;
+    } else {
+      const double v = std::stod(text, &used);
+      if (used == text.size() && v > 0) return v;
+    }
+  } catch (const std::exception&) {
+  }
+  throw std::invalid_argument("not a step size: '" + text + "' (use 1/60 or 0.0166)");
 }
 
 }  // namespace soda::cli

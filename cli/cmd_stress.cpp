@@ -33,22 +33,6 @@ struct StressOptions {
   int iterations = 0;  // 0 : each scene's own
 };
 
-// "1/60" or a number, in seconds.
-double parse_step(const std::string& text) {
-  try {
-    std::size_t used = 0;
-    if (text.rfind("1/", 0) == 0) {
-      const double d = std::stod(text.substr(2), &used);
-      if (used == text.size() - 2 && d > 0) return 1.0 / d;
-    } else {
-      const double v = std::stod(text, &used);
-      if (used == text.size() && v > 0) return v;
-    }
-  } catch (const std::exception&) {
-  }
-  throw std::invalid_argument("--dt: not a step size: '" + text + "' (use 1/60 or 0.0166)");
-}
-
 void write_text(const std::string& path, const std::string& text) {
   std::ofstream out(path, std::ios::trunc);
   if (!out) throw std::runtime_error(path + ": cannot open for writing");
@@ -66,7 +50,12 @@ int run_stress(StressOptions& o) {
     if (chosen.empty()) throw std::invalid_argument("--cases: no case or group of that name (see docs/stress.md)");
     suite = chosen;
   }
-  const double dt = o.dt.empty() ? 0.0 : parse_step(o.dt);
+  double dt = 0.0;
+  if (!o.dt.empty()) try {
+      dt = parse_step_size(o.dt);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("--dt: ") + e.what());
+    }
   for (StressCase& c : suite) c = with_settings(c, dt, o.iterations);
   std::vector<StressResult> results;
   std::vector<std::string> other;  // cases to run in the other precision too

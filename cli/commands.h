@@ -3,6 +3,7 @@
 #pragma once
 
 #include <functional>
+#include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -19,6 +20,10 @@ struct Command {
 /// `analytic` (the analytic scenes against their closed forms).
 /// cmd_accuracy.cpp; docs/accuracy.md.
 std::vector<Command> add_accuracy_commands(CLI::App& bench);
+
+/// A step size from "1/60" or a number of seconds (> 0). Throws
+/// std::invalid_argument naming the text. cmd_accuracy.cpp.
+double parse_step_size(const std::string& text);
 
 /// `stress`: the numerical-stability suite. cmd_stress.cpp; docs/stress.md.
 Command add_stress_command(CLI::App& app);

@@ -63,6 +63,19 @@ TEST(StockWorld, IsNotOrderIndependent) {
 // Group A alone, and A with group B far away (ids interleaved with A's, so
 // B's bodies sit between A's in every id-ordered loop): A's bodies end in the
 // same states.
+TEST(CanonicalWorld, InsertionOrderMustBeAPermutation) {
+  const Scene s = test::scene("cube-pile", 20);
+  std::vector<std::size_t> order = test::identity_order(s.bodies.size());
+  order[3] = order[4];  // body 4 twice, body 3 never
+  EXPECT_THROW(CanonicalWorld(s, order), std::invalid_argument);
+  order = test::identity_order(s.bodies.size());
+  order.back() = s.bodies.size();  // out of range
+  EXPECT_THROW(CanonicalWorld(s, order), std::invalid_argument);
+  order.pop_back();  // too short
+  EXPECT_THROW(CanonicalWorld(s, order), std::invalid_argument);
+  EXPECT_NO_THROW(CanonicalWorld(s, test::reversed_order(s.bodies.size())));
+}
+
 TEST(CanonicalWorld, FarAwayGroupChangesNothing) {
   Scene a = test::scene("cube-pile", 200, 3);
   Scene b = test::scene("falling-cubes", 200, 5);

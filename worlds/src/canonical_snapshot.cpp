@@ -23,15 +23,8 @@ namespace soda {
 CanonicalWorld::CanonicalWorld(const WorldSnapshot& snapshot, const std::vector<std::size_t>& insertion_order) {
   build(snapshot.settings);
   steps_done_ = snapshot.steps_done;
-  std::vector<std::size_t> order = insertion_order;
-  if (order.empty()) {
-    order.resize(snapshot.bodies.size());
-    std::iota(order.begin(), order.end(), std::size_t{0});
-  }
-  if (order.size() != snapshot.bodies.size())
-    throw std::invalid_argument("CanonicalWorld: insertion order must list every body once");
-  for (std::size_t i : order) {
-    const BodySnapshot& b = snapshot.bodies.at(i);
+  for (std::size_t i : resolve_insertion_order(insertion_order, snapshot.bodies.size())) {
+    const BodySnapshot& b = snapshot.bodies[i];
     insert_body(b.description, &b.state);
   }
   std::sort(entries_.begin(), entries_.end(),

@@ -12,16 +12,29 @@
 
 namespace soda {
 
+std::vector<std::size_t> resolve_insertion_order(const std::vector<std::size_t>& order, std::size_t count) {
+  if (order.empty()) {
+    std::vector<std::size_t> identity(count);
+    std::iota(identity.begin(), identity.end(), std::size_t{0});
+    return identity;
+  }
+  std::vector<bool> seen(count, false);
+  bool ok = order.size() == count;
+  for (std::size_t i : order) {
+    if (!ok) break;
+    ok = i < count && !seen[i];
+    if (ok) seen[i] = true;
+  }
+  if (!ok)
+    throw std::invalid_argument("CanonicalWorld: the insertion order must list every one of the " +
+                                std::to_string(count) + " bodies exactly once");
+  return order;
+}
+
 CanonicalWorld::CanonicalWorld(const Scene& scene, const std::vector<std::size_t>& insertion_order) {
   build(scene.settings);
-  std::vector<std::size_t> order = insertion_order;
-  if (order.empty()) {
-    order.resize(scene.bodies.size());
-    std::iota(order.begin(), order.end(), std::size_t{0});
-  }
-  if (order.size() != scene.bodies.size())
-    throw std::invalid_argument("CanonicalWorld: insertion order must list every body once");
-  for (std::size_t i : order) insert_body(scene.bodies.at(i), nullptr);
+  for (std::size_t i : resolve_insertion_order(insertion_order, scene.bodies.size()))
+    insert_body(scene.bodies[i], nullptr);
   std::sort(entries_.begin(), entries_.end(),
             [](const auto& a, const auto& b) { return a->description.id < b->description.id; });
   for (std::size_t i = 1; i < entries_.size(); ++i)

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <memory>
+#include <vector>
 
 #include <btBulletDynamicsCommon.h>
 
@@ -20,6 +21,11 @@ struct CanonicalWorldParts {
   btSequentialImpulseConstraintSolver solver;
   CanonicalDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
 };
+
+/// The insertion order of `count` bodies: `order` itself (it must list every
+/// index below count exactly once), or 0 .. count-1 when empty. Throws
+/// std::invalid_argument otherwise. canonical_world.cpp.
+std::vector<std::size_t> resolve_insertion_order(const std::vector<std::size_t>& order, std::size_t count);
 
 struct CanonicalWorld::Entry {
   Body description;
