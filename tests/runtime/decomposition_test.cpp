@@ -58,7 +58,9 @@ std::vector<Case> cases() {
     for (int k : {2, 3, 4, 8, 16})
       for (const char* partition : {"kmeans", "rcb"}) out.push_back({scene, partition, k});
     out.push_back({scene, "grid:2x1x1", 2});
+    out.push_back({scene, "grid:3x1x1", 3});
     out.push_back({scene, "grid:2x1x2", 4});
+    out.push_back({scene, "grid:2x1x4", 8});
     out.push_back({scene, "grid:4x1x4", 16});
   }
   return out;
