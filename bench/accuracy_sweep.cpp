@@ -1,5 +1,6 @@
 // `soda bench accuracy`: the one-factor-at-a-time sweep (accuracy_sweep.h).
 #include "soda/bench/accuracy_sweep.h"
+#include "soda/bench/csv.h"
 
 #include <cmath>
 #include <cstdio>
@@ -47,15 +48,6 @@ std::string file_label(double dt) {
   return l.rfind("1/", 0) == 0 ? l.substr(2) : num17(dt);
 }
 
-std::string csv_field(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"') out += '"';
-    out += c;
-  }
-  return out + "\"";
-}
 
 struct Config {
   double dt;

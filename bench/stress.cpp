@@ -1,5 +1,6 @@
 // The stress suite (stress.h). Pass criteria: docs/stress.md.
 #include "soda/bench/stress.h"
+#include "soda/bench/csv.h"
 
 #include <algorithm>
 #include <cmath>
@@ -355,17 +356,6 @@ StressResult run_stress_case(const StressCase& c) {
   return r;
 }
 
-namespace {
-std::string csv_field(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char ch : s) {
-    if (ch == '"') out += '"';
-    out += ch;
-  }
-  return out + "\"";
-}
-}  // namespace
 
 std::string stress_csv_header() {
   return "case,group,scene,n,world,ccd,precision,dt,iterations,steps,steps_run,wall_seconds,result,metric,threshold,sleeping,"

@@ -16,6 +16,7 @@
 #include "soda/bench/accuracy_analytic.h"
 #include "soda/bench/accuracy_process.h"
 #include "soda/bench/accuracy_sweep.h"
+#include "soda/bench/csv.h"
 #include "soda/worlds/body_state.h"
 
 namespace soda::cli {
@@ -122,15 +123,6 @@ struct AnalyticOptions {
   std::string csv;
 };
 
-std::string csv_field(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"') out += '"';
-    out += c;
-  }
-  return out + "\"";
-}
 
 int run_analytic(const AnalyticOptions& o) {
   const auto checks = run_analytic_checks(parse_world(o.world));

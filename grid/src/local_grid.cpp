@@ -1,6 +1,8 @@
 // LocalGrid (local_grid.h).
 #include "soda/grid/local_grid.h"
 
+#include "foreign_cells.h"
+
 #include <algorithm>
 
 namespace soda {
@@ -62,18 +64,7 @@ std::vector<ForeignCell> LocalGrid::margin_cells() const {
 }
 
 std::vector<ForeignCell> LocalGrid::foreign_cells(const Vec3& min, const Vec3& max) const {
-  const CellBox range = grid_.cells_overlapping(min, max);
-  if (range.count() > kMaxQueryCells)
-    throw GridError("foreign_cells: the AABB covers " + std::to_string(range.count()) +
-                    " cells, more than the limit of " + std::to_string(kMaxQueryCells));
-  std::vector<ForeignCell> out;
-  for (int x = range.lo.x; x <= range.hi.x; ++x)
-    for (int y = range.lo.y; y <= range.hi.y; ++y)
-      for (int z = range.lo.z; z <= range.hi.z; ++z) {
-        const WorldId w = owner({x, y, z});
-        if (w != world_) out.push_back({{x, y, z}, w});
-      }
-  return out;
+  return detail::foreign_cells_in(grid_, world_, min, max, [this](const CellCoord& c) { return owner(c); });
 }
 
 }  // namespace soda

@@ -1,6 +1,8 @@
 // TerritoryMap (territory_map.h).
 #include "soda/grid/territory_map.h"
 
+#include "foreign_cells.h"
+
 #include <algorithm>
 
 namespace soda {
@@ -88,18 +90,7 @@ const std::vector<WorldId>& TerritoryMap::neighbours(WorldId world) const {
 std::vector<ForeignCell> TerritoryMap::foreign_cells(WorldId world, const Vec3& min,
                                                      const Vec3& max) const {
   check_world(world);
-  const CellBox range = grid_.cells_overlapping(min, max);
-  if (range.count() > kMaxQueryCells)
-    throw GridError("foreign_cells: the AABB covers " + std::to_string(range.count()) +
-                    " cells, more than the limit of " + std::to_string(kMaxQueryCells));
-  std::vector<ForeignCell> out;
-  for (int x = range.lo.x; x <= range.hi.x; ++x)
-    for (int y = range.lo.y; y <= range.hi.y; ++y)
-      for (int z = range.lo.z; z <= range.hi.z; ++z) {
-        const WorldId w = owner({x, y, z});
-        if (w != world) out.push_back({{x, y, z}, w});
-      }
-  return out;
+  return detail::foreign_cells_in(grid_, world, min, max, [this](const CellCoord& c) { return owner(c); });
 }
 
 TerritoryMap TerritoryMap::reassigned(
