@@ -10,6 +10,8 @@
 #include <mutex>
 #include <thread>
 
+#include "soda/worlds/world_snapshot.h"
+
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/transport.h"
 #include "thread_pinning.h"
@@ -29,18 +31,68 @@ const char* schedule_name(Schedule schedule) {
 
 PartitionedWorld::PartitionedWorld(const Scene& scene, TerritoryMap map, PartitionedOptions options)
     : options_(std::move(options)), substeps_(scene.settings.substeps) {
+  build(scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(scene, w, map); });
+}
+
+PartitionedWorld::PartitionedWorld(const WorldSnapshot& state, TerritoryMap map, PartitionedOptions options)
+    : options_(std::move(options)), substeps_(state.settings.substeps), steps_done_(state.steps_done) {
+  if (state.steps_done < 0) throw std::invalid_argument("PartitionedWorld: a snapshot with a negative step count");
+  build(scene_of(state), map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
+}
+
+void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
+                             const std::function<std::unique_ptr<TerritoryWorld>(WorldId)>& make_world) {
   if (options_.schedule == Schedule::Pool && options_.threads < 1)
     throw std::invalid_argument("PartitionedWorld: the pool schedule needs threads >= 1");
   if (substeps_ < 1) throw std::invalid_argument("PartitionedWorld: substeps must be >= 1");
   const int k = map.world_count();
   graph_ = std::make_unique<WorldGraph>(map);
   transport_ = options_.serialise ? make_serialising_transport(k) : make_in_memory_transport(k);
-  if (options_.validate) validator_ = std::make_unique<Validator>(scene, k);
-  for (WorldId w = 0; w < k; ++w) worlds_.push_back(std::make_unique<TerritoryWorld>(scene, w, map));
+  validator_ = options_.validate ? std::make_unique<Validator>(scene, k) : nullptr;
+  worlds_.clear();
+  processes_.clear();
+  for (WorldId w = 0; w < k; ++w) worlds_.push_back(make_world(w));
   for (WorldId w = 0; w < k; ++w)
     processes_.push_back(std::make_unique<Process>(*worlds_[static_cast<std::size_t>(w)], *transport_, *graph_,
                                                    validator_.get(), w == 0 ? options_.progress : nullptr,
                                                    substeps_, options_.solve_everywhere));
+}
+
+WorldSnapshot PartitionedWorld::snapshot() const {
+  WorldSnapshot s;
+  s.settings = worlds_.front()->part_snapshot().settings;
+  s.steps_done = steps_done_;
+  s.bodies = worlds_.front()->static_snapshots();
+  std::vector<ManifoldState> manifolds;
+  for (const auto& w : worlds_) {
+    WorldSnapshot part = w->part_snapshot();
+    s.bodies.insert(s.bodies.end(), std::make_move_iterator(part.bodies.begin()),
+                    std::make_move_iterator(part.bodies.end()));
+    manifolds.insert(manifolds.end(), std::make_move_iterator(part.manifolds.begin()),
+                     std::make_move_iterator(part.manifolds.end()));
+  }
+  std::sort(s.bodies.begin(), s.bodies.end(), [](const BodySnapshot& a, const BodySnapshot& b) {
+    return a.description.id < b.description.id;
+  });
+  for (std::size_t i = 1; i < s.bodies.size(); ++i)
+    if (s.bodies[i].description.id == s.bodies[i - 1].description.id)
+      throw std::logic_error("PartitionedWorld::snapshot: body " + std::to_string(s.bodies[i].description.id) +
+                             " is owned by two worlds");
+  // A pair's contact state may be held by one world and kept by its key
+  // body's owner: the copies must be identical.
+  std::stable_sort(manifolds.begin(), manifolds.end(), [](const ManifoldState& a, const ManifoldState& b) {
+    return std::make_pair(a.id0, a.id1) < std::make_pair(b.id0, b.id1);
+  });
+  for (ManifoldState& m : manifolds) {
+    if (!s.manifolds.empty() && s.manifolds.back().id0 == m.id0 && s.manifolds.back().id1 == m.id1) {
+      if (contact_hash({s.manifolds.back()}) != contact_hash({m}))
+        throw std::logic_error("PartitionedWorld::snapshot: two worlds hold different contact states for pair " +
+                               std::to_string(m.id0) + "-" + std::to_string(m.id1));
+      continue;
+    }
+    s.manifolds.push_back(std::move(m));
+  }
+  return s;
 }
 
 PartitionedWorld::~PartitionedWorld() = default;

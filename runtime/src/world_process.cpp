@@ -21,7 +21,8 @@ PartitionedWorld::Process::Process(TerritoryWorld& world, Transport& transport, 
       progress_(std::move(progress)),
       substeps_(substeps),
       solve_everywhere_(solve_everywhere),
-      neighbours_(graph.neighbours(world.id())) {
+      neighbours_(graph.neighbours(world.id())),
+      step_(world.steps_done()) {
   sums_.world = world.id();
   sums_.neighbours = neighbours_.size();
 }

@@ -82,6 +82,14 @@ WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes) {
   return s;
 }
 
+Scene scene_of(const WorldSnapshot& snapshot) {
+  Scene scene;
+  scene.settings = snapshot.settings;
+  scene.bodies.reserve(snapshot.bodies.size());
+  for (const BodySnapshot& b : snapshot.bodies) scene.bodies.push_back(b.description);
+  return scene;
+}
+
 std::uint64_t contact_hash(std::vector<ManifoldState> manifolds) {
   std::sort(manifolds.begin(), manifolds.end(), [](const ManifoldState& a, const ManifoldState& b) {
     return a.id0 != b.id0 ? a.id0 < b.id0 : a.id1 < b.id1;

@@ -26,12 +26,7 @@ btScalar max_exact_breaking_threshold() { return btScalar(std::sqrt(2.0)) * gCon
 
 TerritoryWorld::TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map)
     : id_(id), map_(std::move(map)), settings_(scene.settings) {
-  if (id < 0 || id >= map_.world_count())
-    throw PartitionError("TerritoryWorld: world id " + std::to_string(id) + " outside the map's " +
-                         std::to_string(map_.world_count()) + " worlds");
-  parts_ = std::make_unique<Parts>(this);
-  parts_->world.setGravity(to_bt(settings_.gravity));
-  parts_->world.getSolverInfo().m_numIterations = settings_.iterations;
+  init_world();
   for (const Body& b : scene.bodies) {
     if (b.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
     if (b.is_static) {
@@ -41,16 +36,32 @@ TerritoryWorld::TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map)
     // Home cell from the position as Bullet holds it (rounded to btScalar).
     const btVector3 origin = to_bt(b.position);
     if (map_.owner_of(to_vec3(origin)) != id_) continue;
-    Entry& e = insert_dynamic(b, nullptr, true, id_);
-    const btScalar t = e.shape->getContactBreakingThreshold(gContactBreakingThreshold);
-    if (t > max_exact_breaking_threshold())
-      throw PartitionError("body " + std::to_string(b.id) + " is outside the partitioned exactness contract: "
-                           "its contact breaking threshold " + std::to_string(double(t)) +
-                           " m exceeds sqrt(2) * gContactBreakingThreshold (bounding radius too large; "
-                           "docs/partitioned-step.md)");
+    check_contract(insert_dynamic(b, nullptr, true, id_));
   }
-  // Interior cells: owned here, and so are their 26 neighbours. A body whose
-  // halo stays within the 1-ring of an interior home cell is no border body.
+  init_interior();
+}
+
+void TerritoryWorld::init_world() {
+  if (id_ < 0 || id_ >= map_.world_count())
+    throw PartitionError("TerritoryWorld: world id " + std::to_string(id_) + " outside the map's " +
+                         std::to_string(map_.world_count()) + " worlds");
+  parts_ = std::make_unique<Parts>(this);
+  parts_->world.setGravity(to_bt(settings_.gravity));
+  parts_->world.getSolverInfo().m_numIterations = settings_.iterations;
+}
+
+void TerritoryWorld::check_contract(const Entry& e) const {
+  const btScalar t = e.shape->getContactBreakingThreshold(gContactBreakingThreshold);
+  if (t > max_exact_breaking_threshold())
+    throw PartitionError("body " + std::to_string(e.id()) + " is outside the partitioned exactness contract: "
+                         "its contact breaking threshold " + std::to_string(double(t)) +
+                         " m exceeds sqrt(2) * gContactBreakingThreshold (bounding radius too large; "
+                         "docs/partitioned-step.md)");
+}
+
+// Interior cells: owned here, and so are their 26 neighbours. A body whose
+// halo stays within the 1-ring of an interior home cell is no border body.
+void TerritoryWorld::init_interior() {
   const CellBox& box = map_.box();
   interior_.assign(static_cast<std::size_t>((box.count() + 63) / 64), 0);
   for (const CellCoord& c : map_.cells_of(id_)) {

@@ -110,6 +110,11 @@ class PartitionedWorld {
   /// One TerritoryWorld per world of `map`. Throws PartitionError (see
   /// territory_world.h) or std::invalid_argument for bad options.
   PartitionedWorld(const Scene& scene, TerritoryMap map, PartitionedOptions options = {});
+  /// From the whole scene's state at a step boundary (snapshot() of a
+  /// PartitionedWorld with any map, or CanonicalWorld::snapshot()): steps
+  /// exactly as the run the snapshot was taken from; steps_done() starts at
+  /// state.steps_done.
+  PartitionedWorld(const WorldSnapshot& state, TerritoryMap map, PartitionedOptions options = {});
   ~PartitionedWorld();
   PartitionedWorld(const PartitionedWorld&) = delete;
   PartitionedWorld& operator=(const PartitionedWorld&) = delete;
@@ -120,6 +125,12 @@ class PartitionedWorld {
   void step(int n = 1);
   /// Scene steps done.
   std::int64_t steps_done() const { return steps_done_; }
+  /// The whole scene's state now, between step() calls (every world at the
+  /// same boundary): every body, statics included, by id, and the contact
+  /// state of every pair, by (id0, id1) — the format of
+  /// CanonicalWorld::snapshot(). Throws std::logic_error if two worlds own
+  /// one body or hold different copies of one pair's contact state.
+  WorldSnapshot snapshot() const;
 
   /// Raw states of every body, statics included, sorted by id.
   std::vector<BodyState> body_states() const;
@@ -138,6 +149,8 @@ class PartitionedWorld {
 
  private:
   class Process;
+  void build(const Scene& scene, const TerritoryMap& map,
+             const std::function<std::unique_ptr<TerritoryWorld>(WorldId)>& make_world);
   void run_sequential(std::int64_t target);
   void run_thread_per_world(std::int64_t target);
   void run_pool(std::int64_t target);

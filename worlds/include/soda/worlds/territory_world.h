@@ -91,6 +91,17 @@ class TerritoryWorld {
   /// contact breaking threshold lets points outlive overlapping AABBs; see
   /// docs/partitioned-step.md).
   TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map);
+  /// Builds world `id` of `map` from the whole scene's state at a step
+  /// boundary (PartitionedWorld::snapshot, CanonicalWorld::snapshot): every
+  /// static body, the dynamic bodies whose home cell (origin as held) the
+  /// map gives to `id`, each with its raw state, and the contact state of
+  /// every pair whose key body it owns (kept, seeded into whichever world
+  /// holds the pair at the next step). Worlds rebuilt this way from one
+  /// snapshot step exactly as the worlds the snapshot was taken from, for
+  /// any map (tests/worlds/territory_snapshot_test.cpp). steps_done() is
+  /// snapshot.steps_done * settings.substeps. Throws as the scene
+  /// constructor does.
+  TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map);
   ~TerritoryWorld();
   TerritoryWorld(const TerritoryWorld&) = delete;
   TerritoryWorld& operator=(const TerritoryWorld&) = delete;
@@ -165,6 +176,14 @@ class TerritoryWorld {
   std::vector<ManifoldState> kept_contact_state() const;
   /// Sleeping owned bodies.
   std::size_t sleeping_count() const;
+  /// This world's part of the scene's state at a step boundary (after
+  /// absorb_migrants): its owned bodies (description + raw state, by id) and
+  /// kept_contact_state(); settings as built, steps_done in scene steps.
+  /// Statics are not included (static_snapshots()). The parts of every
+  /// world, merged (PartitionedWorld::snapshot), are the whole scene's state.
+  WorldSnapshot part_snapshot() const;
+  /// Every static body (description + raw state), by id.
+  std::vector<BodySnapshot> static_snapshots() const;
 
   // Internal types, defined in worlds/src/territory_world_parts.h.
   struct Entry;
@@ -176,6 +195,9 @@ class TerritoryWorld {
  private:
   using PairKey = std::pair<BodyId, BodyId>;
 
+  void init_world();
+  void init_interior();
+  void check_contract(const Entry& e) const;
   void insert_static(const Body& body);
   Entry& insert_dynamic(const Body& description, const BodyDynamicState* state, bool owned, WorldId owner);
   void remove_entry(BodyId id);

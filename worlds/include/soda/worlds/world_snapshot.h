@@ -100,6 +100,11 @@ std::vector<std::uint8_t> serialize(const WorldSnapshot& snapshot);
 /// SnapshotFormatError with the reason and byte offset.
 WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes);
 
+/// The snapshot's settings and body descriptions as a Scene (ids, shapes,
+/// masses, materials; poses and velocities as the bodies were created, not
+/// as they are now: the raw states are in snapshot.bodies[i].state).
+Scene scene_of(const WorldSnapshot& snapshot);
+
 /// Canonical 64-bit hash (FNV-1a) of a contact state: manifolds in (id0, id1)
 /// order, every field of every point. Input order does not matter.
 std::uint64_t contact_hash(std::vector<ManifoldState> manifolds);

@@ -1,0 +1,67 @@
+// TerritoryWorld: its part of the scene's state at a step boundary, and a
+// world rebuilt from the whole scene's state.
+//
+// Why a rebuilt world steps exactly as the original: the state a step reads
+// is the bodies' raw states and the contact state (world_snapshot.h); ghosts
+// are rewritten from their owners' records at every step (invariant 2), and
+// every manifold with points goes to the kept store of its key body's owner,
+// which is where migration puts it too (territory_migrate.cpp): the next
+// step attaches it to the key body's ghosts and seeds it into whichever
+// world holds the pair before narrowphase (territory_collide.cpp), with the
+// values a live manifold would have held.
+#include <algorithm>
+#include <string>
+
+#include "soda/worlds/bullet_bodies.h"
+#include "territory_world_parts.h"
+
+namespace soda {
+
+TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map)
+    : id_(id), map_(std::move(map)), settings_(snapshot.settings) {
+  init_world();
+  steps_done_ = snapshot.steps_done * settings_.substeps;
+  for (const BodySnapshot& b : snapshot.bodies) {
+    const Body& d = b.description;
+    if (d.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
+    if (d.is_static) {
+      insert_static(d);
+      continue;
+    }
+    const btVector3 origin(b.state.origin[0], b.state.origin[1], b.state.origin[2]);
+    if (map_.owner_of(Vec3(double(origin.x()), double(origin.y()), double(origin.z()))) != id_) continue;
+    check_contract(insert_dynamic(d, &b.state, true, id_));
+  }
+  for (const ManifoldState& m : snapshot.manifolds) {
+    if (!entries_.count(m.id0) && !entries_.count(m.id1)) continue;  // neither body here
+    if (!owns(key_of(m.id0, m.id1))) continue;
+    if (!kept_.emplace(PairKey{m.id0, m.id1}, m).second)
+      throw PartitionError("TerritoryWorld: two contact states for pair " + std::to_string(m.id0) + "-" +
+                           std::to_string(m.id1) + " in a snapshot");
+  }
+  init_interior();
+}
+
+WorldSnapshot TerritoryWorld::part_snapshot() const {
+  WorldSnapshot s;
+  s.settings = settings_;
+  s.steps_done = steps_done_ / settings_.substeps;
+  s.bodies.reserve(owned_.size());
+  for (const Entry* e : owned_) s.bodies.push_back(BodySnapshot{e->description, read_dynamic_state(*e->body)});
+  std::sort(s.bodies.begin(), s.bodies.end(), [](const BodySnapshot& a, const BodySnapshot& b) {
+    return a.description.id < b.description.id;
+  });
+  s.manifolds = kept_contact_state();
+  return s;
+}
+
+std::vector<BodySnapshot> TerritoryWorld::static_snapshots() const {
+  std::vector<BodySnapshot> out;
+  for (const Entry* e : statics_) out.push_back(BodySnapshot{e->description, read_dynamic_state(*e->body)});
+  std::sort(out.begin(), out.end(), [](const BodySnapshot& a, const BodySnapshot& b) {
+    return a.description.id < b.description.id;
+  });
+  return out;
+}
+
+}  // namespace soda
