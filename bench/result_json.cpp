@@ -41,6 +41,8 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"steps_per_second", r.wall_seconds > 0 ? r.steps / r.wall_seconds : 0.0},
       {"real_time_factor", r.wall_seconds > 0 ? simulated / r.wall_seconds : 0.0},
       {"step_ms", step_time_json(r.step_time)},
+      {"watchdog", watchdog_response_name(d.config.watchdog.response)},
+      {"healed_steps", r.healed_steps},
   };
   if (r.territories > 1) {
     j["schedule"] = r.schedule;

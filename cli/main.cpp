@@ -35,6 +35,7 @@ struct Options {
   std::optional<int> iterations;
   soda::RunConfig config;
   std::string world = "canonical";
+  std::string watchdog = "stop";
   std::string json_path;
   int repeat = 3;
 };
@@ -69,6 +70,14 @@ void add_run_options(CLI::App& cmd, Options& o) {
                  "Insert bodies in an order shuffled by this seed (0: scene order)")
       ->capture_default_str();
   cmd.add_option("--world", o.world, "canonical | stock")->capture_default_str();
+  cmd.add_option("--watchdog", o.watchdog,
+                 "After every step check for NaN/Inf, absurd speeds and deep penetrations: off | stop (exit with "
+                 "the step and bodies) | heal (roll back and re-simulate the bad step with substeps); "
+                 "docs/watchdog.md")
+      ->capture_default_str();
+  cmd.add_option("--heal-substeps", o.config.watchdog.heal_substeps,
+                 "--watchdog heal: substeps of a re-simulated step")
+      ->capture_default_str();
   cmd.add_option("--json", o.json_path, "Write results as JSON to this path ('-': stdout)");
 }
 
@@ -82,6 +91,8 @@ soda::Scene resolve_scene(Options& o) {
   if (o.world == "canonical") o.config.world = soda::WorldKind::Canonical;
   else if (o.world == "stock") o.config.world = soda::WorldKind::Stock;
   else throw std::invalid_argument("--world must be 'canonical' or 'stock', got '" + o.world + "'");
+  o.config.watchdog.response = soda::parse_watchdog_response(o.watchdog);
+  if (o.config.watchdog.heal_substeps < 1) throw std::invalid_argument("--heal-substeps must be >= 1");
   return scene;
 }
 
@@ -96,6 +107,9 @@ void print_summary(const soda::RunResult& r) {
                 r.territories, r.partition.c_str(), r.schedule.c_str(), r.threads,
                 static_cast<unsigned long long>(r.messages), r.cpu_seconds,
                 soda::slowest_world_cpu_seconds(r.world_metrics));
+  for (std::int64_t step : r.healed_steps)
+    std::printf("  watchdog: step %lld was bad; rolled back and re-simulated with substeps\n",
+                static_cast<long long>(step));
 }
 
 int cmd_run(Options& o) {

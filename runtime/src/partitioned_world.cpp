@@ -10,6 +10,9 @@
 #include <mutex>
 #include <thread>
 
+#include <spdlog/spdlog.h>
+
+#include "commit_horizon.h"
 #include "soda/worlds/world_snapshot.h"
 
 #include "soda/loadbalance/thread_clock.h"
@@ -30,12 +33,15 @@ const char* schedule_name(Schedule schedule) {
 }
 
 PartitionedWorld::PartitionedWorld(const Scene& scene, TerritoryMap map, PartitionedOptions options)
-    : options_(std::move(options)), substeps_(scene.settings.substeps) {
+    : options_(std::move(options)), substeps_(scene.settings.substeps), base_substeps_(substeps_) {
   build(scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(scene, w, map); });
 }
 
 PartitionedWorld::PartitionedWorld(const WorldSnapshot& state, TerritoryMap map, PartitionedOptions options)
-    : options_(std::move(options)), substeps_(state.settings.substeps), steps_done_(state.steps_done) {
+    : options_(std::move(options)),
+      substeps_(state.settings.substeps),
+      base_substeps_(substeps_),
+      steps_done_(state.steps_done) {
   if (state.steps_done < 0) throw std::invalid_argument("PartitionedWorld: a snapshot with a negative step count");
   build(scene_of(state), map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
 }
@@ -49,13 +55,19 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   graph_ = std::make_unique<WorldGraph>(map);
   transport_ = options_.serialise ? make_serialising_transport(k) : make_in_memory_transport(k);
   validator_ = options_.validate ? std::make_unique<Validator>(scene, k) : nullptr;
-  worlds_.clear();
+  if (options_.watchdog.heal_substeps < 1 || options_.watchdog.max_heals < 0)
+    throw std::invalid_argument("PartitionedWorld: watchdog heal_substeps must be >= 1 and max_heals >= 0");
+  if (!fault_fired_) fault_fired_ = std::make_shared<std::atomic<bool>>(false);
   processes_.clear();
+  worlds_.clear();
   for (WorldId w = 0; w < k; ++w) worlds_.push_back(make_world(w));
+  const bool heal = options_.watchdog.response == WatchdogResponse::Heal;
+  horizon_ = std::make_unique<SharedMemoryHorizon>(k, steps_done_);
+  Process::Safety safety{&options_.watchdog, options_.inject_fault, fault_fired_.get(), horizon_.get(), heal};
   for (WorldId w = 0; w < k; ++w)
     processes_.push_back(std::make_unique<Process>(*worlds_[static_cast<std::size_t>(w)], *transport_, *graph_,
                                                    validator_.get(), w == 0 ? options_.progress : nullptr,
-                                                   substeps_, options_.solve_everywhere));
+                                                   substeps_, options_.solve_everywhere, safety));
 }
 
 WorldSnapshot PartitionedWorld::snapshot() const {
@@ -63,14 +75,20 @@ WorldSnapshot PartitionedWorld::snapshot() const {
   s.settings = worlds_.front()->part_snapshot().settings;
   s.steps_done = steps_done_;
   s.bodies = worlds_.front()->static_snapshots();
-  std::vector<ManifoldState> manifolds;
   for (const auto& w : worlds_) {
     WorldSnapshot part = w->part_snapshot();
     s.bodies.insert(s.bodies.end(), std::make_move_iterator(part.bodies.begin()),
                     std::make_move_iterator(part.bodies.end()));
-    manifolds.insert(manifolds.end(), std::make_move_iterator(part.manifolds.begin()),
-                     std::make_move_iterator(part.manifolds.end()));
+    s.manifolds.insert(s.manifolds.end(), std::make_move_iterator(part.manifolds.begin()),
+                       std::make_move_iterator(part.manifolds.end()));
   }
+  return merge_parts(std::move(s));
+}
+
+// The worlds' parts concatenated -> one snapshot: bodies by id (one owner
+// each); a pair's contact state may be held by one world and kept by its key
+// body's owner, and the copies must be identical.
+WorldSnapshot PartitionedWorld::merge_parts(WorldSnapshot s) {
   std::sort(s.bodies.begin(), s.bodies.end(), [](const BodySnapshot& a, const BodySnapshot& b) {
     return a.description.id < b.description.id;
   });
@@ -78,8 +96,8 @@ WorldSnapshot PartitionedWorld::snapshot() const {
     if (s.bodies[i].description.id == s.bodies[i - 1].description.id)
       throw std::logic_error("PartitionedWorld::snapshot: body " + std::to_string(s.bodies[i].description.id) +
                              " is owned by two worlds");
-  // A pair's contact state may be held by one world and kept by its key
-  // body's owner: the copies must be identical.
+  std::vector<ManifoldState> manifolds = std::move(s.manifolds);
+  s.manifolds.clear();
   std::stable_sort(manifolds.begin(), manifolds.end(), [](const ManifoldState& a, const ManifoldState& b) {
     return std::make_pair(a.id0, a.id1) < std::make_pair(b.id0, b.id1);
   });
@@ -97,16 +115,91 @@ WorldSnapshot PartitionedWorld::snapshot() const {
 
 PartitionedWorld::~PartitionedWorld() = default;
 
+// With the watchdog's Heal response a bad step does not end the run: the
+// worlds are rebuilt from their states at a step every one of them still
+// keeps (at or after GVT, at or before the bad step's start), run up to the
+// bad step, which is then re-simulated as heal_substeps substeps, and go on.
+// Every world's verdict is a function of the whole scene's state, so the
+// heals, like the steps, are the same for every partition.
 void PartitionedWorld::step(int n) {
   if (n < 0) throw std::invalid_argument("PartitionedWorld::step: n must be >= 0");
-  const std::int64_t target = (steps_done_ + n) * substeps_;
+  const std::int64_t goal = steps_done_ + n;
+  while (steps_done_ < goal) {
+    try {
+      if (heal_at_ > 0 && steps_done_ == heal_at_ - 1) {
+        resimulate_with_substeps();
+        continue;
+      }
+      run_to(heal_at_ > 0 ? heal_at_ - 1 : goal);
+    } catch (const WatchdogError& e) {
+      if (options_.watchdog.response != WatchdogResponse::Heal) throw;
+      if (heal_attempts_ >= options_.watchdog.max_heals)
+        throw WatchdogError(e.step(), e.world(), e.findings(), options_.watchdog.limits,
+                            "self-heal gave up after " + std::to_string(heal_attempts_) + " heals");
+      ++heal_attempts_;
+      restore_before(e);
+    }
+  }
+}
+
+void PartitionedWorld::run_to(std::int64_t scene_step) {
+  const std::int64_t target = scene_step * substeps_;
   for (auto& p : processes_) p->set_target(target);
   switch (options_.schedule) {
     case Schedule::Sequential: run_sequential(target); break;
     case Schedule::ThreadPerWorld: run_thread_per_world(target); break;
     case Schedule::Pool: run_pool(target); break;
   }
-  steps_done_ += n;
+  steps_done_ = scene_step;
+}
+
+// The worlds stopped wherever they were; the newest step whose state every
+// world still keeps, before the bad step, is where they start again.
+void PartitionedWorld::restore_before(const WatchdogError& error) {
+  std::int64_t r = error.step() - 1;
+  for (;; --r) {
+    bool everywhere = r >= 0;
+    for (const auto& p : processes_) everywhere = everywhere && p->kept_state(r);
+    if (everywhere) break;
+    if (r < 0)
+      throw WatchdogError(error.step(), error.world(), error.findings(), options_.watchdog.limits,
+                          "self-heal found no step every world keeps");
+  }
+  WorldSnapshot whole;
+  whole.settings = processes_.front()->kept_state(r)->settings;
+  whole.settings.substeps = base_substeps_;  // the bad step may have been a re-simulation
+  whole.steps_done = r;
+  whole.bodies = worlds_.front()->static_snapshots();
+  for (const auto& p : processes_) {
+    const WorldSnapshot& part = *p->kept_state(r);
+    whole.bodies.insert(whole.bodies.end(), part.bodies.begin(), part.bodies.end());
+    whole.manifolds.insert(whole.manifolds.end(), part.manifolds.begin(), part.manifolds.end());
+  }
+  restore(merge_parts(std::move(whole)));
+  heal_at_ = error.step();
+  spdlog::warn("watchdog: {}; rolling back to step {} to re-simulate step {} with {} substeps", error.what(), r,
+               heal_at_, options_.watchdog.heal_substeps);
+}
+
+// At the boundary before the bad step: that one step as heal_substeps
+// substeps of every world, then the usual step size again.
+void PartitionedWorld::resimulate_with_substeps() {
+  WorldSnapshot at = snapshot();
+  at.settings.substeps = base_substeps_ * options_.watchdog.heal_substeps;
+  restore(std::move(at));
+  run_to(steps_done_ + 1);
+  WorldSnapshot after = snapshot();
+  after.settings.substeps = base_substeps_;
+  restore(std::move(after));
+  healed_steps_.push_back(heal_at_);
+  heal_at_ = 0;
+}
+
+void PartitionedWorld::restore(WorldSnapshot state) {
+  const TerritoryMap map = worlds_.front()->map();  // a copy: build() replaces the worlds
+  substeps_ = state.settings.substeps;
+  steps_done_ = state.steps_done;
+  build(scene_of(state), map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
 }
 
 // Round-robin in world order: deterministic, single-threaded.

@@ -4,6 +4,7 @@
 #include <numeric>
 #include <random>
 #include <stdexcept>
+#include <type_traits>
 
 #include <spdlog/spdlog.h>
 
@@ -33,6 +34,12 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
     const std::int64_t a = wall_ns();
     world.step();
     const std::int64_t b = wall_ns();
+    if constexpr (std::is_same_v<W, CanonicalWorld>) {
+      if (config.watchdog.response != WatchdogResponse::Off) {
+        std::vector<WatchdogFinding> findings = world.watchdog_findings(config.watchdog.limits);
+        if (!findings.empty()) throw WatchdogError(s + 1, kNoWorld, std::move(findings), config.watchdog.limits);
+      }
+    }
     step_ns.push_back(b - a);
     if (config.progress_seconds > 0 && b >= next_progress) {
       const double elapsed = static_cast<double>(b - t0) * 1e-9;
@@ -55,7 +62,9 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
 // steps); progress and step times come from world 0's thread.
 RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
   if (config.world != WorldKind::Canonical)
-    throw std::invalid_argument("--territories > 1 runs the canonical world only (not --world stock)");
+    throw std::invalid_argument(config.territories > 1
+                                    ? "--territories > 1 runs the canonical world only (not --world stock)"
+                                    : "--watchdog heal runs the canonical world only (not --world stock)");
   RunResult r;
   r.world = config.world;
   r.bodies = scene.bodies.size();
@@ -81,6 +90,7 @@ RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
   options.serialise = config.serialise;
   options.validate = config.validate;
   options.pin = config.pin;
+  options.watchdog = config.watchdog;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
   step_ends.reserve(static_cast<std::size_t>(config.steps));
   std::int64_t t0 = 0;
@@ -112,6 +122,7 @@ RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
   r.message_bytes = world.bytes_sent();
   r.state_hash = world.state_hash();
   r.sleeping_bodies = world.sleeping_count();
+  r.healed_steps = world.healed_steps();
   return r;
 }
 
@@ -157,7 +168,8 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   if (config.steps < 0) throw std::invalid_argument("--steps must be >= 0");
   if (config.territories < 1) throw std::invalid_argument("--territories must be >= 1");
   if (config.threads < 0) throw std::invalid_argument("--threads must be >= 0");
-  if (config.territories > 1) return run_partitioned(scene, config);
+  if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal)
+    return run_partitioned(scene, config);
   const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), config.shuffle_seed);
   switch (config.world) {
     case WorldKind::Stock: {

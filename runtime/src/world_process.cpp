@@ -1,6 +1,7 @@
 #include "world_process.h"
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -13,7 +14,7 @@ namespace soda {
 
 PartitionedWorld::Process::Process(TerritoryWorld& world, Transport& transport, const WorldGraph& graph,
                                    Validator* validator, std::function<void(std::int64_t)> progress, int substeps,
-                                   bool solve_everywhere)
+                                   bool solve_everywhere, Safety safety)
     : world_(world),
       transport_(transport),
       graph_(graph),
@@ -22,9 +23,28 @@ PartitionedWorld::Process::Process(TerritoryWorld& world, Transport& transport, 
       substeps_(substeps),
       solve_everywhere_(solve_everywhere),
       neighbours_(graph.neighbours(world.id())),
+      safety_(safety),
       step_(world.steps_done()) {
   sums_.world = world.id();
   sums_.neighbours = neighbours_.size();
+  if (safety_.keep_states) kept_states_.emplace(step_ / substeps_, world_.part_snapshot());
+}
+
+const WorldSnapshot* PartitionedWorld::Process::kept_state(std::int64_t scene_step) const {
+  auto it = kept_states_.find(scene_step);
+  return it == kept_states_.end() ? nullptr : &it->second;
+}
+
+// After integrate, before anything of the step leaves the world: a bad state
+// never reaches a neighbour.
+void PartitionedWorld::Process::check_watchdog() {
+  const std::int64_t scene_step = step_ / substeps_ + 1;
+  if (safety_.fault.step == scene_step && safety_.fault_fired && !safety_.fault_fired->load() &&
+      world_.set_velocity(safety_.fault.body, Vec3::Constant(std::nan("")), Vec3::Zero()))
+    safety_.fault_fired->store(true);
+  if (!safety_.watchdog || safety_.watchdog->response == WatchdogResponse::Off) return;
+  std::vector<WatchdogFinding> findings = world_.watchdog_findings(safety_.watchdog->limits);
+  if (!findings.empty()) throw WatchdogError(scene_step, world_.id(), std::move(findings), safety_.watchdog->limits);
 }
 
 void PartitionedWorld::Process::deliver(Message m) {
@@ -153,6 +173,7 @@ bool PartitionedWorld::Process::run_phase() {
       sums_.fragments_relayed += merger_.fragments_relayed();
       world_.finish_islands();
       world_.integrate();
+      check_watchdog();
       for (auto& [n, batch] : world_.migrate()) send(n, Message{.payload = std::move(batch)});
       phase_ = Phase::AwaitMigrants;
       return true;
@@ -350,6 +371,11 @@ void PartitionedWorld::Process::end_step() {
                                        world_.static_count(), world_.bullet_object_count(),
                                        world_.held_contact_pairs()});
   if (step_ % substeps_ != 0) return;
+  if (safety_.keep_states) {
+    kept_states_.emplace(step_ / substeps_, world_.part_snapshot());
+    safety_.horizon->report(world_.id(), step_ / substeps_);
+    kept_states_.erase(kept_states_.begin(), kept_states_.lower_bound(safety_.horizon->gvt()));
+  }
   if (progress_) progress_(step_ / substeps_);
   if (output_.after_step) output_.after_step(world_.id(), step_ / substeps_);
   if (output_.buffer) phase_ = Phase::Publish;

@@ -26,6 +26,7 @@
 // Simulation (attach()) it asks the RunControl before beginning each step.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -34,6 +35,7 @@
 #include <tuple>
 #include <vector>
 
+#include "commit_horizon.h"
 #include "island_merge.h"
 #include "soda/rollback/transform_buffer.h"
 #include "soda/runtime/partitioned_world.h"
@@ -46,8 +48,21 @@ class RunControl;
 
 class PartitionedWorld::Process {
  public:
+  /// The watchdog, the injected fault and the rollback ring (options of the
+  /// PartitionedWorld; pointers outlive the process).
+  struct Safety {
+    const WatchdogConfig* watchdog = nullptr;
+    PartitionedOptions::InjectedFault fault = {};
+    std::atomic<bool>* fault_fired = nullptr;
+    CommitHorizon* horizon = nullptr;  // reported at every scene step boundary
+    bool keep_states = false;          // keep the world's state at every boundary >= GVT
+  };
   Process(TerritoryWorld& world, Transport& transport, const WorldGraph& graph, Validator* validator,
-          std::function<void(std::int64_t)> progress, int substeps, bool solve_everywhere);
+          std::function<void(std::int64_t)> progress, int substeps, bool solve_everywhere, Safety safety);
+
+  /// Safety.keep_states: this world's part of the scene's state at scene step
+  /// boundary `scene_step`, if still kept (kept from GVT to the world's clock).
+  const WorldSnapshot* kept_state(std::int64_t scene_step) const;
 
   /// Run until `internal_steps` steps are done.
   void set_target(std::int64_t internal_steps) { target_ = internal_steps; }
@@ -106,6 +121,7 @@ class PartitionedWorld::Process {
   void gathered(BodyId island);
   void take_result(IslandResult result);
   void end_step();
+  void check_watchdog();
   bool may_start();
   bool try_publish();
   void published(bool kept);
@@ -118,6 +134,8 @@ class PartitionedWorld::Process {
   int substeps_;
   bool solve_everywhere_;
   std::vector<WorldId> neighbours_;
+  Safety safety_;
+  std::map<std::int64_t, WorldSnapshot> kept_states_;  // by scene step
 
   Phase phase_ = Phase::Predict;
   std::int64_t step_ = 0;    // internal step in progress (= steps done)

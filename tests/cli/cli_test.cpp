@@ -168,3 +168,42 @@ TEST_F(CliTest, ExportedSceneRunsToTheSameHash) {
 }
 
 }  // namespace
+
+namespace {
+
+class CliWatchdog : public CliTest {
+ protected:
+  // A body thrown at 20 km/s: valid input, absurd physics.
+  std::string absurd_scene() {
+    return write("absurd.json", R"({"format": "soda-scene", "version": 1, "bodies": [
+      {"id": 0, "type": "static", "shape": {"type": "box", "half_extents": [10, 0.5, 10]}, "position": [0, -0.5, 0]},
+      {"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0.5, 0.5]},
+       "position": [0, 2, 0], "linear_velocity": [20000, 0, 0]}]})");
+  }
+};
+
+TEST_F(CliWatchdog, StopNamesTheStepAndTheBody) {
+  const std::string scene = absurd_scene();
+  for (const char* territories : {"1", "2"}) {
+    const Outcome o = run_cli("run --scene " + scene + " --steps 3 --territories " + territories);
+    EXPECT_EQ(o.exit_code, 1) << o.output;
+    EXPECT_NE(o.output.find("watchdog: step 1"), std::string::npos) << o.output;
+    EXPECT_NE(o.output.find("body 7: speed"), std::string::npos) << o.output;
+  }
+  const Outcome off = run_cli("run --scene " + scene + " --steps 3 --watchdog off");
+  EXPECT_EQ(off.exit_code, 0) << off.output;
+}
+
+TEST_F(CliWatchdog, HealThatCannotHelpGivesUpClearly) {
+  const Outcome o = run_cli("run --scene " + absurd_scene() + " --steps 3 --watchdog heal");
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_NE(o.output.find("self-heal gave up"), std::string::npos) << o.output;
+}
+
+TEST_F(CliWatchdog, BadResponseIsBadInput) {
+  const Outcome o = run_cli("run --scene cube-pile --n 20 --steps 1 --watchdog fix");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("off, stop or heal"), std::string::npos) << o.output;
+}
+
+}  // namespace

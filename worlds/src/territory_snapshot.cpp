@@ -14,6 +14,7 @@
 
 #include "soda/worlds/bullet_bodies.h"
 #include "territory_world_parts.h"
+#include "watchdog_scan.h"
 
 namespace soda {
 
@@ -62,6 +63,26 @@ std::vector<BodySnapshot> TerritoryWorld::static_snapshots() const {
     return a.description.id < b.description.id;
   });
   return out;
+}
+
+std::vector<WatchdogFinding> TerritoryWorld::watchdog_findings(const WatchdogLimits& limits) const {
+  std::vector<WatchdogFinding> out;
+  for (const Entry* e : owned_) watchdog_scan_body(*e->body, e->id(), limits, out);
+  btDispatcher& d = parts_->dispatcher;
+  for (int i = 0; i < d.getNumManifolds(); ++i) watchdog_scan_manifold(*d.getManifoldByIndexInternal(i), limits, out);
+  watchdog_sort(out);
+  return out;
+}
+
+bool TerritoryWorld::set_velocity(BodyId id, const Vec3& linear, const Vec3& angular) {
+  auto it = entries_.find(id);
+  if (it == entries_.end() || it->second->role != Role::Owned) return false;
+  btRigidBody& rb = *it->second->body;
+  rb.setLinearVelocity(btVector3(btScalar(linear.x()), btScalar(linear.y()), btScalar(linear.z())));
+  rb.setAngularVelocity(btVector3(btScalar(angular.x()), btScalar(angular.y()), btScalar(angular.z())));
+  rb.forceActivationState(ACTIVE_TAG);
+  rb.setDeactivationTime(btScalar(0));
+  return true;
 }
 
 }  // namespace soda

@@ -16,6 +16,7 @@
 // world has finished; the readers may be called between steps.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -28,6 +29,7 @@
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
 #include "soda/worlds/territory_world.h"
+#include "soda/worlds/watchdog.h"
 
 namespace soda {
 
@@ -56,6 +58,18 @@ struct PartitionedOptions {
   bool pin = false;
   /// Called by world 0's thread after each of its scene steps (its step count).
   std::function<void(std::int64_t)> progress = {};
+  /// After every step each world checks its bodies and contacts
+  /// (watchdog.h). Heal: each world keeps its state at every step boundary
+  /// back to the commit horizon (the cost of a snapshot per step), and a bad
+  /// step is rolled back and re-simulated with substeps (docs/watchdog.md).
+  WatchdogConfig watchdog = {};
+  /// Tests: a blow-up injected once per PartitionedWorld — at the end of
+  /// scene step `step` (before the watchdog's check) body `body`'s linear
+  /// velocity becomes NaN. step < 1: none.
+  struct InjectedFault {
+    std::int64_t step = 0;
+    BodyId body = 0;
+  } inject_fault = {};
 };
 
 /// Thrown when the validation mode finds a broken invariant; the message names
@@ -146,23 +160,38 @@ class PartitionedWorld {
   /// Messages and bytes through the transport so far.
   std::uint64_t messages_sent() const;
   std::uint64_t bytes_sent() const;
+  /// Successful self-heals so far (watchdog response Heal), and the scene
+  /// steps they re-simulated with substeps, in order.
+  int heals() const { return static_cast<int>(healed_steps_.size()); }
+  const std::vector<std::int64_t>& healed_steps() const { return healed_steps_; }
 
  private:
   class Process;
   void build(const Scene& scene, const TerritoryMap& map,
              const std::function<std::unique_ptr<TerritoryWorld>(WorldId)>& make_world);
+  static WorldSnapshot merge_parts(WorldSnapshot concatenated);
+  void restore(WorldSnapshot state);
+  void run_to(std::int64_t scene_step);
+  void restore_before(const WatchdogError& error);
+  void resimulate_with_substeps();
   void run_sequential(std::int64_t target);
   void run_thread_per_world(std::int64_t target);
   void run_pool(std::int64_t target);
 
   PartitionedOptions options_;
-  int substeps_ = 1;
+  int substeps_ = 1;       // of the worlds now (a heal re-simulates a step with more)
+  int base_substeps_ = 1;  // the scene's
   std::int64_t steps_done_ = 0;
   std::unique_ptr<WorldGraph> graph_;
   std::unique_ptr<class Transport> transport_;
   std::unique_ptr<class Validator> validator_;
   std::vector<std::unique_ptr<TerritoryWorld>> worlds_;
   std::vector<std::unique_ptr<Process>> processes_;
+  std::unique_ptr<class CommitHorizon> horizon_;
+  std::shared_ptr<std::atomic<bool>> fault_fired_;
+  int heal_attempts_ = 0;
+  std::int64_t heal_at_ = 0;  // > 0: this scene step is re-simulated with substeps next
+  std::vector<std::int64_t> healed_steps_;
 };
 
 }  // namespace soda

@@ -38,6 +38,10 @@ struct RunConfig {
   bool pin = false;                  // K > 1: pin world threads (pool workers) to cores
   std::uint64_t shuffle_seed = 0;    // 0: insert bodies in scene order
   double progress_seconds = 1.0;     // progress line period (<= 0: none)
+  /// Checked after every step (watchdog.h; not the stock world, the
+  /// baseline). Heal runs every territory count, 1 included, through the
+  /// partitioned runtime, which keeps a state per step to roll back to.
+  WatchdogConfig watchdog = {};
 };
 
 /// Summary statistics of per-step times, in milliseconds.
@@ -64,6 +68,7 @@ struct RunResult {
   std::uint64_t messages = 0;       // messages between worlds
   std::uint64_t message_bytes = 0;  // their bytes (0 unless serialised)
   std::vector<WorldMetrics> world_metrics;  // one per world, by id
+  std::vector<std::int64_t> healed_steps;   // watchdog Heal: steps re-simulated with substeps
 };
 
 /// Insertion order of the scene's bodies for a shuffle seed (0: scene order).
@@ -72,7 +77,7 @@ std::vector<std::size_t> insertion_order(std::size_t body_count, std::uint64_t s
 
 /// Runs `scene` for config.steps steps. Throws std::invalid_argument with a
 /// clear message for an unsupported configuration (territories < 1,
-/// territories > 1 with the stock world, steps < 0), GridError for a bad
+/// territories > 1 or watchdog heal with the stock world, steps < 0), GridError for a bad
 /// partition, PartitionError when the scene leaves what the partitioned step
 /// supports. Blocks the calling thread; logs a progress line through spdlog
 /// every config.progress_seconds.

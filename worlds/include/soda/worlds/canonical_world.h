@@ -25,6 +25,7 @@
 
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
+#include "soda/worlds/watchdog.h"
 #include "soda/worlds/world_snapshot.h"
 
 class btDiscreteDynamicsWorld;
@@ -80,6 +81,9 @@ class CanonicalWorld {
   WorldSnapshot snapshot() const;
   /// Every manifold that holds points, sorted by (id0, id1).
   std::vector<ManifoldState> contact_state() const;
+  /// The watchdog's check (watchdog.h) of every dynamic body and every
+  /// manifold after the last step; empty when all is well.
+  std::vector<WatchdogFinding> watchdog_findings(const WatchdogLimits& limits) const;
   /// One body as a value (for migration and ghosts). Throws std::out_of_range.
   BodySnapshot export_body(BodyId id) const;
 

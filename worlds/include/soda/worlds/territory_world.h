@@ -49,6 +49,7 @@
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
 #include "soda/worlds/border_records.h"
+#include "soda/worlds/watchdog.h"
 
 class btPersistentManifold;
 class btCollisionObject;
@@ -184,6 +185,17 @@ class TerritoryWorld {
   WorldSnapshot part_snapshot() const;
   /// Every static body (description + raw state), by id.
   std::vector<BodySnapshot> static_snapshots() const;
+
+  // --- watchdog and input --------------------------------------------------
+
+  /// The watchdog's check (watchdog.h) of the owned bodies' state and the
+  /// contacts held here; empty when all is well. Valid after integrate() (the
+  /// runtime calls it before migrate()).
+  std::vector<WatchdogFinding> watchdog_findings(const WatchdogLimits& limits) const;
+  /// Sets an owned body's velocities and wakes it (activation state active,
+  /// sleep timer 0), as user input or a test's injected fault does at a step
+  /// boundary or after integrate(). False if the body is not owned here.
+  bool set_velocity(BodyId id, const Vec3& linear, const Vec3& angular);
 
   // Internal types, defined in worlds/src/territory_world_parts.h.
   struct Entry;

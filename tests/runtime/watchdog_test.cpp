@@ -1,0 +1,162 @@
+// The watchdog: a blow-up injected into one body (its velocity becomes NaN at
+// the end of a step) is caught by the world that owns it before anything of
+// that step leaves the world. Stop: the run ends with a WatchdogError naming
+// the step, the world and the body. Heal: the worlds roll back to a step they
+// all keep, re-simulate the bad step with substeps and go on — and the result
+// is the same for every partition, and equals one CanonicalWorld that takes
+// the same substeps at that step.
+#include "runtime/partitioned_test_util.h"
+
+#include "soda/worlds/watchdog.h"
+#include "soda/worlds/world_snapshot.h"
+
+namespace soda {
+namespace {
+
+constexpr int kBodies = 250;
+constexpr int kSteps = 200;
+constexpr std::int64_t kBadStep = 120;
+
+// A body that is in contact at kBadStep (the pile has settled by then).
+BodyId victim(const Scene& s) {
+  CanonicalWorld w(s);
+  for (int i = 0; i < kBadStep; ++i) w.step();
+  const std::vector<ManifoldState> contacts = w.contact_state();
+  for (const ManifoldState& m : contacts)
+    for (const Body& b : s.bodies)
+      if (b.id == m.id1 && !b.is_static) return m.id1;
+  return s.bodies.back().id;
+}
+
+PartitionedOptions options(WatchdogResponse response, BodyId body, Schedule schedule = Schedule::Sequential) {
+  PartitionedOptions o;
+  o.schedule = schedule;
+  o.threads = schedule == Schedule::Pool ? 2 : 0;
+  o.validate = true;
+  o.watchdog.response = response;
+  o.inject_fault = {kBadStep, body};
+  return o;
+}
+
+// The one-world run of what the heal should do: kBadStep - 1 steps, the bad
+// step as heal_substeps substeps, the rest as usual.
+std::uint64_t healed_reference(const Scene& s, int substeps) {
+  CanonicalWorld w(s);
+  for (std::int64_t i = 0; i < kBadStep - 1; ++i) w.step();
+  WorldSnapshot at = w.snapshot();
+  at.settings.substeps *= substeps;
+  auto fine = std::make_unique<CanonicalWorld>(at);
+  fine->step();
+  WorldSnapshot after = fine->snapshot();
+  after.settings.substeps = s.settings.substeps;
+  CanonicalWorld rest(after);
+  for (std::int64_t i = kBadStep; i < kSteps; ++i) rest.step();
+  return rest.state_hash();
+}
+
+TEST(Watchdog, StopNamesStepWorldAndBody) {
+  const Scene s = test::scene("cube-pile", kBodies);
+  const BodyId body = victim(s);
+  const TerritoryMap map = make_partition("kmeans", s, 4, GridOptions{});
+  PartitionedWorld world(s, map, options(WatchdogResponse::Stop, body));
+  try {
+    world.step(kSteps);
+    FAIL() << "the injected blow-up went unnoticed";
+  } catch (const WatchdogError& e) {
+    std::printf("stop: %s\n", e.what());
+    EXPECT_EQ(e.step(), kBadStep);
+    ASSERT_FALSE(e.findings().empty());
+    EXPECT_EQ(e.findings().front().body, body);
+    EXPECT_EQ(e.findings().front().kind, WatchdogFinding::Kind::NonFinite);
+    const std::string what = e.what();
+    EXPECT_NE(what.find("step " + std::to_string(kBadStep)), std::string::npos);
+    EXPECT_NE(what.find("body " + std::to_string(body)), std::string::npos);
+    EXPECT_NE(what.find("world " + std::to_string(e.world())), std::string::npos);
+  }
+}
+
+TEST(Watchdog, OffLetsTheBlowUpThroughUntilSomethingElseBreaks) {
+  // Without the watchdog the NaN body reaches the next step's halo check
+  // (a PartitionError) — the watchdog is what turns it into a clear verdict
+  // at the step it happened.
+  const Scene s = test::scene("cube-pile", kBodies);
+  const TerritoryMap map = make_partition("kmeans", s, 2, GridOptions{});
+  PartitionedWorld world(s, map, options(WatchdogResponse::Off, victim(s)));
+  EXPECT_THROW(world.step(kSteps), std::exception);
+}
+
+struct HealCase {
+  const char* partition;
+  int territories;
+  Schedule schedule;
+};
+
+class WatchdogHeal : public ::testing::TestWithParam<HealCase> {};
+
+TEST_P(WatchdogHeal, RollsBackResimulatesAndMatchesOneWorld) {
+  const HealCase c = GetParam();
+  const Scene s = test::scene("cube-pile", kBodies);
+  const BodyId body = victim(s);
+  const TerritoryMap map = make_partition(c.partition, s, c.territories, GridOptions{});
+  PartitionedWorld world(s, map, options(WatchdogResponse::Heal, body, c.schedule));
+  world.step(kSteps);
+  EXPECT_EQ(world.steps_done(), kSteps);
+  ASSERT_EQ(world.heals(), 1);
+  EXPECT_EQ(world.healed_steps().front(), kBadStep);
+  const std::uint64_t expected = healed_reference(s, PartitionedOptions{}.watchdog.heal_substeps);
+  EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(expected));
+  // Not the run without a heal: the bad step really was re-simulated.
+  EXPECT_NE(world.state_hash(), test::reference_hash(s, kSteps));
+  std::printf("[ heal %s K=%d %s ] body %u at step %lld: %s\n", c.partition, c.territories,
+              schedule_name(c.schedule), body, static_cast<long long>(kBadStep), hash_hex(expected).c_str());
+}
+
+INSTANTIATE_TEST_SUITE_P(Runtime, WatchdogHeal,
+                         ::testing::Values(HealCase{"kmeans", 1, Schedule::Sequential},
+                                           HealCase{"kmeans", 4, Schedule::Sequential},
+                                           HealCase{"rcb", 8, Schedule::ThreadPerWorld},
+                                           HealCase{"kmeans", 3, Schedule::Pool}),
+                         [](const ::testing::TestParamInfo<HealCase>& info) {
+                           return std::string(info.param.partition) + "_" +
+                                  std::to_string(info.param.territories) + "_" +
+                                  (info.param.schedule == Schedule::Sequential
+                                       ? "sequential"
+                                       : info.param.schedule == Schedule::Pool ? "pool" : "threads");
+                         });
+
+TEST(Watchdog, HealGivesUpWithAClearErrorWhenTheStepStaysBad) {
+  // Limits no state can meet: every re-simulation fails again.
+  const Scene s = test::scene("cube-pile", kBodies);
+  const TerritoryMap map = make_partition("kmeans", s, 2, GridOptions{});
+  PartitionedOptions o = options(WatchdogResponse::Heal, victim(s));
+  o.inject_fault = {};
+  o.watchdog.limits.max_penetration = -1.0;  // any contact point at all is "too deep"
+  o.watchdog.max_heals = 2;
+  PartitionedWorld world(s, map, o);
+  try {
+    world.step(kSteps);
+    FAIL() << "expected the heal to give up";
+  } catch (const WatchdogError& e) {
+    EXPECT_NE(std::string(e.what()).find("gave up after 2 heals"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Watchdog, CanonicalWorldFindsWhatTheTerritoriesFind) {
+  const Scene s = test::scene("cube-pile", kBodies);
+  CanonicalWorld w(s);
+  for (int i = 0; i < 50; ++i) w.step();
+  EXPECT_TRUE(w.watchdog_findings(WatchdogLimits{}).empty());
+  WatchdogLimits strict;
+  strict.max_speed = 0.0;  // everything that moves is "too fast"
+  EXPECT_FALSE(w.watchdog_findings(strict).empty());
+}
+
+TEST(Watchdog, ParsesResponses) {
+  EXPECT_EQ(parse_watchdog_response("heal"), WatchdogResponse::Heal);
+  EXPECT_EQ(parse_watchdog_response("stop"), WatchdogResponse::Stop);
+  EXPECT_EQ(parse_watchdog_response("off"), WatchdogResponse::Off);
+  EXPECT_THROW(parse_watchdog_response("fix"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace soda
