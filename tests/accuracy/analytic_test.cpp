@@ -1,6 +1,11 @@
 // The analytic scenes against their closed forms, within the tolerances
-// documented in docs/accuracy.md, in this build's precision.
+// documented in docs/accuracy.md, in this build's precision: on one world,
+// and on the partitioned runtime with territory borders across the motion,
+// where every step must also be bit-identical to the one-territory run.
 #include <gtest/gtest.h>
+
+#include <cstdio>
+#include <set>
 
 #include "soda/bench/accuracy_analytic.h"
 #include "soda/worlds/body_state.h"
@@ -34,6 +39,97 @@ TEST(Analytic, TolerancesAreFixedAndExplained) {
   for (const AnalyticCheck& c : run_analytic_checks(WorldKind::Canonical)) {
     EXPECT_FALSE(c.reason.empty()) << c.quantity;
     EXPECT_GE(c.tolerance, 0.0) << c.quantity;
+  }
+}
+
+// The canonical one-world runs, then the partitioned ones; run once.
+const std::vector<AnalyticRun>& canonical_runs() {
+  static const std::vector<AnalyticRun> runs = run_analytic(WorldKind::Canonical, true);
+  return runs;
+}
+
+std::vector<const AnalyticRun*> partitioned_runs() {
+  std::vector<const AnalyticRun*> out;
+  for (const AnalyticRun& r : canonical_runs())
+    if (r.territories > 1) out.push_back(&r);
+  return out;
+}
+
+TEST(AnalyticPartitioned, EverySceneHasAPartitionedRun) {
+  std::set<std::string> scenes;
+  for (const AnalyticRun* r : partitioned_runs()) {
+    EXPECT_GT(r->territories, 1) << r->scene;
+    EXPECT_EQ(r->world, WorldKind::Canonical) << r->scene;
+    scenes.insert(r->scene);
+  }
+  EXPECT_EQ(scenes, (std::set<std::string>{"free-fall", "incline", "resting-stack", "rolling-sphere"}));
+}
+
+TEST(AnalyticPartitioned, BitIdenticalToOneTerritoryAtEveryStep) {
+  for (const AnalyticRun* r : partitioned_runs()) {
+    std::printf("[ %s %s %s K=%d ] %d steps: 1 territory %s, partitioned %s\n", r->scene.c_str(), kPrecisionName,
+                r->partition.c_str(), r->territories, r->steps, hash_hex(r->one_territory_hash).c_str(),
+                hash_hex(r->state_hash).c_str());
+    EXPECT_EQ(hash_hex(r->state_hash), hash_hex(r->one_territory_hash)) << r->scene << " " << r->partition;
+    EXPECT_EQ(r->divergent_steps, 0) << r->scene << " " << r->partition << ": first divergent step "
+                                     << r->first_divergent_step;
+  }
+}
+
+TEST(AnalyticPartitioned, EveryCheckPassesWithinTheSameTolerances) {
+  for (const AnalyticRun* r : partitioned_runs()) {
+    bool decomposition = false;
+    for (const AnalyticCheck& c : r->checks) {
+      EXPECT_EQ(c.territories, r->territories);
+      EXPECT_EQ(c.partition, r->partition);
+      EXPECT_TRUE(c.pass) << kPrecisionName << " " << c.scene << " on " << c.partition << ": " << c.quantity
+                          << " = " << c.measured << " " << c.unit << ", tolerance " << c.tolerance << " ("
+                          << c.reason << ")";
+      if (c.quantity.find("decomposition error") != std::string::npos) {
+        decomposition = true;
+        EXPECT_EQ(c.measured, 0.0) << c.scene;
+      }
+    }
+    EXPECT_TRUE(decomposition) << r->scene << ": no decomposition-error check";
+  }
+}
+
+TEST(AnalyticPartitioned, SameErrorsAsOneTerritory) {
+  // Identical states at every step: every closed-form error is the one-world
+  // run's, to the bit, and the tolerances are the same.
+  for (const AnalyticRun* r : partitioned_runs()) {
+    const AnalyticRun* one = nullptr;
+    for (const AnalyticRun& o : canonical_runs())
+      if (o.territories == 1 && o.scene == r->scene) one = &o;
+    ASSERT_NE(one, nullptr) << r->scene;
+    ASSERT_EQ(r->checks.size(), one->checks.size() + 1) << r->scene;  // + the decomposition error
+    for (std::size_t i = 0; i < one->checks.size(); ++i) {
+      EXPECT_EQ(r->checks[i].quantity, one->checks[i].quantity);
+      EXPECT_EQ(r->checks[i].measured, one->checks[i].measured) << r->scene << ": " << r->checks[i].quantity;
+      EXPECT_EQ(r->checks[i].tolerance, one->checks[i].tolerance) << r->scene << ": " << r->checks[i].quantity;
+    }
+  }
+}
+
+TEST(AnalyticPartitioned, BordersLieAcrossTheMotion) {
+  // A partition whose borders the motion never meets would prove nothing.
+  for (const AnalyticRun* r : partitioned_runs()) {
+    std::printf("[ %s %s %s ] %s; border bodies %llu, seeded %llu, migrations in %llu\n", r->scene.c_str(),
+                kPrecisionName, r->partition.c_str(), r->mechanism.c_str(),
+                static_cast<unsigned long long>(r->total.border_bodies),
+                static_cast<unsigned long long>(r->total.manifolds_seeded),
+                static_cast<unsigned long long>(r->total.migrations_in));
+    EXPECT_TRUE(r->mechanism_fired) << r->scene << " on " << r->partition << ": " << r->mechanism;
+    EXPECT_GT(r->total.ghosts_sent, 0u) << r->scene;
+    EXPECT_EQ(r->total.migrations_in, r->total.migrations_out) << r->scene;
+    if (r->scene == "resting-stack") {
+      EXPECT_GE(r->owners_at_start, 2) << "bodies on both sides of the border";
+      EXPECT_GT(r->total.islands_solved, 0u) << "the stack must be one island across territories";
+      EXPECT_GE(r->total.merged_island_worlds_max, 2u);
+    } else {
+      EXPECT_GE(r->total.migrations_out, r->scene == "incline" ? 2u : 3u) << r->scene;
+      EXPECT_GE(r->owners_visited, r->scene == "incline" ? 3 : 4) << r->scene;
+    }
   }
 }
 
