@@ -61,7 +61,7 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   processes_.clear();
   worlds_.clear();
   for (WorldId w = 0; w < k; ++w) worlds_.push_back(make_world(w));
-  const bool heal = options_.watchdog.response == WatchdogResponse::Heal;
+  const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
   horizon_ = std::make_unique<SharedMemoryHorizon>(k, steps_done_);
   Process::Safety safety{&options_.watchdog, options_.inject_fault, fault_fired_.get(), horizon_.get(), heal};
   for (WorldId w = 0; w < k; ++w)

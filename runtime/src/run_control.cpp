@@ -1,6 +1,7 @@
 #include "run_control.h"
 
 #include <algorithm>
+#include <utility>
 
 namespace soda {
 
@@ -8,12 +9,13 @@ RunControl::RunControl(int worlds, int substeps)
     : substeps_(substeps),
       started_(static_cast<std::size_t>(worlds), 0),
       parked_at_(static_cast<std::size_t>(worlds), -1),
-      published_(static_cast<std::size_t>(worlds), 0) {}
+      published_(static_cast<std::size_t>(worlds), 0),
+      rewind_to_(static_cast<std::size_t>(worlds)) {}
 
 bool RunControl::may_start(WorldId world, std::int64_t steps_done) {
   std::lock_guard lock(mutex_);
   const auto w = static_cast<std::size_t>(world);
-  if (shut_down_ || steps_done >= limit_) {
+  if (shut_down_ || steps_done >= limit_ || (hold_ >= 0 && steps_done >= hold_)) {
     if (parked_at_[w] != steps_done) {
       parked_at_[w] = steps_done;
       watch_cv_.notify_all();
@@ -27,8 +29,70 @@ bool RunControl::may_start(WorldId world, std::int64_t steps_done) {
 
 bool RunControl::wait_limit_above(std::int64_t steps_done) const {
   std::unique_lock lock(mutex_);
-  world_cv_.wait(lock, [&] { return shut_down_ || frozen_ || limit_ > steps_done; });
-  return !shut_down_ && limit_ > steps_done;
+  const std::uint64_t rewinds = rewinds_;
+  auto may_go = [&] { return limit_ > steps_done && !(hold_ >= 0 && steps_done >= hold_); };
+  world_cv_.wait(lock, [&] { return shut_down_ || frozen_ || rewinds_ != rewinds || may_go(); });
+  return !shut_down_ && (rewinds_ != rewinds || may_go());
+}
+
+bool RunControl::run_if_future(std::int64_t internal_step, const std::function<void()>& add) {
+  std::lock_guard lock(mutex_);
+  if (*std::max_element(started_.begin(), started_.end()) > internal_step) return false;
+  add();
+  return true;
+}
+
+std::int64_t RunControl::hold() {
+  std::int64_t h;
+  {
+    std::lock_guard lock(mutex_);
+    const std::int64_t begun = *std::max_element(started_.begin(), started_.end());
+    hold_ = (begun + substeps_ - 1) / substeps_ * substeps_;
+    h = hold_;
+    bump_wake_locked();
+  }
+  call_hook();
+  return h;
+}
+
+void RunControl::wait_all_held() const {
+  std::unique_lock lock(mutex_);
+  watch_cv_.wait(lock, [&] {
+    return error_ || std::all_of(parked_at_.begin(), parked_at_.end(), [&](std::int64_t p) { return p == hold_; });
+  });
+  if (error_) throw_error_locked();
+}
+
+void RunControl::rewind(std::int64_t internal_step, std::shared_ptr<const WorldSnapshot> state) {
+  {
+    std::lock_guard lock(mutex_);
+    for (std::size_t w = 0; w < started_.size(); ++w) {
+      rewind_to_[w] = state;
+      started_[w] = internal_step;
+      parked_at_[w] = -1;
+      published_[w] = std::min(published_[w], internal_step / substeps_);
+    }
+    hold_ = -1;
+    ++rewinds_;
+    ++watch_epoch_;
+    watch_cv_.notify_all();
+    bump_wake_locked();
+  }
+  call_hook();
+}
+
+std::shared_ptr<const WorldSnapshot> RunControl::take_rewind(WorldId world) {
+  std::lock_guard lock(mutex_);
+  return std::exchange(rewind_to_[static_cast<std::size_t>(world)], nullptr);
+}
+
+void RunControl::release_hold() {
+  {
+    std::lock_guard lock(mutex_);
+    hold_ = -1;
+    bump_wake_locked();
+  }
+  call_hook();
 }
 
 bool RunControl::finished(std::int64_t steps_done) const {
@@ -134,6 +198,11 @@ void RunControl::published(WorldId world, std::int64_t step) {
 std::int64_t RunControl::published_step() const {
   std::lock_guard lock(mutex_);
   return *std::min_element(published_.begin(), published_.end());
+}
+
+std::vector<std::int64_t> RunControl::published_steps() const {
+  std::lock_guard lock(mutex_);
+  return published_;
 }
 
 std::uint64_t RunControl::watch_epoch() const {

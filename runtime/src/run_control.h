@@ -10,7 +10,8 @@
 //     (rounded up to a scene step), so every world can reach it and none has
 //     gone past it: a stopped run ends with every world at one step boundary.
 //  3. published_step() (the newest scene step every world has published)
-//     never decreases.
+//     never decreases, except by rewind() (an input at a past step).
+//  5. While held, no world begins a step at or past the hold.
 //  4. The first fail() wins; after it every wait returns at once.
 #pragma once
 
@@ -18,11 +19,13 @@
 #include <cstdint>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <vector>
 
 #include "soda/runtime/simulation.h"
+#include "soda/worlds/world_snapshot.h"
 
 namespace soda {
 
@@ -60,6 +63,29 @@ class RunControl {
   /// SimulationError if a world fails first.
   void wait_all_parked() const;
 
+  // --- rollback for input at a past step (SimulationEngine::input) ---------
+
+  /// Runs `add` under the lock if no world has begun the step after
+  /// boundary `internal_step` (the input is then in every world's future)
+  /// and returns true; false otherwise.
+  bool run_if_future(std::int64_t internal_step, const std::function<void()>& add);
+  /// Holds every world at the highest boundary any has begun (a scene step):
+  /// worlds below it run up to it, none goes past it. Returns it.
+  std::int64_t hold();
+  /// Waits until every world is parked at the hold; throws the
+  /// SimulationError if a world fails first.
+  void wait_all_held() const;
+  /// Every world restarts at `internal_step` (a rollback) from `state`:
+  /// steps begun and published frontiers go back to it, each world gets a
+  /// pending rewind (take_rewind), the hold is released, every parked world
+  /// is woken.
+  void rewind(std::int64_t internal_step, std::shared_ptr<const WorldSnapshot> state);
+  /// World thread, at a step boundary: the state to rebuild from if a
+  /// rollback is pending for this world (once), else null.
+  std::shared_ptr<const WorldSnapshot> take_rewind(WorldId world);
+  /// Releases the hold without rewinding (the rollback was abandoned).
+  void release_hold();
+
   // --- wake-ups (worlds parked for room or at the limit) --------------------
 
   std::uint64_t wake_epoch() const;
@@ -77,6 +103,8 @@ class RunControl {
   void published(WorldId world, std::int64_t step);
   /// The newest scene step every world has published.
   std::int64_t published_step() const;
+  /// Per world, the newest scene step it has published.
+  std::vector<std::int64_t> published_steps() const;
   std::uint64_t watch_epoch() const;
   /// Waits until the watch epoch (bumped by published, request_stop, fail)
   /// differs from `seen`.
@@ -111,6 +139,9 @@ class RunControl {
   mutable std::condition_variable world_cv_;  // limit, wake epoch, shutdown
   mutable std::condition_variable watch_cv_;  // published, parked, stop, error
   std::int64_t limit_ = 0;
+  std::int64_t hold_ = -1;       // >= 0: no world begins a step at or past it
+  std::uint64_t rewinds_ = 0;    // bumped by rewind(): wakes wait_limit_above
+  std::vector<std::shared_ptr<const WorldSnapshot>> rewind_to_;  // per world: pending rewind
   bool frozen_ = false;
   std::vector<std::int64_t> started_;   // per world: steps begun
   std::vector<std::int64_t> parked_at_;  // per world: steps done when it parked at the limit; -1 running

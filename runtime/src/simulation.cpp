@@ -58,6 +58,46 @@ bool Simulation::run_for(double seconds) {
 
 void Simulation::stop() { engine_->stop(); }
 
+BodyId Simulation::add_body(double time, const Body& body) {
+  UserInput in;
+  in.kind = UserInput::Kind::AddBody;
+  in.step = engine_->core->step_at(time);
+  in.body = body;
+  engine_->input(in);
+  return body.id;
+}
+
+void Simulation::remove_body(double time, BodyId id) {
+  UserInput in;
+  in.kind = UserInput::Kind::RemoveBody;
+  in.step = engine_->core->step_at(time);
+  in.id = id;
+  engine_->input(in);
+}
+
+void Simulation::set_velocity(double time, BodyId id, const Vec3& linear, const Vec3& angular) {
+  UserInput in;
+  in.kind = UserInput::Kind::SetVelocity;
+  in.step = engine_->core->step_at(time);
+  in.id = id;
+  in.linear = linear;
+  in.angular = angular;
+  engine_->input(in);
+}
+
+void Simulation::apply_impulse(double time, BodyId id, const Vec3& impulse) {
+  UserInput in;
+  in.kind = UserInput::Kind::ApplyImpulse;
+  in.step = engine_->core->step_at(time);
+  in.id = id;
+  in.linear = impulse;
+  engine_->input(in);
+}
+
+std::vector<std::int64_t> Simulation::published_steps() const { return engine_->core->control.published_steps(); }
+std::int64_t Simulation::commit_horizon_step() const { return engine_->commit_horizon_step(); }
+std::uint64_t Simulation::rollbacks() const { return engine_->rollbacks(); }
+
 SceneReader Simulation::add_reader() { return SceneReader(engine_->core); }
 
 double Simulation::dt() const { return engine_->core->dt; }

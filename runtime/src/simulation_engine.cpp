@@ -8,6 +8,8 @@
 
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/transport.h"
+#include "commit_horizon.h"
+#include "soda/scene/validate.h"
 #include "thread_pinning.h"
 
 namespace soda {
@@ -36,6 +38,10 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
   o.serialise = c.serialise;
   o.validate = c.validate;
   o.pin = c.pin;
+  o.keep_states = c.past_inputs;
+  if (c.past_inputs && c.validate)
+    throw std::invalid_argument("SimulationConfig: past_inputs with validate is not supported (the validator "
+                                "cannot follow a rollback yet)");
   return o;
 }
 
@@ -48,11 +54,14 @@ SimulationEngine::SimulationEngine(const Scene& scene, TerritoryMap map, Simulat
   schedule = options.schedule;
   threads = schedule == Schedule::ThreadPerWorld ? k : schedule == Schedule::Pool ? options.threads : 1;
   world = std::make_unique<PartitionedWorld>(scene, std::move(map), options);
+  for (const Body& b : scene.bodies) lives_[b.id] = Life{b.is_static};
+  settings_ = scene.settings;
   core = std::make_shared<SimulationCore>(k, substeps_, scene.settings.dt, scene.dynamic_count(),
                                           config_.buffer_capacity);
   for (WorldId w = 0; w < k; ++w) {
     TransformBuffer<btScalar>& buffer = *core->buffers[static_cast<std::size_t>(w)];
-    process(w).attach({&core->control, &buffer, scene.settings.dt, config_.after_step});
+    process(w).attach({&core->control, &buffer, scene.settings.dt, config_.after_step, &inputs_,
+                       [this, w](const WorldSnapshot& state) { rewind_world(w, state); }});
     // Step 0: the scene as given, published before any thread runs.
     TransformEntry<btScalar> entry;
     entry.step = 0;
@@ -312,6 +321,123 @@ void SimulationEngine::run_pool_worker(int index) {
       return;
     }
   }
+}
+
+// --- input -------------------------------------------------------------------
+
+void SimulationEngine::check_input_locked(const UserInput& in) const {
+  const std::string what = describe(in);
+  if (in.step < 0) throw std::invalid_argument(what + ": the step must be >= 0");
+  if (in.kind == UserInput::Kind::AddBody) {
+    if (lives_.count(in.body.id)) throw std::invalid_argument(what + ": id " + std::to_string(in.body.id) + " is in use");
+    if (in.body.is_static) throw std::invalid_argument(what + ": only dynamic bodies can be added to a running scene");
+    Scene one;
+    one.settings = settings_;
+    one.bodies.push_back(in.body);
+    try {
+      validate_scene(one, "added body");
+    } catch (const SceneError& e) {
+      throw std::invalid_argument(what + ": " + e.what());
+    }
+    return;
+  }
+  auto it = lives_.find(in.id);
+  if (it == lives_.end()) throw std::invalid_argument(what + ": no body has that id");
+  const Life& life = it->second;
+  if (life.is_static) throw std::invalid_argument(what + ": the body is static");
+  if (in.step < life.added || in.step >= life.removed)
+    throw std::invalid_argument(what + ": the body is not in the scene then (added at step " +
+                                std::to_string(life.added) +
+                                (life.removed == INT64_MAX ? "" : ", removed at step " + std::to_string(life.removed)) +
+                                ")");
+  if (in.kind == UserInput::Kind::RemoveBody && life.last_input > in.step)
+    throw std::invalid_argument(what + ": the body has an input at the later step " + std::to_string(life.last_input));
+  if (!in.linear.allFinite() || !in.angular.allFinite())
+    throw std::invalid_argument(what + ": velocities and impulses must be finite");
+}
+
+void SimulationEngine::input(UserInput in) {
+  std::lock_guard lock(lifecycle_);
+  core->control.rethrow_if_failed();
+  if (stopped_) throw std::logic_error("Simulation: input after stop()");
+  check_input_locked(in);
+  in.sequence = next_sequence_++;
+  auto record = [&] {
+    const BodyId id = in.kind == UserInput::Kind::AddBody ? in.body.id : in.id;
+    Life& life = lives_[id];
+    if (in.kind == UserInput::Kind::AddBody) life.added = in.step;
+    if (in.kind == UserInput::Kind::RemoveBody) life.removed = in.step;
+    life.last_input = std::max(life.last_input, in.step);
+  };
+  if (core->control.run_if_future(in.step * substeps_, [&] { inputs_.add(in); })) {
+    record();
+    return;
+  }
+  const std::string what = describe(in);
+  if (!config_.past_inputs)
+    throw std::invalid_argument(what + ": a world has already passed that step (inputs at past steps need "
+                                "SimulationConfig::past_inputs)");
+  CommitHorizon& horizon = *world->horizon_;
+  if (!horizon.try_pin(in.step))
+    throw std::invalid_argument(what + ": older than the commit horizon (step " + std::to_string(horizon.gvt()) +
+                                "); nothing before it can be changed any more");
+  struct Unpin {
+    CommitHorizon& h;
+    std::int64_t step;
+    ~Unpin() { h.unpin(step); }
+  } unpin{horizon, in.step};
+  const std::int64_t hold = core->control.hold() / substeps_;
+  if (hold - in.step >= static_cast<std::int64_t>(config_.buffer_capacity) - 1) {
+    core->control.release_hold();
+    throw std::invalid_argument(what + ": " + std::to_string(hold - in.step) +
+                                " steps behind the newest world, more than its transform buffer holds (" +
+                                std::to_string(config_.buffer_capacity) + ")");
+  }
+  core->control.wait_all_held();
+  inputs_.add(in);
+  record();
+  rollback_locked(in.step);
+  ++rollbacks_;
+}
+
+// Every world is parked at the hold, nothing of a later step is in flight:
+// the state every world keeps at `scene_step`, merged, is what each world
+// rebuilds from (on its own thread, rewind_world); late fragments of
+// finished merges are dropped from the mailboxes first, while nobody sends.
+void SimulationEngine::rollback_locked(std::int64_t scene_step) {
+  const int k = world->world_count();
+  WorldSnapshot whole;
+  whole.steps_done = scene_step;
+  whole.bodies = world->world(0).static_snapshots();
+  for (WorldId w = 0; w < k; ++w) {
+    const WorldSnapshot* part = process(w).kept_state(scene_step);
+    if (!part)
+      throw std::logic_error("Simulation: world " + std::to_string(w) + " no longer keeps step " +
+                             std::to_string(scene_step) + " (commit horizon broken)");
+    whole.settings = part->settings;
+    whole.bodies.insert(whole.bodies.end(), part->bodies.begin(), part->bodies.end());
+    whole.manifolds.insert(whole.manifolds.end(), part->manifolds.begin(), part->manifolds.end());
+  }
+  auto state = std::make_shared<const WorldSnapshot>(PartitionedWorld::merge_parts(std::move(whole)));
+  for (WorldId w = 0; w < k; ++w)
+    while (world->transport_->try_receive(w)) {
+    }
+  core->control.rewind(scene_step * substeps_, std::move(state));
+}
+
+// World w's thread, at the boundary it was held at.
+void SimulationEngine::rewind_world(WorldId w, const WorldSnapshot& state) {
+  auto fresh = std::make_unique<TerritoryWorld>(state, w, world->world(w).map());
+  core->buffers[static_cast<std::size_t>(w)]->invalidate_from(state.steps_done + 1);
+  process(w).rewind(*fresh, state.steps_done);
+  world->worlds_[static_cast<std::size_t>(w)] = std::move(fresh);
+}
+
+std::int64_t SimulationEngine::commit_horizon_step() const { return world->horizon_->gvt(); }
+
+std::uint64_t SimulationEngine::rollbacks() const {
+  std::lock_guard lock(lifecycle_);
+  return rollbacks_;
 }
 
 }  // namespace soda

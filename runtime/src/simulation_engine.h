@@ -15,11 +15,14 @@
 // need (docs/embedding.md, "Back-pressure").
 #pragma once
 
+#include <cstdint>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <thread>
 #include <vector>
 
+#include "input_queue.h"
 #include "simulation_core.h"
 #include "soda/runtime/simulation.h"
 #include "world_process.h"
@@ -38,6 +41,10 @@ class SimulationEngine {
   int substeps() const { return substeps_; }
   /// Readouts: waits until they are safe (see Simulation).
   void wait_idle(const char* caller) const;
+  /// Simulation's input calls (validated here; see simulation.h).
+  void input(UserInput input);
+  std::int64_t commit_horizon_step() const;
+  std::uint64_t rollbacks() const;
 
   std::shared_ptr<SimulationCore> core;
   std::unique_ptr<PartitionedWorld> world;
@@ -52,6 +59,9 @@ class SimulationEngine {
   void run_sequential();
   void run_pool_worker(int index);
   PartitionedWorld::Process& process(WorldId w) { return *world->processes_[static_cast<std::size_t>(w)]; }
+  void check_input_locked(const UserInput& input) const;
+  void rollback_locked(std::int64_t scene_step);
+  void rewind_world(WorldId w, const WorldSnapshot& state);
 
   SimulationConfig config_;
   int substeps_ = 1;
@@ -60,6 +70,18 @@ class SimulationEngine {
   bool stopped_ = false;
   std::vector<std::thread> threads_;
   std::shared_ptr<Pool> pool_;
+  // Input (under lifecycle_).
+  struct Life {
+    bool is_static = false;
+    std::int64_t added = 0;                // present from this boundary on
+    std::int64_t removed = INT64_MAX;      // gone from this boundary on
+    std::int64_t last_input = -1;          // newest step of an input naming it
+  };
+  std::map<BodyId, Life> lives_;
+  SceneSettings settings_;
+  InputQueue inputs_;
+  std::uint64_t next_sequence_ = 0;
+  std::uint64_t rollbacks_ = 0;
 };
 
 }  // namespace soda

@@ -15,7 +15,7 @@ namespace soda {
 PartitionedWorld::Process::Process(TerritoryWorld& world, Transport& transport, const WorldGraph& graph,
                                    Validator* validator, std::function<void(std::int64_t)> progress, int substeps,
                                    bool solve_everywhere, Safety safety)
-    : world_(world),
+    : world_(&world),
       transport_(transport),
       graph_(graph),
       validator_(validator),
@@ -27,7 +27,36 @@ PartitionedWorld::Process::Process(TerritoryWorld& world, Transport& transport, 
       step_(world.steps_done()) {
   sums_.world = world.id();
   sums_.neighbours = neighbours_.size();
-  if (safety_.keep_states) kept_states_.emplace(step_ / substeps_, world_.part_snapshot());
+  if (safety_.keep_states) kept_states_.emplace(step_ / substeps_, world_->part_snapshot());
+}
+
+void PartitionedWorld::Process::rewind(TerritoryWorld& world, std::int64_t scene_step) {
+  world_ = &world;
+  step_ = scene_step * substeps_;
+  phase_ = Phase::Predict;
+  inbox_.clear();
+  fragments_.clear();
+  merger_ = IslandMerger{};
+  islands_.clear();
+  early_gathers_.clear();
+  pending_.reset();
+  room_wait_since_ns_ = 0;
+  kept_states_.erase(kept_states_.upper_bound(scene_step), kept_states_.end());
+  if (safety_.horizon) safety_.horizon->report(world_->id(), scene_step);
+}
+
+// Inputs at this boundary, in sequence order; each world applies those that
+// concern its territory (the owner of a body, the owner of a new body's home
+// cell), so that exactly one world applies each.
+void PartitionedWorld::Process::apply_inputs() {
+  for (const UserInput& in : output_.inputs->at(step_ / substeps_)) {
+    switch (in.kind) {
+      case UserInput::Kind::AddBody: world_->add_body(in.body); break;
+      case UserInput::Kind::RemoveBody: world_->remove_body(in.id); break;
+      case UserInput::Kind::SetVelocity: world_->set_velocity(in.id, in.linear, in.angular); break;
+      case UserInput::Kind::ApplyImpulse: world_->apply_impulse(in.id, in.linear); break;
+    }
+  }
 }
 
 const WorldSnapshot* PartitionedWorld::Process::kept_state(std::int64_t scene_step) const {
@@ -40,18 +69,18 @@ const WorldSnapshot* PartitionedWorld::Process::kept_state(std::int64_t scene_st
 void PartitionedWorld::Process::check_watchdog() {
   const std::int64_t scene_step = step_ / substeps_ + 1;
   if (safety_.fault.step == scene_step && safety_.fault_fired && !safety_.fault_fired->load() &&
-      world_.set_velocity(safety_.fault.body, Vec3::Constant(std::nan("")), Vec3::Zero()))
+      world_->set_velocity(safety_.fault.body, Vec3::Constant(std::nan("")), Vec3::Zero()))
     safety_.fault_fired->store(true);
   if (!safety_.watchdog || safety_.watchdog->response == WatchdogResponse::Off) return;
-  std::vector<WatchdogFinding> findings = world_.watchdog_findings(safety_.watchdog->limits);
-  if (!findings.empty()) throw WatchdogError(scene_step, world_.id(), std::move(findings), safety_.watchdog->limits);
+  std::vector<WatchdogFinding> findings = world_->watchdog_findings(safety_.watchdog->limits);
+  if (!findings.empty()) throw WatchdogError(scene_step, world_->id(), std::move(findings), safety_.watchdog->limits);
 }
 
 void PartitionedWorld::Process::deliver(Message m) {
-  if (m.to != world_.id())
-    throw std::logic_error("world " + std::to_string(world_.id()) + " got " + describe(m));
-  if (!graph_.adjacent(world_.id(), m.from))
-    throw PartitionError("world " + std::to_string(world_.id()) + " got " + describe(m) +
+  if (m.to != world_->id())
+    throw std::logic_error("world " + std::to_string(world_->id()) + " got " + describe(m));
+  if (!graph_.adjacent(world_->id(), m.from))
+    throw PartitionError("world " + std::to_string(world_->id()) + " got " + describe(m) +
                          " from a world that is not a neighbour");
   if (m.kind() == MessageKind::Fragments || m.kind() == MessageKind::Results || m.kind() == MessageKind::Gather) {
     // Late fragments of a step whose merge is over are dropped: the island
@@ -60,14 +89,19 @@ void PartitionedWorld::Process::deliver(Message m) {
     if (!late) fragments_[m.step].push_back(std::move(m));
     return;
   }
-  if (m.step < step_) throw std::logic_error("world " + std::to_string(world_.id()) + " got a stale " + describe(m));
+  if (m.step < step_) throw std::logic_error("world " + std::to_string(world_->id()) + " got a stale " + describe(m));
   const Key key{static_cast<int>(m.kind()), m.step, m.from};
-  if (inbox_.count(key)) throw std::logic_error("world " + std::to_string(world_.id()) + " got " + describe(m) + " twice");
+  if (inbox_.count(key)) throw std::logic_error("world " + std::to_string(world_->id()) + " got " + describe(m) + " twice");
   inbox_.emplace(key, std::move(m));
 }
 
 PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
-  while (std::optional<Message> m = transport_.try_receive(world_.id())) deliver(std::move(*m));
+  // A pending rollback first: the mailbox may already hold messages of the
+  // re-run steps from neighbours that rewound before this world.
+  if (phase_ == Phase::Predict && output_.rewind && output_.control)
+    if (std::shared_ptr<const WorldSnapshot> state = output_.control->take_rewind(world_->id()))
+      output_.rewind(*state);
+  while (std::optional<Message> m = transport_.try_receive(world_->id())) deliver(std::move(*m));
   Advance result;
   std::int64_t cpu0 = thread_cpu_ns();
   for (;;) {
@@ -111,7 +145,7 @@ std::vector<std::pair<WorldId, Batch>> PartitionedWorld::Process::take_all(Messa
 }
 
 void PartitionedWorld::Process::send(WorldId to, Message message) {
-  message.from = world_.id();
+  message.from = world_->id();
   message.to = to;
   message.step = step_;
   ++sums_.messages_sent;
@@ -121,27 +155,28 @@ void PartitionedWorld::Process::send(WorldId to, Message message) {
 bool PartitionedWorld::Process::run_phase() {
   switch (phase_) {
     case Phase::Predict: {
-      world_.predict();
-      for (WorldId n : neighbours_) send(n, Message{.payload = world_.ghost_batch_for(n)});
+      if (output_.inputs && step_ % substeps_ == 0) apply_inputs();
+      world_->predict();
+      for (WorldId n : neighbours_) send(n, Message{.payload = world_->ghost_batch_for(n)});
       phase_ = Phase::AwaitGhosts;
       return true;
     }
     case Phase::AwaitGhosts: {
       if (!have_all(MessageKind::Ghosts, neighbours_)) return false;
-      world_.apply_ghosts(take_all<GhostBatch>(MessageKind::Ghosts, neighbours_));
-      world_.collide();
-      world_.build_islands();
+      world_->apply_ghosts(take_all<GhostBatch>(MessageKind::Ghosts, neighbours_));
+      world_->collide();
+      world_->build_islands();
       for (WorldId n : neighbours_)
-        if (world_.received_ghosts_from(n)) send(n, Message{.payload = world_.glue_batch_for(n)});
+        if (world_->received_ghosts_from(n)) send(n, Message{.payload = world_->glue_batch_for(n)});
       phase_ = Phase::AwaitGlue;
       return true;
     }
     case Phase::AwaitGlue: {
       std::vector<WorldId> from;
       for (WorldId n : neighbours_)
-        if (world_.sends_ghosts_to(n)) from.push_back(n);
+        if (world_->sends_ghosts_to(n)) from.push_back(n);
       if (!have_all(MessageKind::Glue, from)) return false;
-      merger_.start(world_.id(), world_.border_fragments(take_all<GlueBatch>(MessageKind::Glue, from)),
+      merger_.start(world_->id(), world_->border_fragments(take_all<GlueBatch>(MessageKind::Glue, from)),
                     solve_everywhere_);
       flush_merger();
       phase_ = Phase::Merging;
@@ -169,18 +204,18 @@ bool PartitionedWorld::Process::run_phase() {
       }
       if (!merger_.done() || !islands_.empty()) return progressed;
       if (!early_gathers_.empty())
-        throw std::logic_error("world " + std::to_string(world_.id()) + ": data for an island it is not in");
+        throw std::logic_error("world " + std::to_string(world_->id()) + ": data for an island it is not in");
       sums_.fragments_relayed += merger_.fragments_relayed();
-      world_.finish_islands();
-      world_.integrate();
+      world_->finish_islands();
+      world_->integrate();
       check_watchdog();
-      for (auto& [n, batch] : world_.migrate()) send(n, Message{.payload = std::move(batch)});
+      for (auto& [n, batch] : world_->migrate()) send(n, Message{.payload = std::move(batch)});
       phase_ = Phase::AwaitMigrants;
       return true;
     }
     case Phase::AwaitMigrants: {
       if (!have_all(MessageKind::Migrants, neighbours_)) return false;
-      world_.absorb_migrants(take_all<MigrantBatch>(MessageKind::Migrants, neighbours_));
+      world_->absorb_migrants(take_all<MigrantBatch>(MessageKind::Migrants, neighbours_));
       end_step();
       return true;
     }
@@ -190,7 +225,7 @@ bool PartitionedWorld::Process::run_phase() {
 }
 
 bool PartitionedWorld::Process::may_start() {
-  return output_.control ? output_.control->may_start(world_.id(), step_) : step_ < target_;
+  return output_.control ? output_.control->may_start(world_->id(), step_) : step_ < target_;
 }
 
 // Publish: the entry is made once, when the step ends; a full buffer keeps
@@ -201,7 +236,7 @@ bool PartitionedWorld::Process::try_publish() {
     pending_.emplace();
     pending_->step = scene_step;
     pending_->time = scene_time(scene_step, output_.dt);
-    const std::vector<BodyState> states = world_.owned_states();
+    const std::vector<BodyState> states = world_->owned_states();
     pending_->poses.reserve(states.size());
     for (const BodyState& b : states) pending_->poses.push_back(body_pose(b));
   }
@@ -239,8 +274,12 @@ void PartitionedWorld::Process::published(bool kept) {
     return;
   }
   ++entries_published_;
-  output_.buffer->set_commit_step(scene_step - 1);
-  output_.control->published(world_.id(), scene_step);
+  // Kept states (rollback for past inputs): a step above GVT may still be
+  // rewritten, so only steps below it are committed.
+  std::int64_t commit = scene_step - 1;
+  if (safety_.keep_states) commit = std::min(commit, safety_.horizon->gvt() - 1);
+  if (commit > output_.buffer->commit_step()) output_.buffer->set_commit_step(commit);
+  output_.control->published(world_->id(), scene_step);
 }
 
 void PartitionedWorld::Process::flush_merger() {
@@ -271,7 +310,7 @@ void PartitionedWorld::Process::close_island(const std::vector<const Fragment*>&
   sums_.merged_island_worlds_sum += adjacent.size();
   sums_.merged_island_worlds_max = std::max<std::uint64_t>(sums_.merged_island_worlds_max, adjacent.size());
   if (solve_everywhere_) {
-    world_.apply_island_result(world_.solve_border_island(island));
+    world_->apply_island_result(world_->solve_border_island(island));
     return;
   }
   std::map<WorldId, WorldId> parent{{root, root}};
@@ -281,11 +320,11 @@ void PartitionedWorld::Process::close_island(const std::vector<const Fragment*>&
       if (parent.emplace(n, queue[i]).second) queue.push_back(n);
   Island& is = islands_[smallest];
   is.root = root;
-  is.parent = parent.at(world_.id());
+  is.parent = parent.at(world_->id());
   for (const auto& [w, p] : parent)
-    if (p == world_.id() && w != world_.id()) is.children.push_back(w);
+    if (p == world_->id() && w != world_->id()) is.children.push_back(w);
   for (const Fragment* f : island)
-    if (f->world == world_.id()) is.data.push_back(*f);
+    if (f->world == world_->id()) is.data.push_back(*f);
   is.gathers_missing = is.children.size();
   auto early = early_gathers_.find(smallest);
   if (early != early_gathers_.end()) {
@@ -320,7 +359,7 @@ void PartitionedWorld::Process::take_gather(BodyId island, std::vector<Fragment>
 // The subtree's data is here: the root solves, the others pass it up.
 void PartitionedWorld::Process::gathered(BodyId island) {
   Island& is = islands_.at(island);
-  if (is.root != world_.id()) {
+  if (is.root != world_->id()) {
     ++sums_.relay_messages_sent;
     send(is.parent, Message{.payload = GatherBatch{island, std::move(is.data)}});
     is.data.clear();
@@ -331,7 +370,7 @@ void PartitionedWorld::Process::gathered(BodyId island) {
   });
   std::vector<const Fragment*> fragments;
   for (const Fragment& f : is.data) fragments.push_back(&f);
-  take_result(world_.solve_border_island(fragments));
+  take_result(world_->solve_border_island(fragments));
 }
 
 // A solved island: keep this world's part and pass it down the tree. (It
@@ -340,9 +379,9 @@ void PartitionedWorld::Process::gathered(BodyId island) {
 void PartitionedWorld::Process::take_result(IslandResult result) {
   auto it = islands_.find(result.island);
   if (it == islands_.end())
-    throw std::logic_error("world " + std::to_string(world_.id()) + ": result for island " +
+    throw std::logic_error("world " + std::to_string(world_->id()) + ": result for island " +
                            std::to_string(result.island) + ", which is not complete here");
-  world_.apply_island_result(result);
+  world_->apply_island_result(result);
   for (WorldId child : it->second.children) {
     ++sums_.relay_messages_sent;
     send(child, Message{.payload = ResultBatch{{result}}});
@@ -351,7 +390,7 @@ void PartitionedWorld::Process::take_result(IslandResult result) {
 }
 
 void PartitionedWorld::Process::end_step() {
-  const TerritoryCounters& c = world_.counters();
+  const TerritoryCounters& c = world_->counters();
   sums_.border_bodies += c.border_bodies;
   sums_.ghosts_sent += c.ghosts_sent;
   sums_.ghosts_received += c.ghosts_received;
@@ -367,23 +406,22 @@ void PartitionedWorld::Process::end_step() {
   ++step_;
   phase_ = Phase::Predict;
   if (validator_)
-    validator_->report(WorldStepReport{world_.id(), step_, world_.owned_ids(), world_.ghost_count(),
-                                       world_.static_count(), world_.bullet_object_count(),
-                                       world_.held_contact_pairs()});
+    validator_->report(WorldStepReport{world_->id(), step_, world_->owned_ids(), world_->ghost_count(),
+                                       world_->static_count(), world_->bullet_object_count(),
+                                       world_->held_contact_pairs()});
   if (step_ % substeps_ != 0) return;
-  if (safety_.keep_states) {
-    kept_states_.emplace(step_ / substeps_, world_.part_snapshot());
-    safety_.horizon->report(world_.id(), step_ / substeps_);
+  if (safety_.keep_states) kept_states_.emplace(step_ / substeps_, world_->part_snapshot());
+  if (safety_.horizon) safety_.horizon->report(world_->id(), step_ / substeps_);
+  if (safety_.keep_states)
     kept_states_.erase(kept_states_.begin(), kept_states_.lower_bound(safety_.horizon->gvt()));
-  }
   if (progress_) progress_(step_ / substeps_);
-  if (output_.after_step) output_.after_step(world_.id(), step_ / substeps_);
+  if (output_.after_step) output_.after_step(world_->id(), step_ / substeps_);
   if (output_.buffer) phase_ = Phase::Publish;
 }
 
 std::string PartitionedWorld::Process::waiting_for() const {
   std::ostringstream s;
-  s << "world " << world_.id() << " at step " << step_ << " ";
+  s << "world " << world_->id() << " at step " << step_ << " ";
   auto missing = [&](MessageKind kind, const std::vector<WorldId>& from) {
     s << "waits for " << message_kind_name(kind) << " from";
     for (WorldId n : from)
@@ -395,7 +433,7 @@ std::string PartitionedWorld::Process::waiting_for() const {
     case Phase::AwaitGlue: {
       std::vector<WorldId> from;
       for (WorldId n : neighbours_)
-        if (world_.sends_ghosts_to(n)) from.push_back(n);
+        if (world_->sends_ghosts_to(n)) from.push_back(n);
       missing(MessageKind::Glue, from);
       break;
     }
@@ -418,8 +456,8 @@ WorldMetrics PartitionedWorld::Process::metrics() const {
   m.buffer_blocked_seconds = static_cast<double>(room_blocked_ns_) * 1e-9;
   m.entries_published = entries_published_;
   m.entries_dropped = entries_dropped_;
-  m.owned_bodies = world_.owned_count();
-  m.ghosts = world_.ghost_count();
+  m.owned_bodies = world_->owned_count();
+  m.ghosts = world_->ghost_count();
   return m;
 }
 

@@ -36,6 +36,7 @@
 #include <vector>
 
 #include "commit_horizon.h"
+#include "input_queue.h"
 #include "island_merge.h"
 #include "soda/rollback/transform_buffer.h"
 #include "soda/runtime/partitioned_world.h"
@@ -75,6 +76,10 @@ class PartitionedWorld::Process {
     TransformBuffer<btScalar>* buffer = nullptr;
     double dt = 0;
     std::function<void(WorldId, std::int64_t)> after_step;
+    InputQueue* inputs = nullptr;  // user inputs, applied at each scene step boundary
+    /// A rollback pending for this world (RunControl::take_rewind): on the
+    /// world's own thread, rebuild the world from the state and rewind().
+    std::function<void(const WorldSnapshot&)> rewind;
   };
   /// Before the first advance().
   void attach(Output output) { output_ = std::move(output); }
@@ -87,6 +92,11 @@ class PartitionedWorld::Process {
   void publish_blocking();
   /// Internal steps done.
   std::int64_t steps_done() const { return step_; }
+  /// Rollback (every world parked at one boundary, nothing in flight for
+  /// it): the process goes on from `world`, rebuilt at scene step boundary
+  /// `scene_step`, forgetting everything of later steps.
+  void rewind(TerritoryWorld& world, std::int64_t scene_step);
+  const CommitHorizon* horizon() const { return safety_.horizon; }
 
   struct Advance {
     bool progressed = false;  // some stage ran
@@ -122,11 +132,12 @@ class PartitionedWorld::Process {
   void take_result(IslandResult result);
   void end_step();
   void check_watchdog();
+  void apply_inputs();
   bool may_start();
   bool try_publish();
   void published(bool kept);
 
-  TerritoryWorld& world_;
+  TerritoryWorld* world_;  // replaced by rewind()
   Transport& transport_;
   const WorldGraph& graph_;
   Validator* validator_;

@@ -85,4 +85,35 @@ bool TerritoryWorld::set_velocity(BodyId id, const Vec3& linear, const Vec3& ang
   return true;
 }
 
+bool TerritoryWorld::apply_impulse(BodyId id, const Vec3& impulse) {
+  auto it = entries_.find(id);
+  if (it == entries_.end() || it->second->role != Role::Owned) return false;
+  btRigidBody& rb = *it->second->body;
+  rb.applyCentralImpulse(btVector3(btScalar(impulse.x()), btScalar(impulse.y()), btScalar(impulse.z())));
+  rb.forceActivationState(ACTIVE_TAG);
+  rb.setDeactivationTime(btScalar(0));
+  return true;
+}
+
+bool TerritoryWorld::add_body(const Body& body) {
+  if (body.is_static) throw PartitionError("TerritoryWorld::add_body: static bodies cannot be added to a running scene");
+  if (body.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
+  const btVector3 origin = to_bt(body.position);
+  if (map_.owner_of(Vec3(double(origin.x()), double(origin.y()), double(origin.z()))) != id_) return false;
+  if (entries_.count(body.id))
+    throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) + ": body " +
+                         std::to_string(body.id) + " added, but that id is present");
+  check_contract(insert_dynamic(body, nullptr, true, id_));
+  sort_lists();
+  return true;
+}
+
+bool TerritoryWorld::remove_body(BodyId id) {
+  if (!owns(id)) return false;
+  for (auto it = kept_.begin(); it != kept_.end();)
+    it = (it->first.first == id || it->first.second == id) ? kept_.erase(it) : std::next(it);
+  remove_entry(id);
+  return true;
+}
+
 }  // namespace soda

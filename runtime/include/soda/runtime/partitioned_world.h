@@ -63,6 +63,10 @@ struct PartitionedOptions {
   /// back to the commit horizon (the cost of a snapshot per step), and a bad
   /// step is rolled back and re-simulated with substeps (docs/watchdog.md).
   WatchdogConfig watchdog = {};
+  /// Each world keeps its state at every step boundary from the commit
+  /// horizon to its clock (what a rollback restores; a snapshot per step).
+  /// Implied by the watchdog's Heal response.
+  bool keep_states = false;
   /// Tests: a blow-up injected once per PartitionedWorld — at the end of
   /// scene step `step` (before the watchdog's check) body `body`'s linear
   /// velocity becomes NaN. step < 1: none.

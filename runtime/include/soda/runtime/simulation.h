@@ -46,6 +46,7 @@
 #include "soda/grid/territory_map.h"
 #include "soda/runtime/partitioned_world.h"
 #include "soda/runtime/scene_reader.h"
+#include "soda/runtime/user_input.h"
 #include "soda/scene/registry.h"
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
@@ -67,6 +68,12 @@ struct SimulationConfig {
   /// scene step), before the step's entry is published. An exception thrown
   /// here fails that world, as a physics error would. Keep it short.
   std::function<void(WorldId, std::int64_t)> after_step = {};
+  /// Accept input at steps some world has already passed (but not older
+  /// than the commit horizon): every world keeps its state at each step
+  /// boundary from the horizon to its clock (a snapshot per step) and such
+  /// an input rolls every world back to its step. Off: input only at steps
+  /// no world has begun. Not with `validate`.
+  bool past_inputs = false;
 };
 
 /// A world failed. world(): the world whose thread threw (kNoWorld if no
@@ -140,6 +147,37 @@ class Simulation {
   /// thread; returns after at most one more step of the slowest world.
   void stop();
 
+  // --- input (any thread; docs/embedding.md, "Input") ------------------------
+  //
+  // Each call applies at the boundary after the scene step at or before
+  // `time` (step_at(time)), before the next step begins, in call order among
+  // inputs of one step; the result is the same whenever the call is made.
+  // An input at a step no world has begun is queued. One at a step some
+  // world has passed needs config.past_inputs: every world is held at one
+  // boundary, rolled back to the input's step and runs again (entries of
+  // later steps are republished with a new revision). An input older than
+  // the commit horizon (commit_horizon_step()) is refused. Errors:
+  // std::invalid_argument naming the body and the step (unknown or reused
+  // id, a body not present at that step, a bad body, a step too old or past
+  // steps without past_inputs), SimulationError if a world failed,
+  // std::logic_error after stop().
+
+  /// Adds a dynamic body; body.id must be an id never used in this run.
+  /// Returns it.
+  BodyId add_body(double time, const Body& body);
+  /// Removes a dynamic body, with its contacts.
+  void remove_body(double time, BodyId id);
+  /// Sets a dynamic body's velocities and wakes it.
+  void set_velocity(double time, BodyId id, const Vec3& linear, const Vec3& angular = Vec3::Zero());
+  /// Gives a dynamic body an impulse (N s) at its centre and wakes it.
+  void apply_impulse(double time, BodyId id, const Vec3& impulse);
+  /// The commit horizon (GVT): the oldest scene step an input may still
+  /// name (with past_inputs), the newest step every world has reached
+  /// without it. Never decreases.
+  std::int64_t commit_horizon_step() const;
+  /// Rollbacks done for inputs at past steps.
+  std::uint64_t rollbacks() const;
+
   // --- readers -------------------------------------------------------------
 
   /// A new reader with a cursor in every world's buffer; it pins every held
@@ -158,6 +196,9 @@ class Simulation {
   /// The newest scene step every world has published (0 at construction).
   std::int64_t published_step() const;
   double published_time() const { return time_of(published_step()); }
+  /// Per world, the newest scene step it has published: how far each runs
+  /// ahead of the others.
+  std::vector<std::int64_t> published_steps() const;
   bool stopped() const;
   /// The error that failed the run, if any.
   std::optional<SimulationError> error() const;

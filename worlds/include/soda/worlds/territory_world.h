@@ -196,6 +196,18 @@ class TerritoryWorld {
   /// sleep timer 0), as user input or a test's injected fault does at a step
   /// boundary or after integrate(). False if the body is not owned here.
   bool set_velocity(BodyId id, const Vec3& linear, const Vec3& angular);
+  /// Input at a step boundary: gives an owned body an impulse at its centre
+  /// and wakes it. False if the body is not owned here.
+  bool apply_impulse(BodyId id, const Vec3& impulse);
+  /// Input at a step boundary: adds a dynamic body (as the scene constructor
+  /// would) if the map gives its home cell to this world; true if it did.
+  /// Throws PartitionError if the id is present here or the body is outside
+  /// the exactness contract.
+  bool add_body(const Body& body);
+  /// Input at a step boundary: removes an owned body with its contact state
+  /// (live manifolds and kept values of pairs it is the key of). False if
+  /// not owned here.
+  bool remove_body(BodyId id);
 
   // Internal types, defined in worlds/src/territory_world_parts.h.
   struct Entry;

@@ -1,0 +1,16 @@
+#include "soda/runtime/user_input.h"
+
+namespace soda {
+
+std::string describe(const UserInput& input) {
+  const std::string at = " at step " + std::to_string(input.step);
+  switch (input.kind) {
+    case UserInput::Kind::AddBody: return "add body " + std::to_string(input.body.id) + at;
+    case UserInput::Kind::RemoveBody: return "remove body " + std::to_string(input.id) + at;
+    case UserInput::Kind::SetVelocity: return "set the velocity of body " + std::to_string(input.id) + at;
+    case UserInput::Kind::ApplyImpulse: return "impulse on body " + std::to_string(input.id) + at;
+  }
+  return "input" + at;
+}
+
+}  // namespace soda

@@ -1,0 +1,173 @@
+// User input through the Simulation: bodies added, removed, pushed and given
+// velocities at scene step boundaries. The result depends only on the steps
+// the inputs name — not on when the calls are made, nor on the territories:
+// inputs queued before the run, and an input at a step a world ahead has
+// already passed (applied by rolling every world back), end on the hash of
+// the one-territory run. Label "concurrency" (ThreadSanitizer in CI).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+#include <thread>
+
+#include "runtime/simulation_test_util.h"
+#include "soda/grid/partition.h"
+
+namespace soda {
+namespace {
+
+constexpr int kSteps = 160;
+
+Body new_cube(BodyId id, const Vec3& at) {
+  Body b;
+  b.id = id;
+  b.shape = Shape::box(Vec3(0.5, 0.5, 0.5));
+  b.mass = 1.0;
+  b.position = at;
+  b.linear_velocity = Vec3(0, -2, 0);
+  return b;
+}
+
+BodyId first_dynamic(const Scene& s) {
+  for (const Body& b : s.bodies)
+    if (!b.is_static) return b.id;
+  return 0;
+}
+
+BodyId unused_id(const Scene& s) {
+  BodyId id = 0;
+  for (const Body& b : s.bodies) id = std::max(id, b.id);
+  return id + 1;
+}
+
+// The same inputs, given before the run starts: 1 territory on one thread
+// and 4 territories on threads (the inputs are in every world's future).
+TEST(SimulationInput, QueuedInputsGiveTheOneTerritoryResult) {
+  const Scene s = test::scene("cube-pile", 120);
+  const BodyId pushed = first_dynamic(s), added = unused_id(s);
+  auto run = [&](int territories, int threads, bool inputs) {
+    Simulation sim(s, SimulationConfig{.territories = territories, .threads = threads});
+    if (inputs) {
+      EXPECT_EQ(sim.add_body(sim.time_of(40), new_cube(added, Vec3(0, 12, 0))), added);
+      sim.set_velocity(sim.time_of(60), pushed, Vec3(3, 4, 0), Vec3(0, 1, 0));
+      sim.apply_impulse(sim.time_of(70), added, Vec3(-2, 0, 1));
+      sim.remove_body(sim.time_of(120), pushed);
+    }
+    EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
+    return std::make_pair(sim.state_hash(), sim.body_count());
+  };
+  const auto one = run(1, 1, true);
+  const auto four = run(4, 0, true);
+  const auto none = run(1, 1, false);
+  std::printf("inputs queued: 1 territory %s (%zu bodies), 4 territories %s; no input %s\n",
+              hash_hex(one.first).c_str(), one.second, hash_hex(four.first).c_str(), hash_hex(none.first).c_str());
+  EXPECT_EQ(hash_hex(four.first), hash_hex(one.first));
+  EXPECT_EQ(four.second, one.second);
+  EXPECT_EQ(one.second, none.second);  // one added, one removed
+  EXPECT_NE(one.first, none.first);    // the inputs did something
+}
+
+// Thesis §3.2.3, late spawn: a 1x8 strip whose world 0 is slowed down, so
+// that the far end runs ahead; a body is added at a step the world that
+// owns its position has already passed (but not older than the commit
+// horizon). Every world rolls back to that step; the result equals the
+// one-territory run with the body added at that step from the start.
+class LateSpawn : public ::testing::TestWithParam<int> {};  // threads: 0 per world, 3 pool, 1 one
+
+TEST_P(LateSpawn, InATerritoryThatIsAheadMatchesOneTerritory) {
+  const Scene s = test::scene("falling-cubes", 200);
+  const TerritoryMap map = make_partition("grid:8x1x1", s, 8, GridOptions{});
+  // A position in the last territory, above everything.
+  const Body* far = nullptr;
+  double top = 0;
+  for (const Body& b : s.bodies) {
+    if (b.is_static) continue;
+    if (!far || b.position.x() > far->position.x()) far = &b;
+    top = std::max(top, b.position.y());
+  }
+  ASSERT_NE(far, nullptr);
+  const Vec3 at(far->position.x(), top + 2.0, far->position.z());
+  ASSERT_EQ(map.owner_of(at), 7);
+  const BodyId added = unused_id(s);
+
+  SimulationConfig config{.threads = GetParam(), .buffer_capacity = 64, .past_inputs = true};
+  config.after_step = [](WorldId w, std::int64_t) {
+    if (w == 0) std::this_thread::sleep_for(std::chrono::milliseconds(4));
+  };
+  Simulation sim(s, map, config);
+  sim.start(sim.time_of(kSteps));
+  // Wait until world 7 has passed the commit horizon. (Without speculation
+  // a world finishes step t only with every neighbour's messages of t, so
+  // the lead along the strip stays about a step.)
+  std::int64_t step = -1;
+  std::int64_t lead = 0;
+  for (int attempt = 0; attempt < 2000 && step < 0; ++attempt) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    const std::int64_t gvt = sim.commit_horizon_step();
+    lead = sim.published_steps()[7] - gvt;
+    if (lead < 1 || gvt < 10) continue;
+    try {
+      sim.add_body(sim.time_of(gvt), new_cube(added, at));
+      step = gvt;
+    } catch (const std::invalid_argument& e) {
+      // The horizon moved past gvt meanwhile: try again.
+      ASSERT_NE(std::string(e.what()).find("older than the commit horizon"), std::string::npos) << e.what();
+    }
+  }
+  ASSERT_GE(step, 0) << "world 7 never got ahead of the horizon";
+  EXPECT_EQ(sim.rollbacks(), 1u);
+  // Too old now: a clear error.
+  try {
+    sim.set_velocity(sim.time_of(0), added, Vec3(1, 0, 0));
+    ADD_FAILURE() << "an input at step 0 was accepted";
+  } catch (const std::invalid_argument& e) {
+    std::printf("refused: %s\n", e.what());
+  }
+  try {
+    sim.set_velocity(sim.time_of(1), first_dynamic(s), Vec3(1, 0, 0));
+    ADD_FAILURE() << "an input at step 1 was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("older than the commit horizon"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
+  const std::uint64_t late = sim.state_hash();
+
+  Simulation one(s, SimulationConfig{.threads = 1});
+  one.add_body(one.time_of(step), new_cube(added, at));
+  EXPECT_TRUE(one.advance_to(one.time_of(kSteps)));
+  std::printf("late spawn at step %lld (threads %d; world 7 ahead of the horizon by %lld): 8 territories %s, one %s\n",
+              static_cast<long long>(step), GetParam(), static_cast<long long>(lead), hash_hex(late).c_str(),
+              hash_hex(one.state_hash()).c_str());
+  EXPECT_EQ(hash_hex(late), hash_hex(one.state_hash()));
+  EXPECT_EQ(sim.body_count(), s.bodies.size() + 1);
+}
+
+INSTANTIATE_TEST_SUITE_P(SimulationInput, LateSpawn, ::testing::Values(0, 3, 1));
+
+TEST(SimulationInput, BadInputIsRefusedWithAClearError) {
+  const Scene s = test::scene("cube-pile", 60);
+  Simulation sim(s, SimulationConfig{.territories = 2});
+  const BodyId body = first_dynamic(s);
+  auto refused = [&](const std::function<void()>& call, const std::string& needle) {
+    try {
+      call();
+      ADD_FAILURE() << "accepted; expected: " << needle;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  refused([&] { sim.set_velocity(sim.time_of(5), unused_id(s), Vec3(1, 0, 0)); }, "no body has that id");
+  refused([&] { sim.add_body(sim.time_of(5), new_cube(body, Vec3(0, 9, 0))); }, "is in use");
+  refused([&] { sim.set_velocity(sim.time_of(5), body, Vec3(std::nan(""), 0, 0)); }, "finite");
+  Body bad = new_cube(unused_id(s), Vec3(0, 9, 0));
+  bad.mass = -1;
+  refused([&] { sim.add_body(sim.time_of(5), bad); }, "mass");
+  sim.remove_body(sim.time_of(10), body);
+  refused([&] { sim.apply_impulse(sim.time_of(12), body, Vec3(1, 0, 0)); }, "not in the scene then");
+  EXPECT_TRUE(sim.advance_to(sim.time_of(30)));
+  refused([&] { sim.add_body(sim.time_of(20), new_cube(unused_id(s), Vec3(0, 9, 0))); }, "past_inputs");
+  EXPECT_EQ(sim.body_count(), s.bodies.size() - 1);
+}
+
+}  // namespace
+}  // namespace soda
