@@ -1,7 +1,6 @@
 // CellCoord, CellBox (cell.h).
 #include "soda/grid/cell.h"
 
-#include <algorithm>
 #include <limits>
 
 namespace soda {
@@ -50,11 +49,6 @@ std::int64_t CellBox::count() const {
     n *= e;
   }
   return n;
-}
-
-CellCoord CellBox::clamp(const CellCoord& c) const {
-  return {std::clamp(c.x, lo.x, hi.x), std::clamp(c.y, lo.y, hi.y),
-          std::clamp(c.z, lo.z, hi.z)};
 }
 
 CellCoord CellBox::cell_at(std::size_t i) const {

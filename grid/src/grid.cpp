@@ -8,10 +8,6 @@
 namespace soda {
 namespace {
 
-bool finite(const Vec3& v) {
-  return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z());
-}
-
 std::string fmt(double v) {
   std::ostringstream s;
   s.precision(17);
@@ -45,15 +41,16 @@ UniformGrid::UniformGrid(const Vec3& origin, double cell_size)
     throw GridError("grid cell size " + fmt(cell_size) + " must be finite and > 0");
 }
 
-CellCoord UniformGrid::cell_of(const Vec3& p) const {
-  if (!finite(p)) throw GridError("cell_of: position " + fmt(p) + " is not finite");
-  CellCoord c;
-  constexpr double kLimit = kMaxCellIndex;
-  for (int axis = 0; axis < 3; ++axis) {
-    const double t = (p[axis] - origin_[axis]) / cell_size_;
-    c[axis] = static_cast<int>(std::clamp(std::floor(t), -kLimit, kLimit));
-  }
-  return c;
+void UniformGrid::throw_position_not_finite(const Vec3& p) {
+  throw GridError("cell_of: position " + fmt(p) + " is not finite");
+}
+
+void UniformGrid::throw_aabb_not_finite(const Vec3& min, const Vec3& max) {
+  throw GridError("cells_overlapping: AABB " + fmt(min) + " .. " + fmt(max) + " is not finite");
+}
+
+void UniformGrid::throw_min_exceeds_max(const Vec3& min, const Vec3& max) {
+  throw GridError("cells_overlapping: AABB min " + fmt(min) + " exceeds max " + fmt(max));
 }
 
 Vec3 UniformGrid::cell_min(const CellCoord& c) const {
@@ -69,14 +66,6 @@ Vec3 UniformGrid::cell_center(const CellCoord& c) const {
   const Vec3 lo = cell_min(c);
   const double h = 0.5 * cell_size_;
   return {lo.x() + h, lo.y() + h, lo.z() + h};
-}
-
-CellBox UniformGrid::cells_overlapping(const Vec3& min, const Vec3& max) const {
-  if (!finite(min) || !finite(max))
-    throw GridError("cells_overlapping: AABB " + fmt(min) + " .. " + fmt(max) + " is not finite");
-  if (min.x() > max.x() || min.y() > max.y() || min.z() > max.z())
-    throw GridError("cells_overlapping: AABB min " + fmt(min) + " exceeds max " + fmt(max));
-  return {cell_of(min), cell_of(max)};
 }
 
 UniformGrid make_grid(const Scene& scene, const GridOptions& options) {

@@ -1,6 +1,8 @@
 // UniformGrid, cells and boxes, make_grid / make_box.
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <random>
 #include <unordered_set>
 
 #include "grid/grid_test_util.h"
@@ -66,6 +68,92 @@ TEST(UniformGrid, FarPositionsSaturateAndNonFiniteIsAnError) {
   expect_grid_error([&] { g.cell_of(Vec3(0, inf, 0)); }, {"not finite"});
   expect_grid_error([] { UniformGrid(Vec3::Zero(), 0.0); }, {"cell size", "> 0"});
   expect_grid_error([] { UniformGrid(Vec3::Zero(), -1.0); }, {"cell size"});
+}
+
+// cell_of floors without libm (grid.h); these pin it to the definition,
+// std::clamp(std::floor((p - origin) / cell_size), +-kMaxCellIndex), at the
+// inputs where a hand-written floor goes wrong.
+int reference_cell(double p, double origin, double cell_size) {
+  constexpr double kLimit = kMaxCellIndex;
+  return static_cast<int>(std::clamp(std::floor((p - origin) / cell_size), -kLimit, kLimit));
+}
+
+TEST(UniformGrid, CellOfEdgeCasesOnAUnitGrid) {
+  // On unit cells at the origin, (p - 0) / 1 == p exactly: cell_of is floor.
+  const UniformGrid g(Vec3::Zero(), 1.0);
+  auto cell = [&](double v) { return g.cell_of(Vec3(v, 0.0, 0.0)).x; };
+  const double up = std::numeric_limits<double>::infinity();
+  const double denorm = std::numeric_limits<double>::denorm_min();
+  const double max = std::numeric_limits<double>::max();
+  const double limit = kMaxCellIndex;  // 2^29
+  // Exact integers, both signs, and zero of both signs.
+  for (int i : {0, 1, 2, 3, 7, 1000, -1, -2, -3, -7, -1000}) EXPECT_EQ(cell(i), i) << i;
+  EXPECT_EQ(cell(0.0), 0);
+  EXPECT_EQ(cell(-0.0), 0);
+  // Just below and just above integers: negatives round down, not toward 0.
+  EXPECT_EQ(cell(std::nextafter(3.0, -up)), 2);
+  EXPECT_EQ(cell(std::nextafter(3.0, up)), 3);
+  EXPECT_EQ(cell(std::nextafter(-3.0, up)), -3);
+  EXPECT_EQ(cell(std::nextafter(-3.0, -up)), -4);
+  EXPECT_EQ(cell(std::nextafter(1.0, -up)), 0);
+  EXPECT_EQ(cell(std::nextafter(-1.0, up)), -1);
+  EXPECT_EQ(cell(-0.5), -1);
+  EXPECT_EQ(cell(0.5), 0);
+  EXPECT_EQ(cell(-1e-300), -1);
+  EXPECT_EQ(cell(-denorm), -1);
+  EXPECT_EQ(cell(denorm), 0);
+  // Around the saturation limit 2^29 and beyond (exact integers up to 2^53,
+  // where every double is an integer, and the largest finite double).
+  EXPECT_EQ(cell(limit - 1.0), kMaxCellIndex - 1);
+  EXPECT_EQ(cell(std::nextafter(limit, -up)), kMaxCellIndex - 1);
+  EXPECT_EQ(cell(limit), kMaxCellIndex);
+  EXPECT_EQ(cell(limit + 0.5), kMaxCellIndex);
+  EXPECT_EQ(cell(-limit + 0.5), -kMaxCellIndex);
+  EXPECT_EQ(cell(std::nextafter(-limit, up)), -kMaxCellIndex);
+  EXPECT_EQ(cell(-limit), -kMaxCellIndex);
+  EXPECT_EQ(cell(-limit - 0.5), -kMaxCellIndex);
+  for (double v : {0x1p31, 0x1p31 + 1.0, 0x1p32, 0x1p52 + 1.0, 0x1p53, 0x1p63, 0x1p64, 1e300, max}) {
+    EXPECT_EQ(cell(v), kMaxCellIndex) << v;
+    EXPECT_EQ(cell(-v), -kMaxCellIndex) << -v;
+  }
+  // (p - origin) overflowing to infinity still saturates.
+  const UniformGrid far(Vec3(-max, max, 0.0), 1.0);
+  EXPECT_EQ(far.cell_of(Vec3(max, -max, 0.0)), (CellCoord{kMaxCellIndex, -kMaxCellIndex, 0}));
+}
+
+TEST(UniformGrid, CellOfMatchesTheLibmDefinitionEverywhere) {
+  std::mt19937_64 rng(7);
+  auto unit = [&] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+  const double up = std::numeric_limits<double>::infinity();
+  long checked = 0;
+  for (double cell_size : {1.0, 0.1, 1.7320508075688772, 3.0, 1e-3, 1e6, 0.7}) {
+    for (double o : {0.0, -0.0, 0.5, -1.25, 1e-9, -123.456, 1e5}) {
+      const UniformGrid g(Vec3(o, o, o), cell_size);
+      auto check = [&](double v) {
+        const CellCoord c = g.cell_of(Vec3(v, -v, v * 0.5));
+        ASSERT_EQ(c.x, reference_cell(v, o, cell_size)) << v << " origin " << o << " cell " << cell_size;
+        ASSERT_EQ(c.y, reference_cell(-v, o, cell_size)) << -v << " origin " << o << " cell " << cell_size;
+        ASSERT_EQ(c.z, reference_cell(v * 0.5, o, cell_size)) << v * 0.5 << " origin " << o << " cell " << cell_size;
+        ++checked;
+      };
+      // Cell boundaries origin + k * cell_size and their neighbouring doubles.
+      for (int k = -50; k <= 50; ++k) {
+        const double b = o + k * cell_size;
+        check(b);
+        check(std::nextafter(b, up));
+        check(std::nextafter(b, -up));
+      }
+      // Random magnitudes from 1e-12 to 1e12 cells, both signs.
+      for (int i = 0; i < 2000; ++i) check(std::ldexp(unit() - 0.5, static_cast<int>(rng() % 80) - 40) * cell_size);
+      // Around the saturation limit.
+      for (double t : {-0x1p29 - 1.0, -0x1p29, -0x1p29 + 1.0, 0x1p29 - 1.0, 0x1p29, 0x1p29 + 1.0}) {
+        check(o + t * cell_size);
+        check(std::nextafter(o + t * cell_size, up));
+        check(std::nextafter(o + t * cell_size, -up));
+      }
+    }
+  }
+  EXPECT_GT(checked, 100000);
 }
 
 TEST(UniformGrid, CellsOverlappingAnAabb) {

@@ -105,7 +105,7 @@ void TerritoryWorld::near_callback(void* pair_ptr) {
     }
     return;
   }
-  if (!seeds_.empty()) {
+  if (a.seed_step == steps_done_ && b.seed_step == steps_done_) {
     auto seed = seeds_.find(PairKey{a.id(), b.id()});
     if (seed != seeds_.end()) {
       seed_pair(pair_ptr, seed->second);

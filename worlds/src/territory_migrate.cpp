@@ -85,6 +85,14 @@ std::vector<std::pair<WorldId, MigrantBatch>> TerritoryWorld::migrate() {
   sort_lists();
   for (const Entry* e : owned_) {
     const BodyId id = e->id();
+    // An origin inside a halo whose cells are all owned here lies in one of
+    // them (cell_of is monotone on every axis): no owner lookup needed.
+    if (e->halo_owned_step == steps_done_) {
+      const btVector3& o = e->body->getWorldTransform().getOrigin();
+      if (e->halo_min.x() <= o.x() && o.x() <= e->halo_max.x() && e->halo_min.y() <= o.y() &&
+          o.y() <= e->halo_max.y() && e->halo_min.z() <= o.z() && o.z() <= e->halo_max.z())
+        continue;
+    }
     const WorldId w = owner_of_origin(*e);
     if (w == id_) continue;
     if (!std::binary_search(nbrs.begin(), nbrs.end(), w))

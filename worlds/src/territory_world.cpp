@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <span>
 #include <sstream>
 #include <string>
 
@@ -21,6 +22,15 @@ Vec3 to_vec3(const btVector3& v) { return Vec3(double(v.x()), double(v.y()), dou
 // apart, which must stay below the 2 * gContactBreakingThreshold the AABBs
 // were grown by together.
 btScalar max_exact_breaking_threshold() { return btScalar(std::sqrt(2.0)) * gContactBreakingThreshold; }
+
+// Bit of cell c in a bitset over the map box's cells (false outside the
+// box), as in interior_. Forced inline: predict asks it for every owned body.
+[[gnu::always_inline]] inline bool interior_bit(const std::vector<std::uint64_t>& bits, const CellBox& box,
+                                                const CellCoord& c) {
+  if (!box.contains(c)) return false;
+  const std::size_t i = box.index(c);
+  return (bits[i / 64] >> (i % 64)) & 1;
+}
 
 }  // namespace
 
@@ -60,7 +70,7 @@ void TerritoryWorld::check_contract(const Entry& e) const {
 }
 
 // Interior cells: owned here, and so are their 26 neighbours. A body whose
-// halo stays within the 1-ring of an interior home cell is no border body.
+// halo stays within the 1-ring of an interior cell is no border body.
 void TerritoryWorld::init_interior() {
   const CellBox& box = map_.box();
   interior_.assign(static_cast<std::size_t>((box.count() + 63) / 64), 0);
@@ -76,13 +86,6 @@ void TerritoryWorld::init_interior() {
     }
   }
   sort_lists();
-}
-
-bool TerritoryWorld::interior(const CellCoord& c) const {
-  const CellBox& box = map_.box();
-  if (!box.contains(c)) return false;
-  const std::size_t i = box.index(c);
-  return (interior_[i / 64] >> (i % 64)) & 1;
 }
 
 void TerritoryWorld::sort_lists() {
@@ -178,6 +181,8 @@ void TerritoryWorld::predict() {
   attachments_.clear();
   const std::vector<WorldId>& nbrs = neighbours();
   const UniformGrid& grid = map_.grid();
+  const CellBox& box = map_.box();
+  const std::span<const WorldId> owners = map_.owners();
   for (Entry* ep : owned_) {
     Entry& e = *ep;
     ++counters_.owned_bodies;
@@ -190,17 +195,30 @@ void TerritoryWorld::predict() {
     bullet_aabb(rb, e.halo_min, e.halo_max);
     e.sent_to.clear();
     const Vec3 lo = to_vec3(e.halo_min), hi = to_vec3(e.halo_max);
-    if (!lo.allFinite() || !hi.allFinite())
+    CellBox cells;
+    try {
+      cells = grid.cells_overlapping(lo, hi);  // checks the halo is finite: no second check here
+    } catch (const GridError&) {
+      if (lo.allFinite() && hi.allFinite()) throw;
       throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) + ": body " +
                            std::to_string(e.id()) + " has a non-finite AABB");
-    const CellBox cells = grid.cells_overlapping(lo, hi);
-    const CellCoord home = grid.cell_of(to_vec3(rb.getWorldTransform().getOrigin()));
-    const CellBox ring{{home.x - 1, home.y - 1, home.z - 1}, {home.x + 1, home.y + 1, home.z + 1}};
-    if (ring.contains(cells.lo) && ring.contains(cells.hi) && interior(home)) continue;
+    }
+    // No border body: the halo's cells (at most 3 along each axis) lie in the
+    // 1-ring of their middle cell, an interior cell (so all are owned here).
+    const CellCoord mid{cells.lo.x + (cells.hi.x - cells.lo.x) / 2, cells.lo.y + (cells.hi.y - cells.lo.y) / 2,
+                        cells.lo.z + (cells.hi.z - cells.lo.z) / 2};
+    if (cells.hi.x - cells.lo.x <= 2 && cells.hi.y - cells.lo.y <= 2 && cells.hi.z - cells.lo.z <= 2 &&
+        interior_bit(interior_, box, mid)) {
+      e.halo_owned_step = steps_done_;  // for migrate
+      continue;
+    }
+    // Owners read straight from the map's array when the cells are in its box.
+    const bool in_box = box.contains(cells.lo) && box.contains(cells.hi);
     for (int x = cells.lo.x; x <= cells.hi.x; ++x)
-      for (int y = cells.lo.y; y <= cells.hi.y; ++y)
-        for (int z = cells.lo.z; z <= cells.hi.z; ++z) {
-          const WorldId w = map_.owner(CellCoord{x, y, z});
+      for (int y = cells.lo.y; y <= cells.hi.y; ++y) {
+        std::size_t i = in_box ? box.index(CellCoord{x, y, cells.lo.z}) : 0;  // z runs fastest
+        for (int z = cells.lo.z; z <= cells.hi.z; ++z, ++i) {
+          const WorldId w = in_box ? owners[i] : map_.owner(CellCoord{x, y, z});
           if (w == id_ || std::find(e.sent_to.begin(), e.sent_to.end(), w) != e.sent_to.end()) continue;
           if (!std::binary_search(nbrs.begin(), nbrs.end(), w)) {
             std::ostringstream msg;
@@ -212,6 +230,7 @@ void TerritoryWorld::predict() {
           }
           e.sent_to.push_back(w);
         }
+      }
     std::sort(e.sent_to.begin(), e.sent_to.end());
     if (!e.sent_to.empty()) {
       ++counters_.border_bodies;
@@ -268,6 +287,7 @@ GhostBatch TerritoryWorld::ghost_batch_for(WorldId neighbour) const {
   GhostBatch batch;
   auto it = outgoing_.find(neighbour);
   if (it == outgoing_.end()) return batch;
+  batch.ghosts.reserve(it->second.size());
   for (const Entry* e : it->second) {
     batch.ghosts.push_back(GhostRecord{record_of(*e), e->sent_to});
     auto a = attachments_.find(e->id());
@@ -318,6 +338,13 @@ void TerritoryWorld::apply_ghosts(const std::vector<std::pair<WorldId, GhostBatc
   for (const Entry* e : ghosts_)
     if (!e->refreshed) stale.push_back(e->id());
   for (BodyId id : stale) remove_entry(id);
+  // Mark the bodies of seeded pairs: the near callback looks a pair up in
+  // seeds_ only if both its bodies are marked.
+  for (const auto& [pair, state] : seeds_)
+    for (BodyId id : {pair.first, pair.second}) {
+      auto it = entries_.find(id);
+      if (it != entries_.end()) it->second->seed_step = steps_done_;
+    }
   std::sort(ghost_senders_.begin(), ghost_senders_.end());
   counters_.ghosts = ghost_count();
 }

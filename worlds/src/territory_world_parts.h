@@ -5,6 +5,7 @@
 // (integrate, migrate).
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -26,7 +27,9 @@ struct TerritoryWorld::Entry {
   std::vector<WorldId> sent_to;    // worlds that got this body as a ghost this step, ascending
   bool refreshed = false;          // ghost: a record arrived this step
   int node = -1;                   // island node this step (-1: static)
+  std::int64_t seed_step = -1;     // step at which seeds_ held a pair with this body
   btVector3 halo_min, halo_max;    // owned: the halo computed by predict
+  std::int64_t halo_owned_step = -1;  // owned: step at which predict found every cell of the halo owned here
 
   BodyId id() const { return description.id; }
 };

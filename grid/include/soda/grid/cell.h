@@ -72,7 +72,9 @@ struct CellBox {
            c.z <= hi.z;
   }
   /// The cell of the box nearest to c (each coordinate clamped into [lo, hi]).
-  CellCoord clamp(const CellCoord& c) const;
+  CellCoord clamp(const CellCoord& c) const {
+    return {clamp1(c.x, lo.x, hi.x), clamp1(c.y, lo.y, hi.y), clamp1(c.z, lo.z, hi.z)};
+  }
   /// Linear index of a cell of the box. Precondition: contains(c).
   std::size_t index(const CellCoord& c) const {
     return static_cast<std::size_t>(
@@ -85,6 +87,10 @@ struct CellBox {
   CellBox grown(int margin) const;
 
   friend bool operator==(const CellBox&, const CellBox&) = default;
+
+ private:
+  // std::clamp for ints, without <algorithm> in this header.
+  static int clamp1(int v, int low, int high) { return v < low ? low : (high < v ? high : v); }
 };
 
 /// "[(lo) .. (hi)]", for messages.

@@ -227,7 +227,6 @@ class TerritoryWorld {
   void remove_entry(BodyId id);
   void sort_lists();
   WorldId owner_of_origin(const Entry& e) const;
-  bool interior(const CellCoord& cell) const;
   bool has(WorldId world, const Entry& e) const;
   WorldId holder_of(const Entry& a, const Entry& b, const void* pair) const;
   BodyId key_of(BodyId id0, BodyId id1) const;
