@@ -240,24 +240,6 @@ void add_owners(const Scene& scene, const TerritoryMap& map, const std::vector<B
   }
 }
 
-// Counters summed over worlds; merged_island_worlds_max is the max.
-WorldMetrics sum(const std::vector<WorldMetrics>& ms) {
-  WorldMetrics t;
-  for (const WorldMetrics& m : ms) {
-    t.border_bodies += m.border_bodies;
-    t.ghosts_sent += m.ghosts_sent;
-    t.ghosts_received += m.ghosts_received;
-    t.manifolds_seeded += m.manifolds_seeded;
-    t.migrations_out += m.migrations_out;
-    t.migrations_in += m.migrations_in;
-    t.merged_islands += m.merged_islands;
-    t.islands_solved += m.islands_solved;
-    t.merged_island_worlds_max = std::max(t.merged_island_worlds_max, m.merged_island_worlds_max);
-    t.messages_sent += m.messages_sent;
-  }
-  return t;
-}
-
 // Every lower bound of the partition, with the value reached; false if one
 // is not reached.
 bool describe_mechanism(const AnalyticPartition& p, const AnalyticRun& r, std::string& text) {
@@ -317,7 +299,7 @@ AnalyticRun run_partitioned(const AnalyticScene& as, const Scene& scene, const A
     }
   r.owners_at_start = static_cast<int>(at_start.size());
   r.owners_visited = static_cast<int>(visited.size());
-  r.total = sum(world.metrics());
+  r.total = total_metrics(world.metrics());
   r.mechanism_fired = describe_mechanism(p, r, r.mechanism);
 
   as.checks(scene, rec, r.checks);

@@ -371,6 +371,41 @@ std::vector<WorldMetrics> PartitionedWorld::metrics() const {
   return out;
 }
 
+WorldMetrics total_metrics(const std::vector<WorldMetrics>& worlds) {
+  WorldMetrics t;
+  for (const WorldMetrics& m : worlds) {
+    t.steps = std::max(t.steps, m.steps);
+    t.cpu_seconds += m.cpu_seconds;
+    t.blocked_seconds += m.blocked_seconds;
+    t.buffer_blocked_seconds += m.buffer_blocked_seconds;
+    t.entries_published += m.entries_published;
+    t.entries_dropped += m.entries_dropped;
+    t.owned_bodies += m.owned_bodies;
+    t.ghosts += m.ghosts;
+    t.neighbours += m.neighbours;
+    t.border_bodies += m.border_bodies;
+    t.ghosts_sent += m.ghosts_sent;
+    t.ghosts_received += m.ghosts_received;
+    t.manifolds_attached += m.manifolds_attached;
+    t.manifolds_seeded += m.manifolds_seeded;
+    t.manifolds_returned += m.manifolds_returned;
+    t.migrations_out += m.migrations_out;
+    t.migrations_in += m.migrations_in;
+    t.local_islands += m.local_islands;
+    t.border_fragments += m.border_fragments;
+    t.merged_islands += m.merged_islands;
+    t.islands_solved += m.islands_solved;
+    t.merged_island_bodies += m.merged_island_bodies;
+    t.merged_island_worlds_sum += m.merged_island_worlds_sum;
+    t.merged_island_worlds_max = std::max(t.merged_island_worlds_max, m.merged_island_worlds_max);
+    t.relay_messages_sent += m.relay_messages_sent;
+    t.relay_messages_received += m.relay_messages_received;
+    t.fragments_relayed += m.fragments_relayed;
+    t.messages_sent += m.messages_sent;
+  }
+  return t;
+}
+
 std::uint64_t PartitionedWorld::messages_sent() const { return transport_->messages_sent(); }
 std::uint64_t PartitionedWorld::bytes_sent() const { return transport_->bytes_sent(); }
 

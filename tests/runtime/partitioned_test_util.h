@@ -62,33 +62,7 @@ inline std::string first_divergence(const Scene& s, const TerritoryMap& map, int
 }
 
 /// Sums of the per-world metrics.
-inline WorldMetrics total(const std::vector<WorldMetrics>& ms) {
-  WorldMetrics t;
-  for (const WorldMetrics& m : ms) {
-    t.border_bodies += m.border_bodies;
-    t.ghosts_sent += m.ghosts_sent;
-    t.ghosts_received += m.ghosts_received;
-    t.manifolds_attached += m.manifolds_attached;
-    t.manifolds_seeded += m.manifolds_seeded;
-    t.manifolds_returned += m.manifolds_returned;
-    t.migrations_out += m.migrations_out;
-    t.migrations_in += m.migrations_in;
-    t.local_islands += m.local_islands;
-    t.border_fragments += m.border_fragments;
-    t.merged_islands += m.merged_islands;
-    t.islands_solved += m.islands_solved;
-    t.merged_island_bodies += m.merged_island_bodies;
-    t.merged_island_worlds_sum += m.merged_island_worlds_sum;
-    t.merged_island_worlds_max = std::max(t.merged_island_worlds_max, m.merged_island_worlds_max);
-    t.relay_messages_sent += m.relay_messages_sent;
-    t.relay_messages_received += m.relay_messages_received;
-    t.fragments_relayed += m.fragments_relayed;
-    t.messages_sent += m.messages_sent;
-    t.cpu_seconds += m.cpu_seconds;
-    t.blocked_seconds += m.blocked_seconds;
-  }
-  return t;
-}
+inline WorldMetrics total(const std::vector<WorldMetrics>& ms) { return total_metrics(ms); }
 
 inline std::string summary(const WorldMetrics& t) {
   std::ostringstream s;

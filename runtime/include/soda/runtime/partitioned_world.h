@@ -121,6 +121,12 @@ struct WorldMetrics {
   std::uint64_t messages_sent = 0;           // all kinds
 };
 
+/// The per-world metrics summed over worlds: counters, sizes, CPU and
+/// blocked times; merged_island_worlds_max and steps are maxima; the
+/// per-step series (cpu_step_ms) and the per-step means and maxima are left
+/// empty (they do not add up).
+WorldMetrics total_metrics(const std::vector<WorldMetrics>& worlds);
+
 class PartitionedWorld {
   friend class SimulationEngine;  // runs the world processes in the background (simulation.h)
 
