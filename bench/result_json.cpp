@@ -43,6 +43,8 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"step_ms", step_time_json(r.step_time)},
       {"watchdog", watchdog_response_name(d.config.watchdog.response)},
       {"healed_steps", r.healed_steps},
+      {"sync_test", d.config.sync_test},
+      {"sync_rollbacks", r.sync_rollbacks},
   };
   if (r.territories > 1) {
     j["schedule"] = r.schedule;

@@ -78,6 +78,10 @@ void add_run_options(CLI::App& cmd, Options& o) {
   cmd.add_option("--heal-substeps", o.config.watchdog.heal_substeps,
                  "--watchdog heal: substeps of a re-simulated step")
       ->capture_default_str();
+  cmd.add_option("--sync-test", o.config.sync_test,
+                 "SyncTest: after every step roll every world back this many steps, re-run them and require "
+                 "bit-identical state (0: off; costs that many extra steps per step)")
+      ->capture_default_str();
   cmd.add_option("--json", o.json_path, "Write results as JSON to this path ('-': stdout)");
 }
 
@@ -107,6 +111,8 @@ void print_summary(const soda::RunResult& r) {
                 r.territories, r.partition.c_str(), r.schedule.c_str(), r.threads,
                 static_cast<unsigned long long>(r.messages), r.cpu_seconds,
                 soda::slowest_world_cpu_seconds(r.world_metrics));
+  if (r.sync_rollbacks)
+    std::printf("  SyncTest: %llu rollbacks re-run bit-identical\n", static_cast<unsigned long long>(r.sync_rollbacks));
   for (std::int64_t step : r.healed_steps)
     std::printf("  watchdog: step %lld was bad; rolled back and re-simulated with substeps\n",
                 static_cast<long long>(step));

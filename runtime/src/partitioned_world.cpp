@@ -4,6 +4,7 @@
 #include "soda/runtime/partitioned_world.h"
 
 #include <algorithm>
+#include <cstring>
 #include <condition_variable>
 #include <deque>
 #include <exception>
@@ -32,6 +33,39 @@ const char* schedule_name(Schedule schedule) {
   return "unknown";
 }
 
+namespace {
+
+// Adds what `m` counted to `t`: counters and times summed, maxima kept.
+void add_counts(WorldMetrics& t, const WorldMetrics& m) {
+  t.cpu_seconds += m.cpu_seconds;
+  t.cpu_step_max_ms = std::max(t.cpu_step_max_ms, m.cpu_step_max_ms);
+  t.blocked_seconds += m.blocked_seconds;
+  t.buffer_blocked_seconds += m.buffer_blocked_seconds;
+  t.entries_published += m.entries_published;
+  t.entries_dropped += m.entries_dropped;
+  t.border_bodies += m.border_bodies;
+  t.ghosts_sent += m.ghosts_sent;
+  t.ghosts_received += m.ghosts_received;
+  t.manifolds_attached += m.manifolds_attached;
+  t.manifolds_seeded += m.manifolds_seeded;
+  t.manifolds_returned += m.manifolds_returned;
+  t.migrations_out += m.migrations_out;
+  t.migrations_in += m.migrations_in;
+  t.local_islands += m.local_islands;
+  t.border_fragments += m.border_fragments;
+  t.merged_islands += m.merged_islands;
+  t.islands_solved += m.islands_solved;
+  t.merged_island_bodies += m.merged_island_bodies;
+  t.merged_island_worlds_sum += m.merged_island_worlds_sum;
+  t.merged_island_worlds_max = std::max(t.merged_island_worlds_max, m.merged_island_worlds_max);
+  t.relay_messages_sent += m.relay_messages_sent;
+  t.relay_messages_received += m.relay_messages_received;
+  t.fragments_relayed += m.fragments_relayed;
+  t.messages_sent += m.messages_sent;
+}
+
+}  // namespace
+
 PartitionedWorld::PartitionedWorld(const Scene& scene, TerritoryMap map, PartitionedOptions options)
     : options_(std::move(options)), substeps_(scene.settings.substeps), base_substeps_(substeps_) {
   build(scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(scene, w, map); });
@@ -58,6 +92,12 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   if (options_.watchdog.heal_substeps < 1 || options_.watchdog.max_heals < 0)
     throw std::invalid_argument("PartitionedWorld: watchdog heal_substeps must be >= 1 and max_heals >= 0");
   if (!fault_fired_) fault_fired_ = std::make_shared<std::atomic<bool>>(false);
+  carried_.resize(processes_.size());
+  for (std::size_t w = 0; w < processes_.size(); ++w) {
+    const WorldMetrics m = processes_[w]->metrics();
+    add_counts(carried_[w], m);
+    carried_[w].cpu_step_ms.insert(carried_[w].cpu_step_ms.end(), m.cpu_step_ms.begin(), m.cpu_step_ms.end());
+  }
   processes_.clear();
   worlds_.clear();
   for (WorldId w = 0; w < k; ++w) worlds_.push_back(make_world(w));
@@ -130,6 +170,10 @@ void PartitionedWorld::step(int n) {
         resimulate_with_substeps();
         continue;
       }
+      if (options_.sync_test > 0 && heal_at_ == 0) {
+        sync_test_step();
+        continue;
+      }
       run_to(heal_at_ > 0 ? heal_at_ - 1 : goal);
     } catch (const WatchdogError& e) {
       if (options_.watchdog.response != WatchdogResponse::Heal) throw;
@@ -140,6 +184,38 @@ void PartitionedWorld::step(int n) {
       restore_before(e);
     }
   }
+}
+
+// One step, then back sync_test steps (or as far as kept) and forward again:
+// the state must come out bit-identical.
+void PartitionedWorld::sync_test_step() {
+  if (sync_states_.empty()) sync_states_.push_back(snapshot());
+  run_to(steps_done_ + 1);
+  WorldSnapshot now = snapshot();
+  const WorldSnapshot& back = sync_states_.front();
+  const std::int64_t t = steps_done_;
+  restore(back);
+  run_to(t);
+  ++sync_rollbacks_;
+  const WorldSnapshot again = snapshot();
+  if (serialize(again) != serialize(now)) {
+    std::string first = "the contact state";
+    for (std::size_t i = 0; i < std::min(now.bodies.size(), again.bodies.size()); ++i) {
+      const BodyDynamicState& a = now.bodies[i].state;
+      const BodyDynamicState& b = again.bodies[i].state;
+      if (std::memcmp(a.origin, b.origin, sizeof a.origin) || std::memcmp(a.basis, b.basis, sizeof a.basis) ||
+          std::memcmp(a.linear_velocity, b.linear_velocity, sizeof a.linear_velocity) ||
+          std::memcmp(a.angular_velocity, b.angular_velocity, sizeof a.angular_velocity)) {
+        first = "body " + std::to_string(now.bodies[i].description.id);
+        break;
+      }
+    }
+    throw std::logic_error("SyncTest: step " + std::to_string(t) + " re-run from step " +
+                           std::to_string(back.steps_done) + " is not bit-identical (first difference: " + first +
+                           ")");
+  }
+  sync_states_.push_back(std::move(now));
+  while (static_cast<int>(sync_states_.size()) > options_.sync_test) sync_states_.pop_front();
 }
 
 void PartitionedWorld::run_to(std::int64_t scene_step) {
@@ -176,6 +252,7 @@ void PartitionedWorld::restore_before(const WatchdogError& error) {
     whole.manifolds.insert(whole.manifolds.end(), part.manifolds.begin(), part.manifolds.end());
   }
   restore(merge_parts(std::move(whole)));
+  sync_states_.clear();
   heal_at_ = error.step();
   spdlog::warn("watchdog: {}; rolling back to step {} to re-simulate step {} with {} substeps", error.what(), r,
                heal_at_, options_.watchdog.heal_substeps);
@@ -365,44 +442,33 @@ int PartitionedWorld::world_count() const { return static_cast<int>(worlds_.size
 
 const TerritoryWorld& PartitionedWorld::world(WorldId id) const { return *worlds_.at(static_cast<std::size_t>(id)); }
 
+// Work done by processes replaced at a restore (heal, SyncTest) counts too:
+// re-run steps cost what they cost.
 std::vector<WorldMetrics> PartitionedWorld::metrics() const {
   std::vector<WorldMetrics> out;
-  for (const auto& p : processes_) out.push_back(p->metrics());
+  for (std::size_t w = 0; w < processes_.size(); ++w) {
+    WorldMetrics m = processes_[w]->metrics();
+    if (w < carried_.size()) {
+      const WorldMetrics& c = carried_[w];
+      add_counts(m, c);
+      m.cpu_step_ms.insert(m.cpu_step_ms.begin(), c.cpu_step_ms.begin(), c.cpu_step_ms.end());
+      m.cpu_step_mean_ms = m.cpu_step_ms.empty() ? 0.0 : m.cpu_seconds * 1e3 / double(m.cpu_step_ms.size());
+    }
+    out.push_back(std::move(m));
+  }
   return out;
 }
 
 WorldMetrics total_metrics(const std::vector<WorldMetrics>& worlds) {
   WorldMetrics t;
   for (const WorldMetrics& m : worlds) {
+    add_counts(t, m);
     t.steps = std::max(t.steps, m.steps);
-    t.cpu_seconds += m.cpu_seconds;
-    t.blocked_seconds += m.blocked_seconds;
-    t.buffer_blocked_seconds += m.buffer_blocked_seconds;
-    t.entries_published += m.entries_published;
-    t.entries_dropped += m.entries_dropped;
     t.owned_bodies += m.owned_bodies;
     t.ghosts += m.ghosts;
     t.neighbours += m.neighbours;
-    t.border_bodies += m.border_bodies;
-    t.ghosts_sent += m.ghosts_sent;
-    t.ghosts_received += m.ghosts_received;
-    t.manifolds_attached += m.manifolds_attached;
-    t.manifolds_seeded += m.manifolds_seeded;
-    t.manifolds_returned += m.manifolds_returned;
-    t.migrations_out += m.migrations_out;
-    t.migrations_in += m.migrations_in;
-    t.local_islands += m.local_islands;
-    t.border_fragments += m.border_fragments;
-    t.merged_islands += m.merged_islands;
-    t.islands_solved += m.islands_solved;
-    t.merged_island_bodies += m.merged_island_bodies;
-    t.merged_island_worlds_sum += m.merged_island_worlds_sum;
-    t.merged_island_worlds_max = std::max(t.merged_island_worlds_max, m.merged_island_worlds_max);
-    t.relay_messages_sent += m.relay_messages_sent;
-    t.relay_messages_received += m.relay_messages_received;
-    t.fragments_relayed += m.fragments_relayed;
-    t.messages_sent += m.messages_sent;
   }
+  t.cpu_step_max_ms = 0;
   return t;
 }
 

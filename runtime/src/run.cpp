@@ -64,7 +64,7 @@ RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
   if (config.world != WorldKind::Canonical)
     throw std::invalid_argument(config.territories > 1
                                     ? "--territories > 1 runs the canonical world only (not --world stock)"
-                                    : "--watchdog heal runs the canonical world only (not --world stock)");
+                                    : "--watchdog heal and --sync-test run the canonical world only (not --world stock)");
   RunResult r;
   r.world = config.world;
   r.bodies = scene.bodies.size();
@@ -91,6 +91,7 @@ RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
   options.validate = config.validate;
   options.pin = config.pin;
   options.watchdog = config.watchdog;
+  options.sync_test = config.sync_test;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
   step_ends.reserve(static_cast<std::size_t>(config.steps));
   std::int64_t t0 = 0;
@@ -123,6 +124,7 @@ RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
   r.state_hash = world.state_hash();
   r.sleeping_bodies = world.sleeping_count();
   r.healed_steps = world.healed_steps();
+  r.sync_rollbacks = world.sync_rollbacks();
   return r;
 }
 
@@ -168,7 +170,8 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   if (config.steps < 0) throw std::invalid_argument("--steps must be >= 0");
   if (config.territories < 1) throw std::invalid_argument("--territories must be >= 1");
   if (config.threads < 0) throw std::invalid_argument("--threads must be >= 0");
-  if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal)
+  if (config.sync_test < 0) throw std::invalid_argument("--sync-test must be >= 0");
+  if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0)
     return run_partitioned(scene, config);
   const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), config.shuffle_seed);
   switch (config.world) {

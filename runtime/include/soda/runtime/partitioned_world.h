@@ -18,6 +18,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <stdexcept>
@@ -51,6 +52,13 @@ struct PartitionedOptions {
   /// results, no Results messages) instead of its root solving it once and
   /// relaying the result down the island's tree.
   bool solve_everywhere = false;
+  /// SyncTest (as GGPO's): after every scene step t, restore every world
+  /// from the whole scene's state at step t - sync_test (kept in memory),
+  /// re-run those steps and require the bodies' and the contacts' state at
+  /// t to be bit-identical, else throw std::logic_error naming the step. A
+  /// check of restore and of determinism; costs sync_test extra steps per
+  /// step. 0: off.
+  int sync_test = 0;
   /// Pin the stepping threads to cores: ThreadPerWorld, world i's thread;
   /// Pool, worker i; on CPU (i mod the CPUs this process may use). A failure
   /// to pin is a logged warning. Sequential runs on the caller's thread and
@@ -174,6 +182,8 @@ class PartitionedWorld {
   /// steps they re-simulated with substeps, in order.
   int heals() const { return static_cast<int>(healed_steps_.size()); }
   const std::vector<std::int64_t>& healed_steps() const { return healed_steps_; }
+  /// SyncTest rollbacks done (each checked bit-identical).
+  std::uint64_t sync_rollbacks() const { return sync_rollbacks_; }
 
  private:
   class Process;
@@ -182,6 +192,7 @@ class PartitionedWorld {
   static WorldSnapshot merge_parts(WorldSnapshot concatenated);
   void restore(WorldSnapshot state);
   void run_to(std::int64_t scene_step);
+  void sync_test_step();
   void restore_before(const WatchdogError& error);
   void resimulate_with_substeps();
   void run_sequential(std::int64_t target);
@@ -200,6 +211,9 @@ class PartitionedWorld {
   std::unique_ptr<class CommitHorizon> horizon_;
   std::shared_ptr<std::atomic<bool>> fault_fired_;
   int heal_attempts_ = 0;
+  std::vector<WorldMetrics> carried_;  // counts of processes replaced by restores, per world
+  std::deque<WorldSnapshot> sync_states_;  // SyncTest: the last sync_test + 1 boundaries
+  std::uint64_t sync_rollbacks_ = 0;
   std::int64_t heal_at_ = 0;  // > 0: this scene step is re-simulated with substeps next
   std::vector<std::int64_t> healed_steps_;
 };

@@ -42,6 +42,7 @@ struct RunConfig {
   /// baseline). Heal runs every territory count, 1 included, through the
   /// partitioned runtime, which keeps a state per step to roll back to.
   WatchdogConfig watchdog = {};
+  int sync_test = 0;                 // > 0: SyncTest (PartitionedOptions::sync_test); runs any K partitioned
 };
 
 /// Summary statistics of per-step times, in milliseconds.
@@ -69,6 +70,7 @@ struct RunResult {
   std::uint64_t message_bytes = 0;  // their bytes (0 unless serialised)
   std::vector<WorldMetrics> world_metrics;  // one per world, by id
   std::vector<std::int64_t> healed_steps;   // watchdog Heal: steps re-simulated with substeps
+  std::uint64_t sync_rollbacks = 0;         // SyncTest: rollbacks checked bit-identical
 };
 
 /// Insertion order of the scene's bodies for a shuffle seed (0: scene order).
