@@ -88,6 +88,7 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   const int k = map.world_count();
   graph_ = std::make_unique<WorldGraph>(map);
   transport_ = options_.serialise ? make_serialising_transport(k) : make_in_memory_transport(k);
+  if (options_.fuzz_seed) transport_ = make_fuzzing_transport(std::move(transport_), options_.fuzz_seed);
   validator_ = options_.validate ? std::make_unique<Validator>(scene, k) : nullptr;
   if (options_.watchdog.heal_substeps < 1 || options_.watchdog.max_heals < 0)
     throw std::invalid_argument("PartitionedWorld: watchdog heal_substeps must be >= 1 and max_heals >= 0");
@@ -103,7 +104,9 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   for (WorldId w = 0; w < k; ++w) worlds_.push_back(make_world(w));
   const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
   horizon_ = std::make_unique<SharedMemoryHorizon>(k, steps_done_);
-  Process::Safety safety{&options_.watchdog, options_.inject_fault, fault_fired_.get(), horizon_.get(), heal};
+  if (options_.fuzz_seed && !fuzz_) fuzz_ = std::make_shared<FuzzRandom>(options_.fuzz_seed ^ 0x5A5A5A5A5A5A5A5Aull);
+  Process::Safety safety{&options_.watchdog, options_.inject_fault, fault_fired_.get(), horizon_.get(), heal,
+                         fuzz_.get()};
   for (WorldId w = 0; w < k; ++w)
     processes_.push_back(std::make_unique<Process>(*worlds_[static_cast<std::size_t>(w)], *transport_, *graph_,
                                                    validator_.get(), w == 0 ? options_.progress : nullptr,

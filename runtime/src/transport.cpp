@@ -1,5 +1,7 @@
 // Per-world mailboxes: a deque under a mutex, a condition variable for
 // blocking receives, a parked flag for task scheduling.
+#include <chrono>
+#include <thread>
 #include "soda/runtime/transport.h"
 
 #include <atomic>
@@ -129,6 +131,51 @@ std::unique_ptr<Transport> make_in_memory_transport(int world_count) {
 
 std::unique_ptr<Transport> make_serialising_transport(int world_count) {
   return std::make_unique<QueueTransport<true>>(world_count);
+}
+
+}  // namespace soda
+
+namespace soda {
+namespace {
+
+// Delays each send by a seeded random pause (in the sender, outside any
+// lock), so that messages from different worlds arrive in orders a plain run
+// rarely shows. Everything else is the inner transport's.
+class FuzzingTransport final : public Transport {
+ public:
+  FuzzingTransport(std::unique_ptr<Transport> inner, std::uint64_t seed) : inner_(std::move(inner)), random_(seed) {}
+  void send(WorldId to, Message message) override {
+    fuzz_pause(random_);
+    inner_->send(to, std::move(message));
+  }
+  std::optional<Message> try_receive(WorldId world) override { return inner_->try_receive(world); }
+  Message receive(WorldId world) override { return inner_->receive(world); }
+  bool park(WorldId world) override { return inner_->park(world); }
+  void set_wake_hook(std::function<void(WorldId)> hook) override { inner_->set_wake_hook(std::move(hook)); }
+  void close() override { inner_->close(); }
+  std::uint64_t messages_sent() const override { return inner_->messages_sent(); }
+  std::uint64_t bytes_sent() const override { return inner_->bytes_sent(); }
+
+ private:
+  std::unique_ptr<Transport> inner_;
+  FuzzRandom random_;
+};
+
+}  // namespace
+
+void fuzz_pause(FuzzRandom& random) {
+  const std::uint64_t r = random.next();
+  if (r % 4 != 0) return;  // one call in four pauses
+  const auto us = static_cast<int>((r >> 8) % 300);
+  if (us < 20) {
+    std::this_thread::yield();
+  } else {
+    std::this_thread::sleep_for(std::chrono::microseconds(us));
+  }
+}
+
+std::unique_ptr<Transport> make_fuzzing_transport(std::unique_ptr<Transport> inner, std::uint64_t seed) {
+  return std::make_unique<FuzzingTransport>(std::move(inner), seed);
 }
 
 }  // namespace soda

@@ -153,6 +153,7 @@ void PartitionedWorld::Process::send(WorldId to, Message message) {
 }
 
 bool PartitionedWorld::Process::run_phase() {
+  if (safety_.fuzz) fuzz_pause(*safety_.fuzz);
   switch (phase_) {
     case Phase::Predict: {
       if (output_.inputs && step_ % substeps_ == 0) apply_inputs();

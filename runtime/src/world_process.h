@@ -57,6 +57,7 @@ class PartitionedWorld::Process {
     std::atomic<bool>* fault_fired = nullptr;
     CommitHorizon* horizon = nullptr;  // reported at every scene step boundary
     bool keep_states = false;          // keep the world's state at every boundary >= GVT
+    FuzzRandom* fuzz = nullptr;        // fuzzing: a random pause before every stage
   };
   Process(TerritoryWorld& world, Transport& transport, const WorldGraph& graph, Validator* validator,
           std::function<void(std::int64_t)> progress, int substeps, bool solve_everywhere, Safety safety);

@@ -59,6 +59,11 @@ struct PartitionedOptions {
   /// check of restore and of determinism; costs sync_test extra steps per
   /// step. 0: off.
   int sync_test = 0;
+  /// Fuzzing (tests): > 0 pauses every message send and every stage of
+  /// every world at random (seeded: transport.h, fuzz_pause), so that
+  /// threads interleave and messages arrive in unusual orders. Results must
+  /// not change. 0: off.
+  std::uint64_t fuzz_seed = 0;
   /// Pin the stepping threads to cores: ThreadPerWorld, world i's thread;
   /// Pool, worker i; on CPU (i mod the CPUs this process may use). A failure
   /// to pin is a logged warning. Sequential runs on the caller's thread and
@@ -210,6 +215,7 @@ class PartitionedWorld {
   std::vector<std::unique_ptr<Process>> processes_;
   std::unique_ptr<class CommitHorizon> horizon_;
   std::shared_ptr<std::atomic<bool>> fault_fired_;
+  std::shared_ptr<class FuzzRandom> fuzz_;
   int heal_attempts_ = 0;
   std::vector<WorldMetrics> carried_;  // counts of processes replaced by restores, per world
   std::deque<WorldSnapshot> sync_states_;  // SyncTest: the last sync_test + 1 boundaries

@@ -7,6 +7,7 @@
 // one sender to one receiver arrive in the order they were sent.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -55,5 +56,26 @@ std::unique_ptr<Transport> make_in_memory_transport(int world_count);
 /// (message_codec.h): a malformed message throws MessageFormatError in the
 /// receiving world.
 std::unique_ptr<Transport> make_serialising_transport(int world_count);
+
+/// Fuzzing (tests): a seeded source of random pauses, safe to share between
+/// threads (the sequence drawn depends on the threads' timing; the seed only
+/// makes runs differ from each other).
+class FuzzRandom {
+ public:
+  explicit FuzzRandom(std::uint64_t seed) : state_(seed * 0x9E3779B97F4A7C15ull + 1) {}
+  std::uint64_t next() {  // splitmix64
+    std::uint64_t z = state_.fetch_add(0x9E3779B97F4A7C15ull, std::memory_order_relaxed) + 0x9E3779B97F4A7C15ull;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+
+ private:
+  std::atomic<std::uint64_t> state_;
+};
+/// One call in four: sleeps up to 300 µs (or yields).
+void fuzz_pause(FuzzRandom& random);
+/// `inner`, with every send delayed by fuzz_pause in the sending thread.
+std::unique_ptr<Transport> make_fuzzing_transport(std::unique_ptr<Transport> inner, std::uint64_t seed);
 
 }  // namespace soda
