@@ -114,24 +114,37 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
 }
 
 WorldSnapshot PartitionedWorld::snapshot() const {
-  WorldSnapshot s;
-  s.settings = worlds_.front()->part_snapshot().settings;
-  s.steps_done = steps_done_;
-  s.bodies = worlds_.front()->static_snapshots();
-  for (const auto& w : worlds_) {
-    WorldSnapshot part = w->part_snapshot();
-    s.bodies.insert(s.bodies.end(), std::make_move_iterator(part.bodies.begin()),
-                    std::make_move_iterator(part.bodies.end()));
-    s.manifolds.insert(s.manifolds.end(), std::make_move_iterator(part.manifolds.begin()),
-                       std::make_move_iterator(part.manifolds.end()));
-  }
-  return merge_parts(std::move(s));
+  std::vector<WorldSnapshot> parts;
+  for (const auto& w : worlds_) parts.push_back(w->part_snapshot());
+  return assemble(steps_done_, std::move(parts));
 }
 
-// The worlds' parts concatenated -> one snapshot: bodies by id (one owner
-// each); a pair's contact state may be held by one world and kept by its key
-// body's owner, and the copies must be identical.
-WorldSnapshot PartitionedWorld::merge_parts(WorldSnapshot s) {
+std::optional<WorldSnapshot> PartitionedWorld::kept_snapshot(std::int64_t scene_step) const {
+  for (const auto& p : processes_)
+    if (!p->kept_state(scene_step)) return std::nullopt;
+  std::vector<WorldSnapshot> parts;
+  for (const auto& p : processes_) parts.push_back(*p->kept_state(scene_step));
+  WorldSnapshot whole = assemble(scene_step, std::move(parts));
+  whole.settings.substeps = base_substeps_;  // the boundary may have been kept by a re-simulation
+  return whole;
+}
+
+// One part per world, all at one boundary, plus the statics -> the whole
+// scene's state: bodies by id (one owner each); a pair's contact state may
+// be held by one world and kept by its key body's owner, and the copies
+// must be identical.
+WorldSnapshot PartitionedWorld::assemble(std::int64_t scene_step, std::vector<WorldSnapshot> parts) const {
+  WorldSnapshot s;
+  s.settings = parts.front().settings;
+  s.steps_done = scene_step;
+  s.bodies = worlds_.front()->static_snapshots();
+  std::vector<ManifoldState> manifolds;
+  for (WorldSnapshot& part : parts) {
+    s.bodies.insert(s.bodies.end(), std::make_move_iterator(part.bodies.begin()),
+                    std::make_move_iterator(part.bodies.end()));
+    manifolds.insert(manifolds.end(), std::make_move_iterator(part.manifolds.begin()),
+                     std::make_move_iterator(part.manifolds.end()));
+  }
   std::sort(s.bodies.begin(), s.bodies.end(), [](const BodySnapshot& a, const BodySnapshot& b) {
     return a.description.id < b.description.id;
   });
@@ -139,8 +152,6 @@ WorldSnapshot PartitionedWorld::merge_parts(WorldSnapshot s) {
     if (s.bodies[i].description.id == s.bodies[i - 1].description.id)
       throw std::logic_error("PartitionedWorld::snapshot: body " + std::to_string(s.bodies[i].description.id) +
                              " is owned by two worlds");
-  std::vector<ManifoldState> manifolds = std::move(s.manifolds);
-  s.manifolds.clear();
   std::stable_sort(manifolds.begin(), manifolds.end(), [](const ManifoldState& a, const ManifoldState& b) {
     return std::make_pair(a.id0, a.id1) < std::make_pair(b.id0, b.id1);
   });
@@ -236,25 +247,12 @@ void PartitionedWorld::run_to(std::int64_t scene_step) {
 // world still keeps, before the bad step, is where they start again.
 void PartitionedWorld::restore_before(const WatchdogError& error) {
   std::int64_t r = error.step() - 1;
-  for (;; --r) {
-    bool everywhere = r >= 0;
-    for (const auto& p : processes_) everywhere = everywhere && p->kept_state(r);
-    if (everywhere) break;
-    if (r < 0)
-      throw WatchdogError(error.step(), error.world(), error.findings(), options_.watchdog.limits,
-                          "self-heal found no step every world keeps");
-  }
-  WorldSnapshot whole;
-  whole.settings = processes_.front()->kept_state(r)->settings;
-  whole.settings.substeps = base_substeps_;  // the bad step may have been a re-simulation
-  whole.steps_done = r;
-  whole.bodies = worlds_.front()->static_snapshots();
-  for (const auto& p : processes_) {
-    const WorldSnapshot& part = *p->kept_state(r);
-    whole.bodies.insert(whole.bodies.end(), part.bodies.begin(), part.bodies.end());
-    whole.manifolds.insert(whole.manifolds.end(), part.manifolds.begin(), part.manifolds.end());
-  }
-  restore(merge_parts(std::move(whole)));
+  std::optional<WorldSnapshot> whole = kept_snapshot(r);
+  while (!whole && r > 0) whole = kept_snapshot(--r);
+  if (!whole)
+    throw WatchdogError(error.step(), error.world(), error.findings(), options_.watchdog.limits,
+                        "self-heal found no step every world keeps");
+  restore(std::move(*whole));
   sync_states_.clear();
   heal_at_ = error.step();
   spdlog::warn("watchdog: {}; rolling back to step {} to re-simulate step {} with {} substeps", error.what(), r,

@@ -46,8 +46,7 @@ std::int64_t RunControl::hold() {
   std::int64_t h;
   {
     std::lock_guard lock(mutex_);
-    const std::int64_t begun = *std::max_element(started_.begin(), started_.end());
-    hold_ = (begun + substeps_ - 1) / substeps_ * substeps_;
+    hold_ = highest_boundary_begun_locked();
     h = hold_;
     bump_wake_locked();
   }
@@ -117,8 +116,7 @@ std::int64_t RunControl::freeze() {
   {
     std::lock_guard lock(mutex_);
     if (!frozen_) {
-      const std::int64_t begun = *std::max_element(started_.begin(), started_.end());
-      limit_ = (begun + substeps_ - 1) / substeps_ * substeps_;
+      limit_ = highest_boundary_begun_locked();
       frozen_ = true;
       bump_wake_locked();
     }
@@ -126,6 +124,13 @@ std::int64_t RunControl::freeze() {
   }
   call_hook();
   return limit;
+}
+
+// The end of the highest step any world has begun, rounded up to a scene
+// step: every world can reach it, none has gone past it.
+std::int64_t RunControl::highest_boundary_begun_locked() const {
+  const std::int64_t begun = *std::max_element(started_.begin(), started_.end());
+  return (begun + substeps_ - 1) / substeps_ * substeps_;
 }
 
 std::int64_t RunControl::limit() const {

@@ -131,6 +131,7 @@ class RunControl {
  private:
   void bump_wake_locked();
   bool all_parked_locked() const;
+  std::int64_t highest_boundary_begun_locked() const;
   [[noreturn]] void throw_error_locked() const;
   void call_hook();
 
@@ -141,11 +142,11 @@ class RunControl {
   std::int64_t limit_ = 0;
   std::int64_t hold_ = -1;       // >= 0: no world begins a step at or past it
   std::uint64_t rewinds_ = 0;    // bumped by rewind(): wakes wait_limit_above
-  std::vector<std::shared_ptr<const WorldSnapshot>> rewind_to_;  // per world: pending rewind
   bool frozen_ = false;
   std::vector<std::int64_t> started_;   // per world: steps begun
   std::vector<std::int64_t> parked_at_;  // per world: steps done when it parked at the limit; -1 running
   std::vector<std::int64_t> published_;  // per world: newest scene step published
+  std::vector<std::shared_ptr<const WorldSnapshot>> rewind_to_;  // per world: pending rewind
   std::uint64_t wake_epoch_ = 0;
   std::uint64_t watch_epoch_ = 0;
   bool stopping_ = false;

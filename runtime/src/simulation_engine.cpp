@@ -406,19 +406,11 @@ void SimulationEngine::input(UserInput in) {
 // finished merges are dropped from the mailboxes first, while nobody sends.
 void SimulationEngine::rollback_locked(std::int64_t scene_step) {
   const int k = world->world_count();
-  WorldSnapshot whole;
-  whole.steps_done = scene_step;
-  whole.bodies = world->world(0).static_snapshots();
-  for (WorldId w = 0; w < k; ++w) {
-    const WorldSnapshot* part = process(w).kept_state(scene_step);
-    if (!part)
-      throw std::logic_error("Simulation: world " + std::to_string(w) + " no longer keeps step " +
-                             std::to_string(scene_step) + " (commit horizon broken)");
-    whole.settings = part->settings;
-    whole.bodies.insert(whole.bodies.end(), part->bodies.begin(), part->bodies.end());
-    whole.manifolds.insert(whole.manifolds.end(), part->manifolds.begin(), part->manifolds.end());
-  }
-  auto state = std::make_shared<const WorldSnapshot>(PartitionedWorld::merge_parts(std::move(whole)));
+  std::optional<WorldSnapshot> whole = world->kept_snapshot(scene_step);
+  if (!whole)
+    throw std::logic_error("Simulation: some world no longer keeps step " + std::to_string(scene_step) +
+                           " (commit horizon broken)");
+  auto state = std::make_shared<const WorldSnapshot>(std::move(*whole));
   for (WorldId w = 0; w < k; ++w)
     while (world->transport_->try_receive(w)) {
     }

@@ -34,7 +34,9 @@ TEST_P(SyncTest, RollbacksReRunBitIdenticalAndTheRunMatchesOneWorld) {
   world.step(c.steps);
   EXPECT_EQ(world.sync_rollbacks(), static_cast<std::uint64_t>(c.steps));
   EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(test::reference_hash(s, c.steps)));
-  if (c.territories > 1) EXPECT_GT(test::total(world.metrics()).ghosts_sent, 0u);
+  if (c.territories > 1) {
+    EXPECT_GT(test::total(world.metrics()).ghosts_sent, 0u);
+  }
   std::printf("[ sync-test %d: %s %s K=%d ] %d steps, %llu rollbacks re-run identical; %s\n", c.back, c.scene,
               c.partition, c.territories, c.steps, static_cast<unsigned long long>(world.sync_rollbacks()),
               hash_hex(world.state_hash()).c_str());

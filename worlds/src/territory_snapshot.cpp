@@ -29,8 +29,7 @@ TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, Territ
       insert_static(d);
       continue;
     }
-    const btVector3 origin(b.state.origin[0], b.state.origin[1], b.state.origin[2]);
-    if (map_.owner_of(Vec3(double(origin.x()), double(origin.y()), double(origin.z()))) != id_) continue;
+    if (owner_of_origin(btVector3(b.state.origin[0], b.state.origin[1], b.state.origin[2])) != id_) continue;
     check_contract(insert_dynamic(d, &b.state, true, id_));
   }
   for (const ManifoldState& m : snapshot.manifolds) {
@@ -68,8 +67,7 @@ std::vector<BodySnapshot> TerritoryWorld::static_snapshots() const {
 std::vector<WatchdogFinding> TerritoryWorld::watchdog_findings(const WatchdogLimits& limits) const {
   std::vector<WatchdogFinding> out;
   for (const Entry* e : owned_) watchdog_scan_body(*e->body, e->id(), limits, out);
-  btDispatcher& d = parts_->dispatcher;
-  for (int i = 0; i < d.getNumManifolds(); ++i) watchdog_scan_manifold(*d.getManifoldByIndexInternal(i), limits, out);
+  watchdog_scan_manifolds(parts_->dispatcher, limits, out);
   watchdog_sort(out);
   return out;
 }
@@ -98,8 +96,7 @@ bool TerritoryWorld::apply_impulse(BodyId id, const Vec3& impulse) {
 bool TerritoryWorld::add_body(const Body& body) {
   if (body.is_static) throw PartitionError("TerritoryWorld::add_body: static bodies cannot be added to a running scene");
   if (body.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
-  const btVector3 origin = to_bt(body.position);
-  if (map_.owner_of(Vec3(double(origin.x()), double(origin.y()), double(origin.z()))) != id_) return false;
+  if (owner_of_origin(to_bt(body.position)) != id_) return false;
   if (entries_.count(body.id))
     throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) + ": body " +
                          std::to_string(body.id) + " added, but that id is present");

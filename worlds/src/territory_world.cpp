@@ -44,8 +44,7 @@ TerritoryWorld::TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map)
       continue;
     }
     // Home cell from the position as Bullet holds it (rounded to btScalar).
-    const btVector3 origin = to_bt(b.position);
-    if (map_.owner_of(to_vec3(origin)) != id_) continue;
+    if (owner_of_origin(to_bt(b.position)) != id_) continue;
     check_contract(insert_dynamic(b, nullptr, true, id_));
   }
   init_interior();
@@ -160,8 +159,10 @@ void TerritoryWorld::remove_entry(BodyId id) {
 }
 
 WorldId TerritoryWorld::owner_of_origin(const Entry& e) const {
-  return map_.owner_of(to_vec3(e.body->getWorldTransform().getOrigin()));
+  return owner_of_origin(e.body->getWorldTransform().getOrigin());
 }
+
+WorldId TerritoryWorld::owner_of_origin(const btVector3& origin) const { return map_.owner_of(to_vec3(origin)); }
 
 bool TerritoryWorld::owns(BodyId id) const {
   auto it = entries_.find(id);

@@ -67,6 +67,12 @@ void watchdog_scan_manifold(const btPersistentManifold& m, const WatchdogLimits&
                    static_cast<BodyId>(m.getBody1()->getUserIndex()), deepest});
 }
 
+void watchdog_scan_manifolds(btDispatcher& dispatcher, const WatchdogLimits& limits,
+                             std::vector<WatchdogFinding>& out) {
+  for (int i = 0; i < dispatcher.getNumManifolds(); ++i)
+    watchdog_scan_manifold(*dispatcher.getManifoldByIndexInternal(i), limits, out);
+}
+
 void watchdog_sort(std::vector<WatchdogFinding>& findings) {
   std::sort(findings.begin(), findings.end(), [](const WatchdogFinding& a, const WatchdogFinding& b) {
     return std::make_tuple(a.body, static_cast<int>(a.kind), a.other) <
@@ -117,8 +123,7 @@ std::vector<WatchdogFinding> CanonicalWorld::watchdog_findings(const WatchdogLim
   std::vector<WatchdogFinding> out;
   for (const auto& e : entries_)
     if (!e->description.is_static) watchdog_scan_body(*e->body, e->description.id, limits, out);
-  btDispatcher& d = parts_->dispatcher;
-  for (int i = 0; i < d.getNumManifolds(); ++i) watchdog_scan_manifold(*d.getManifoldByIndexInternal(i), limits, out);
+  watchdog_scan_manifolds(parts_->dispatcher, limits, out);
   watchdog_sort(out);
   return out;
 }

@@ -16,6 +16,8 @@ void watchdog_scan_body(const btRigidBody& body, BodyId id, const WatchdogLimits
 /// Appends the deepest point of a manifold if it is deeper than allowed.
 void watchdog_scan_manifold(const btPersistentManifold& manifold, const WatchdogLimits& limits,
                             std::vector<WatchdogFinding>& out);
+/// Every manifold of a dispatcher, as above.
+void watchdog_scan_manifolds(btDispatcher& dispatcher, const WatchdogLimits& limits, std::vector<WatchdogFinding>& out);
 /// Sorts findings by (body, kind, other) and keeps the first 16.
 void watchdog_sort(std::vector<WatchdogFinding>& findings);
 

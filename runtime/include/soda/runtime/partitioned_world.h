@@ -21,6 +21,7 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -194,7 +195,12 @@ class PartitionedWorld {
   class Process;
   void build(const Scene& scene, const TerritoryMap& map,
              const std::function<std::unique_ptr<TerritoryWorld>(WorldId)>& make_world);
-  static WorldSnapshot merge_parts(WorldSnapshot concatenated);
+  WorldSnapshot assemble(std::int64_t scene_step, std::vector<WorldSnapshot> parts) const;
+  /// The whole scene's state at `scene_step` from the states every world
+  /// keeps (PartitionedOptions::keep_states), with the scene's substeps;
+  /// nullopt if some world no longer (or not yet) keeps it. Only while the
+  /// worlds are stopped or held.
+  std::optional<WorldSnapshot> kept_snapshot(std::int64_t scene_step) const;
   void restore(WorldSnapshot state);
   void run_to(std::int64_t scene_step);
   void sync_test_step();

@@ -52,6 +52,7 @@
 #include "soda/worlds/watchdog.h"
 
 class btPersistentManifold;
+class btVector3;
 class btCollisionObject;
 
 namespace soda {
@@ -227,6 +228,8 @@ class TerritoryWorld {
   void remove_entry(BodyId id);
   void sort_lists();
   WorldId owner_of_origin(const Entry& e) const;
+  /// Owner of the home cell of a body whose origin Bullet holds as `origin`.
+  WorldId owner_of_origin(const btVector3& origin) const;
   bool has(WorldId world, const Entry& e) const;
   WorldId holder_of(const Entry& a, const Entry& b, const void* pair) const;
   BodyId key_of(BodyId id0, BodyId id1) const;
