@@ -1,14 +1,21 @@
-// Internal: the commit horizon (GVT, DESIGN.md §4): the oldest step any
-// world may still have to return to. Each world reports its low-water mark —
-// without speculation its last completed step boundary (messages it has sent
-// are for steps at or after it, and inputs are applied at boundaries) — and
-// GVT is the minimum over all worlds, read without stopping anyone. Behind
+// Internal: the commit horizon (GVT, DESIGN.md §4): the oldest internal step
+// any world may still have to return to. Each world reports its low-water
+// mark — without speculation its last completed step boundary (messages it
+// has sent are for steps at or after it, and inputs are applied at
+// boundaries); with speculation the minimum of its clock and the steps of
+// the neighbours' messages it used that may still change (bets not yet
+// confirmed, messages of a neighbour that rolled back not yet re-sent) — and
+// a world that sends a rollback notice pins the notice's step until the
+// receiver has taken it in (a message in flight). GVT is the minimum over
+// all marks and pins, read without stopping anyone. Behind
 // an interface so that a distributed algorithm (Mattern's two-colour cut)
 // can replace the shared-memory one for a transport across machines.
 #pragma once
 
 #include <algorithm>
+#include <climits>
 #include <cstdint>
+#include <functional>
 #include <mutex>
 #include <set>
 #include <vector>
@@ -20,8 +27,8 @@ namespace soda {
 class CommitHorizon {
  public:
   virtual ~CommitHorizon() = default;
-  /// World `world`'s low-water mark is now `step` (scene steps). Only a
-  /// rollback lowers it, and never below gvt().
+  /// World `world`'s low-water mark is now `step` (internal steps). It is
+  /// never lowered below gvt().
   virtual void report(WorldId world, std::int64_t step) = 0;
   /// The minimum over all worlds' low-water marks and the pins: no world
   /// will ever need to restore a step below it.
@@ -30,15 +37,27 @@ class CommitHorizon {
   /// is being prepared); false, and no pin, if gvt() is already above it.
   virtual bool try_pin(std::int64_t step) = 0;
   virtual void unpin(std::int64_t step) = 0;
+  /// Calls the wake hook for `world` once gvt() >= `step`; false (and no
+  /// call) if it already is.
+  virtual bool wake_at(WorldId world, std::int64_t step) = 0;
+  /// Called (outside any lock of the horizon) with each world whose wake_at
+  /// step gvt() reached; set before any world runs.
+  virtual void set_wake_hook(std::function<void(WorldId)> hook) = 0;
 };
 
 /// One machine: the marks under one mutex (each world reports once a step).
 class SharedMemoryHorizon final : public CommitHorizon {
  public:
-  SharedMemoryHorizon(int worlds, std::int64_t start) : marks_(static_cast<std::size_t>(worlds), start) {}
+  SharedMemoryHorizon(int worlds, std::int64_t start)
+      : marks_(static_cast<std::size_t>(worlds), start), wake_(static_cast<std::size_t>(worlds), kNever) {}
   void report(WorldId world, std::int64_t step) override {
-    std::lock_guard lock(mutex_);
-    marks_[static_cast<std::size_t>(world)] = step;
+    std::vector<WorldId> woken;
+    {
+      std::lock_guard lock(mutex_);
+      marks_[static_cast<std::size_t>(world)] = step;
+      woken = due_locked();
+    }
+    for (WorldId w : woken) hook_(w);
   }
   std::int64_t gvt() const override {
     std::lock_guard lock(mutex_);
@@ -51,12 +70,35 @@ class SharedMemoryHorizon final : public CommitHorizon {
     return true;
   }
   void unpin(std::int64_t step) override {
-    std::lock_guard lock(mutex_);
-    auto it = pins_.find(step);
-    if (it != pins_.end()) pins_.erase(it);
+    std::vector<WorldId> woken;
+    {
+      std::lock_guard lock(mutex_);
+      auto it = pins_.find(step);
+      if (it != pins_.end()) pins_.erase(it);
+      woken = due_locked();
+    }
+    for (WorldId w : woken) hook_(w);
   }
+  bool wake_at(WorldId world, std::int64_t step) override {
+    std::lock_guard lock(mutex_);
+    if (gvt_locked() >= step) return false;
+    wake_[static_cast<std::size_t>(world)] = step;
+    return true;
+  }
+  void set_wake_hook(std::function<void(WorldId)> hook) override { hook_ = std::move(hook); }
 
  private:
+  static constexpr std::int64_t kNever = INT64_MAX;
+  std::vector<WorldId> due_locked() {
+    std::vector<WorldId> out;
+    const std::int64_t g = gvt_locked();
+    for (std::size_t w = 0; w < wake_.size(); ++w)
+      if (wake_[w] <= g) {
+        wake_[w] = kNever;
+        out.push_back(static_cast<WorldId>(w));
+      }
+    return out;
+  }
   std::int64_t gvt_locked() const {
     std::int64_t low = *std::min_element(marks_.begin(), marks_.end());
     if (!pins_.empty()) low = std::min(low, *pins_.begin());
@@ -65,6 +107,8 @@ class SharedMemoryHorizon final : public CommitHorizon {
   mutable std::mutex mutex_;
   std::vector<std::int64_t> marks_;
   std::multiset<std::int64_t> pins_;
+  std::vector<std::int64_t> wake_;  // per world: the gvt it waits for
+  std::function<void(WorldId)> hook_ = [](WorldId) {};
 };
 
 }  // namespace soda

@@ -11,7 +11,7 @@ namespace soda {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'M', 'S', 'G', '1'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;  // 2: epoch, Control
 constexpr std::size_t kMinRecordBytes = kMinBodyBytes + 6 * sizeof(btScalar);
 
 [[noreturn]] void raise_message_error(const std::string& message) { throw MessageFormatError(message); }
@@ -219,6 +219,23 @@ ResultBatch read_results(ByteReader& r) {
   return b;
 }
 
+void write_payload(ByteWriter& w, const Control& c) {
+  w.put(static_cast<std::uint8_t>(c.type));
+  w.put(c.seq);
+  w.put(c.rolled_to);
+}
+
+Control read_control(ByteReader& r) {
+  Control c;
+  const auto type = r.get<std::uint8_t>();
+  if (type < 1 || type > 2) r.fail("unknown control type " + std::to_string(type));
+  c.type = static_cast<Control::Type>(type);
+  c.seq = r.get<std::uint64_t>();
+  c.rolled_to = r.get<std::int64_t>();
+  if (c.rolled_to < -1) r.fail("control message with a step below -1");
+  return c;
+}
+
 }  // namespace
 
 const char* message_kind_name(MessageKind kind) {
@@ -229,13 +246,19 @@ const char* message_kind_name(MessageKind kind) {
     case MessageKind::Migrants: return "Migrants";
     case MessageKind::Results: return "Results";
     case MessageKind::Gather: return "Gather";
+    case MessageKind::Control: return "Control";
   }
   return "Unknown";
 }
 
 std::string describe(const Message& m) {
-  return std::string(message_kind_name(m.kind())) + "(" + std::to_string(m.step) + ") " + std::to_string(m.from) +
-         "->" + std::to_string(m.to);
+  std::string kind = message_kind_name(m.kind());
+  if (const Control* c = std::get_if<Control>(&m.payload)) {
+    kind = c->type == Control::Type::Notice ? "Notice" : "Wake";
+    if (c->type != Control::Type::Wake) kind += "#" + std::to_string(c->seq) + "[" + std::to_string(c->rolled_to) + "]";
+  }
+  return kind + "(" + std::to_string(m.step) + ") " + std::to_string(m.from) + "->" + std::to_string(m.to) +
+         (m.epoch ? " epoch " + std::to_string(m.epoch) : "");
 }
 
 std::vector<std::uint8_t> encode_message(const Message& m) {
@@ -244,7 +267,7 @@ std::vector<std::uint8_t> encode_message(const Message& m) {
   w.put(kVersion);
   w.put(static_cast<std::uint32_t>(sizeof(btScalar)));
   w.put(static_cast<std::uint8_t>(m.kind()));
-  w.put(m.from), w.put(m.to), w.put(m.step);
+  w.put(m.from), w.put(m.to), w.put(m.step), w.put(m.epoch);
   std::visit([&w](const auto& payload) { write_payload(w, payload); }, m.payload);
   return std::move(w.bytes);
 }
@@ -263,6 +286,7 @@ Message decode_message(const std::vector<std::uint8_t>& bytes) {
   m.to = read_world(r);
   m.step = r.get<std::int64_t>();
   if (m.step < 0) r.fail("negative step");
+  m.epoch = r.get<std::uint32_t>();
   switch (kind) {
     case static_cast<std::uint8_t>(MessageKind::Ghosts): m.payload = read_ghosts(r); break;
     case static_cast<std::uint8_t>(MessageKind::Glue): m.payload = read_glue(r); break;
@@ -270,6 +294,7 @@ Message decode_message(const std::vector<std::uint8_t>& bytes) {
     case static_cast<std::uint8_t>(MessageKind::Migrants): m.payload = read_migrants(r); break;
     case static_cast<std::uint8_t>(MessageKind::Results): m.payload = read_results(r); break;
     case static_cast<std::uint8_t>(MessageKind::Gather): m.payload = read_gather(r); break;
+    case static_cast<std::uint8_t>(MessageKind::Control): m.payload = read_control(r); break;
     default: r.fail("unknown message kind " + std::to_string(kind));
   }
   if (!r.done()) r.fail("trailing bytes");

@@ -14,6 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "commit_horizon.h"
+#include "rollback_board.h"
 #include "soda/worlds/world_snapshot.h"
 
 #include "soda/loadbalance/thread_clock.h"
@@ -62,6 +63,14 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.relay_messages_received += m.relay_messages_received;
   t.fragments_relayed += m.fragments_relayed;
   t.messages_sent += m.messages_sent;
+  t.bets += m.bets;
+  t.bets_lost += m.bets_lost;
+  t.rollbacks += m.rollbacks;
+  t.steps_rolled_back += m.steps_rolled_back;
+  t.bodies_resolved += m.bodies_resolved;
+  t.rollback_cpu_seconds += m.rollback_cpu_seconds;
+  t.lead_max = std::max(t.lead_max, m.lead_max);
+  t.kept_states_max = std::max(t.kept_states_max, m.kept_states_max);
 }
 
 }  // namespace
@@ -103,14 +112,53 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   worlds_.clear();
   for (WorldId w = 0; w < k; ++w) worlds_.push_back(make_world(w));
   const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
-  horizon_ = std::make_unique<SharedMemoryHorizon>(k, steps_done_);
+  horizon_ = std::make_unique<SharedMemoryHorizon>(k, steps_done_ * substeps_);
+  horizon_->set_wake_hook([t = transport_.get()](WorldId w) {
+    Message wake;
+    wake.from = w;
+    wake.to = w;
+    wake.payload = Control{Control::Type::Wake};
+    t->send(w, std::move(wake));
+  });
   if (options_.fuzz_seed && !fuzz_) fuzz_ = std::make_shared<FuzzRandom>(options_.fuzz_seed ^ 0x5A5A5A5A5A5A5A5Aull);
-  Process::Safety safety{&options_.watchdog, options_.inject_fault, fault_fired_.get(), horizon_.get(), heal,
-                         fuzz_.get()};
-  for (WorldId w = 0; w < k; ++w)
+  Process::Safety safety;
+  safety.watchdog = &options_.watchdog;
+  safety.fault = options_.inject_fault;
+  safety.fault_fired = fault_fired_.get();
+  safety.horizon = horizon_.get();
+  safety.keep_states = heal;
+  safety.fuzz = fuzz_.get();
+  safety.anticipation = options_.anticipation * substeps_;
+  safety.recompute = options_.rollback == PartitionedOptions::Rollback::Recompute;
+  board_ = std::make_unique<RollbackBoard>(k, *horizon_, [t = transport_.get()](WorldId w) {
+    Message wake;
+    wake.from = w;
+    wake.to = w;
+    wake.payload = Control{Control::Type::Wake};
+    t->send(w, std::move(wake));
+  });
+  safety.board = board_.get();
+  if (options_.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");
+  if (options_.anticipation > 0 && options_.watchdog.response == WatchdogResponse::Heal)
+    throw std::invalid_argument(
+        "PartitionedWorld: speculation (anticipation > 0) and the watchdog's Heal cannot be combined yet");
+  auto statics = std::make_shared<const std::vector<BodySnapshot>>(worlds_.front()->static_snapshots());
+  for (WorldId w = 0; w < k; ++w) {
+    if (safety.anticipation > 0)
+      safety.rebuild = [this, w, map, statics](const WorldSnapshot& part, std::int64_t internal_step) -> TerritoryWorld& {
+        WorldSnapshot whole = part;
+        whole.bodies.insert(whole.bodies.end(), statics->begin(), statics->end());
+        std::sort(whole.bodies.begin(), whole.bodies.end(), [](const BodySnapshot& a, const BodySnapshot& b) {
+          return a.description.id < b.description.id;
+        });
+        auto& slot = worlds_[static_cast<std::size_t>(w)];
+        slot = std::make_unique<TerritoryWorld>(whole, w, map, internal_step);
+        return *slot;
+      };
     processes_.push_back(std::make_unique<Process>(*worlds_[static_cast<std::size_t>(w)], *transport_, *graph_,
                                                    validator_.get(), w == 0 ? options_.progress : nullptr,
                                                    substeps_, options_.solve_everywhere, safety));
+  }
 }
 
 WorldSnapshot PartitionedWorld::snapshot() const {

@@ -378,14 +378,14 @@ void SimulationEngine::input(UserInput in) {
     throw std::invalid_argument(what + ": a world has already passed that step (inputs at past steps need "
                                 "SimulationConfig::past_inputs)");
   CommitHorizon& horizon = *world->horizon_;
-  if (!horizon.try_pin(in.step))
-    throw std::invalid_argument(what + ": older than the commit horizon (step " + std::to_string(horizon.gvt()) +
+  if (!horizon.try_pin(in.step * substeps_))
+    throw std::invalid_argument(what + ": older than the commit horizon (step " + std::to_string(horizon.gvt() / substeps_) +
                                 "); nothing before it can be changed any more");
   struct Unpin {
     CommitHorizon& h;
     std::int64_t step;
     ~Unpin() { h.unpin(step); }
-  } unpin{horizon, in.step};
+  } unpin{horizon, in.step * substeps_};
   const std::int64_t hold = core->control.hold() / substeps_;
   if (hold - in.step >= static_cast<std::int64_t>(config_.buffer_capacity) - 1) {
     core->control.release_hold();
@@ -425,7 +425,7 @@ void SimulationEngine::rewind_world(WorldId w, const WorldSnapshot& state) {
   world->worlds_[static_cast<std::size_t>(w)] = std::move(fresh);
 }
 
-std::int64_t SimulationEngine::commit_horizon_step() const { return world->horizon_->gvt(); }
+std::int64_t SimulationEngine::commit_horizon_step() const { return world->horizon_->gvt() / substeps_; }
 
 std::uint64_t SimulationEngine::rollbacks() const {
   std::lock_guard lock(lifecycle_);

@@ -27,7 +27,7 @@ PartitionedWorld::Process::Process(TerritoryWorld& world, Transport& transport, 
       step_(world.steps_done()) {
   sums_.world = world.id();
   sums_.neighbours = neighbours_.size();
-  if (safety_.keep_states) kept_states_.emplace(step_ / substeps_, world_->part_snapshot());
+  if (safety_.keep_states || speculating()) kept_states_.emplace(step_, world_->part_snapshot());
 }
 
 void PartitionedWorld::Process::rewind(TerritoryWorld& world, std::int64_t scene_step) {
@@ -41,8 +41,13 @@ void PartitionedWorld::Process::rewind(TerritoryWorld& world, std::int64_t scene
   early_gathers_.clear();
   pending_.reset();
   room_wait_since_ns_ = 0;
-  kept_states_.erase(kept_states_.upper_bound(scene_step), kept_states_.end());
-  if (safety_.horizon) safety_.horizon->report(world_->id(), scene_step);
+  kept_states_.erase(kept_states_.upper_bound(step_), kept_states_.end());
+  used_.clear();
+  unconfirmed_.clear();
+  bets_in_inbox_.clear();
+  merge_steps_.clear();
+  reports_.erase(reports_.upper_bound(step_), reports_.end());
+  if (safety_.horizon) safety_.horizon->report(world_->id(), step_);
 }
 
 // Inputs at this boundary, in sequence order; each world applies those that
@@ -60,7 +65,7 @@ void PartitionedWorld::Process::apply_inputs() {
 }
 
 const WorldSnapshot* PartitionedWorld::Process::kept_state(std::int64_t scene_step) const {
-  auto it = kept_states_.find(scene_step);
+  auto it = kept_states_.find(scene_step * substeps_);
   return it == kept_states_.end() ? nullptr : &it->second;
 }
 
@@ -79,9 +84,27 @@ void PartitionedWorld::Process::check_watchdog() {
 void PartitionedWorld::Process::deliver(Message m) {
   if (m.to != world_->id())
     throw std::logic_error("world " + std::to_string(world_->id()) + " got " + describe(m));
+  const Control* control = std::get_if<Control>(&m.payload);
+  if (control && control->type == Control::Type::Wake && m.from == m.to) return;  // it has woken us
   if (!graph_.adjacent(world_->id(), m.from))
     throw PartitionError("world " + std::to_string(world_->id()) + " got " + describe(m) +
                          " from a world that is not a neighbour");
+  if (speculating()) {
+    if (m.epoch > seen_epoch_) catch_up();  // a rollback of every world its sender saw first
+    if (control) {
+      safety_.horizon->unpin(control->rolled_to);  // pinned by its sender
+      if (!safety_.board->voids(m.epoch, control->rolled_to, seen_epoch_)) take_notice(m.from, control->rolled_to);
+      return;
+    }
+    if (safety_.board->voids(m.epoch, m.step, seen_epoch_)) return;
+    if ((m.kind() == MessageKind::Ghosts || m.kind() == MessageKind::Migrants) && compare_with_used(m)) return;
+    // Glue of a step whose glue this world no longer waits for: not needed
+    // (a neighbour re-sent it after rolling back).
+    if (m.kind() == MessageKind::Glue &&
+        (m.step < step_ || (m.step == step_ && phase_ != Phase::Predict && phase_ != Phase::AwaitGhosts &&
+                            phase_ != Phase::AwaitGlue)))
+      return;
+  }
   if (m.kind() == MessageKind::Fragments || m.kind() == MessageKind::Results || m.kind() == MessageKind::Gather) {
     // Late fragments of a step whose merge is over are dropped: the island
     // they belong to is complete here (island_merge.h).
@@ -98,15 +121,21 @@ void PartitionedWorld::Process::deliver(Message m) {
 PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
   // A pending rollback first: the mailbox may already hold messages of the
   // re-run steps from neighbours that rewound before this world.
+  if (speculating()) catch_up();
   if (phase_ == Phase::Predict && output_.rewind && output_.control)
     if (std::shared_ptr<const WorldSnapshot> state = output_.control->take_rewind(world_->id()))
       output_.rewind(*state);
-  while (std::optional<Message> m = transport_.try_receive(world_->id())) deliver(std::move(*m));
   Advance result;
+  while (std::optional<Message> m = transport_.try_receive(world_->id())) {
+    deliver(std::move(*m));
+    result.progressed = result.progressed || speculating();  // it may have confirmed a bet
+  }
   std::int64_t cpu0 = thread_cpu_ns();
   for (;;) {
     if (phase_ == Phase::Predict && !may_start()) {
-      result.done = true;
+      // Speculating, the world is done only once no step of it can change:
+      // once the commit horizon reaches its clock.
+      result.done = !speculating() || !safety_.horizon->wake_at(world_->id(), step_);
       break;
     }
     const std::int64_t before = step_;
@@ -118,6 +147,7 @@ PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
       cpu_ns_ += step_cpu_ns_;
       step_cpu_max_ns_ = std::max(step_cpu_max_ns_, step_cpu_ns_);
       step_cpu_history_ns_.push_back(step_cpu_ns_);
+      if (step_ <= rerun_until_) rollback_cpu_ns_ += step_cpu_ns_;
       step_cpu_ns_ = 0;
       cpu0 = now;
     }
@@ -138,6 +168,7 @@ std::vector<std::pair<WorldId, Batch>> PartitionedWorld::Process::take_all(Messa
   std::vector<std::pair<WorldId, Batch>> out;
   for (WorldId n : from) {
     auto it = inbox_.find(Key{static_cast<int>(kind), step_, n});
+    if (speculating()) record_used(it->first, it->second);
     out.emplace_back(n, std::get<Batch>(std::move(it->second.payload)));
     inbox_.erase(it);
   }
@@ -148,6 +179,10 @@ void PartitionedWorld::Process::send(WorldId to, Message message) {
   message.from = world_->id();
   message.to = to;
   message.step = step_;
+  message.epoch = seen_epoch_;
+  if (speculating() && message.kind() != MessageKind::Ghosts && message.kind() != MessageKind::Migrants &&
+      message.kind() != MessageKind::Control)
+    merge_steps_.insert(step_);
   ++sums_.messages_sent;
   transport_.send(to, std::move(message));
 }
@@ -163,7 +198,8 @@ bool PartitionedWorld::Process::run_phase() {
       return true;
     }
     case Phase::AwaitGhosts: {
-      if (!have_all(MessageKind::Ghosts, neighbours_)) return false;
+      if (!have_all(MessageKind::Ghosts, neighbours_) && !(speculating() && place_bets(MessageKind::Ghosts)))
+        return false;
       world_->apply_ghosts(take_all<GhostBatch>(MessageKind::Ghosts, neighbours_));
       world_->collide();
       world_->build_islands();
@@ -191,6 +227,7 @@ bool PartitionedWorld::Process::run_phase() {
         fragments_.erase(it);
         for (Message& m : batch) {
           ++sums_.relay_messages_received;
+          if (speculating()) merge_steps_.insert(step_);
           if (m.kind() == MessageKind::Results) {
             for (IslandResult& r : std::get<ResultBatch>(m.payload).results) take_result(std::move(r));
           } else if (m.kind() == MessageKind::Gather) {
@@ -215,7 +252,8 @@ bool PartitionedWorld::Process::run_phase() {
       return true;
     }
     case Phase::AwaitMigrants: {
-      if (!have_all(MessageKind::Migrants, neighbours_)) return false;
+      if (!have_all(MessageKind::Migrants, neighbours_) && !(speculating() && place_bets(MessageKind::Migrants)))
+        return false;
       world_->absorb_migrants(take_all<MigrantBatch>(MessageKind::Migrants, neighbours_));
       end_step();
       return true;
@@ -278,7 +316,7 @@ void PartitionedWorld::Process::published(bool kept) {
   // Kept states (rollback for past inputs): a step above GVT may still be
   // rewritten, so only steps below it are committed.
   std::int64_t commit = scene_step - 1;
-  if (safety_.keep_states) commit = std::min(commit, safety_.horizon->gvt() - 1);
+  if (safety_.keep_states) commit = std::min(commit, safety_.horizon->gvt() / substeps_ - 1);
   if (commit > output_.buffer->commit_step()) output_.buffer->set_commit_step(commit);
   output_.control->published(world_->id(), scene_step);
 }
@@ -406,15 +444,31 @@ void PartitionedWorld::Process::end_step() {
   sums_.islands_solved += c.border_islands;
   ++step_;
   phase_ = Phase::Predict;
-  if (validator_)
-    validator_->report(WorldStepReport{world_->id(), step_, world_->owned_ids(), world_->ghost_count(),
-                                       world_->static_count(), world_->bullet_object_count(),
-                                       world_->held_contact_pairs()});
+  if (validator_) {
+    WorldStepReport report{world_->id(), step_, world_->owned_ids(), world_->ghost_count(),
+                           world_->static_count(), world_->bullet_object_count(), world_->held_contact_pairs()};
+    if (speculating()) {
+      reports_.insert_or_assign(step_, std::move(report));  // reported once committed (trim_below)
+    } else {
+      validator_->report(std::move(report));
+    }
+  }
+  if (speculating()) {
+    if (step_ <= rerun_until_) bodies_resolved_ += world_->owned_count();
+    kept_states_.insert_or_assign(step_, world_->part_snapshot());
+    kept_max_ = std::max(kept_max_, kept_states_.size());
+    report_mark();
+    const std::int64_t gvt = safety_.horizon->gvt();
+    lead_.push_back(static_cast<std::int32_t>(step_ - gvt));
+    trim_below(gvt);
+  }
   if (step_ % substeps_ != 0) return;
-  if (safety_.keep_states) kept_states_.emplace(step_ / substeps_, world_->part_snapshot());
-  if (safety_.horizon) safety_.horizon->report(world_->id(), step_ / substeps_);
-  if (safety_.keep_states)
-    kept_states_.erase(kept_states_.begin(), kept_states_.lower_bound(safety_.horizon->gvt()));
+  if (!speculating()) {
+    if (safety_.keep_states) kept_states_.emplace(step_, world_->part_snapshot());
+    if (safety_.horizon) safety_.horizon->report(world_->id(), step_);
+    if (safety_.keep_states)
+      kept_states_.erase(kept_states_.begin(), kept_states_.lower_bound(safety_.horizon->gvt()));
+  }
   if (progress_) progress_(step_ / substeps_);
   if (output_.after_step) output_.after_step(world_->id(), step_ / substeps_);
   if (output_.buffer) phase_ = Phase::Publish;
@@ -442,6 +496,9 @@ std::string PartitionedWorld::Process::waiting_for() const {
     case Phase::AwaitMigrants: missing(MessageKind::Migrants, neighbours_); break;
     case Phase::Publish: s << "waits for room in its transform buffer"; break;
   }
+  if (speculating()) {
+    s << "; horizon " << safety_.horizon->gvt();
+  }
   return s.str();
 }
 
@@ -459,6 +516,20 @@ WorldMetrics PartitionedWorld::Process::metrics() const {
   m.entries_dropped = entries_dropped_;
   m.owned_bodies = world_->owned_count();
   m.ghosts = world_->ghost_count();
+  m.bets = bets_;
+  m.bets_lost = bets_lost_;
+  m.rollbacks = rollbacks_;
+  m.steps_rolled_back = steps_rolled_back_;
+  m.bodies_resolved = bodies_resolved_;
+  m.rollback_cpu_seconds = static_cast<double>(rollback_cpu_ns_) * 1e-9;
+  m.lead = lead_;
+  double sum = 0;
+  for (std::int32_t l : lead_) {
+    sum += l;
+    m.lead_max = std::max<std::int64_t>(m.lead_max, l);
+  }
+  m.lead_mean = lead_.empty() ? 0.0 : sum / static_cast<double>(lead_.size());
+  m.kept_states_max = kept_max_;
   return m;
 }
 

@@ -22,6 +22,23 @@
 //                  poses to the world's transform buffer; waits while it is
 //                  full (advance() returns, waiting_for_room() is true)
 //
+// Speculation (Safety::anticipation > 0; docs/rollback.md): a world missing
+// a neighbour's Ghosts(t) or Migrants(t) bets that they are empty when it sent
+// that neighbour no ghosts at t (so the neighbour cannot glue or merge with it
+// at t), as long as t is within `anticipation` steps of the commit horizon.
+// It keeps its state at every step from the horizon on and the neighbours'
+// messages it used. A message that differs from the one used (a lost bet, a
+// message re-sent after its sender rolled back) rolls it back to that step:
+// it rebuilds itself from the kept state and re-runs. If it had sent or used
+// no merge message (Glue, Fragments, Gather, Results) from that step on, the
+// rollback is its own: it tells its neighbours (Notice: my messages of steps
+// >= t sent before this are void), which keep the Ghosts and Migrants they
+// used and compare them with the re-sent ones — only a difference rolls them
+// back (Rollback and Propagate). Otherwise every world of the merged islands
+// must re-merge, and the rollback is posted for every world at once
+// (rollback_board.h). Safety::recompute posts every rollback for every world
+// (discard and recompute, the baseline).
+//
 // Under PartitionedWorld::step the world runs up to a fixed target; under a
 // Simulation (attach()) it asks the RunControl before beginning each step.
 #pragma once
@@ -31,6 +48,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -38,6 +56,7 @@
 #include "commit_horizon.h"
 #include "input_queue.h"
 #include "island_merge.h"
+#include "rollback_board.h"
 #include "soda/rollback/transform_buffer.h"
 #include "soda/runtime/partitioned_world.h"
 #include "soda/runtime/transport.h"
@@ -58,6 +77,12 @@ class PartitionedWorld::Process {
     CommitHorizon* horizon = nullptr;  // reported at every scene step boundary
     bool keep_states = false;          // keep the world's state at every boundary >= GVT
     FuzzRandom* fuzz = nullptr;        // fuzzing: a random pause before every stage
+    int anticipation = 0;              // speculation: internal steps past the horizon; 0: off
+    bool recompute = false;            // speculation: discard and recompute instead of propagate
+    RollbackBoard* board = nullptr;    // speculation: rollbacks of every world
+    /// Speculation: replaces this world by one rebuilt from its own part of
+    /// the state (as kept) at an internal step boundary; returns it.
+    std::function<TerritoryWorld&(const WorldSnapshot&, std::int64_t)> rebuild;
   };
   Process(TerritoryWorld& world, Transport& transport, const WorldGraph& graph, Validator* validator,
           std::function<void(std::int64_t)> progress, int substeps, bool solve_everywhere, Safety safety);
@@ -121,6 +146,36 @@ class PartitionedWorld::Process {
   enum class Phase { Predict, AwaitGhosts, AwaitGlue, Merging, AwaitMigrants, Publish };
   using Key = std::tuple<int, std::int64_t, WorldId>;  // (kind, step, from)
 
+  // Speculation (world_speculation.cpp).
+  bool speculating() const { return safety_.anticipation > 0; }
+  bool place_bets(MessageKind kind);
+  bool within_anticipation();
+  void record_used(const Key& key, const Message& m);
+  bool compare_with_used(Message& m);
+  void take_notice(WorldId from, std::int64_t step);
+  void roll_back(std::int64_t step);
+  void restore(std::int64_t step);
+  void catch_up();
+  void report_mark();
+  void trim_below(std::int64_t gvt);
+  // A neighbour's message this run used, kept while its step is above GVT.
+  struct Used {
+    std::uint64_t digest = 0;        // of the message's bytes (Ghosts, Migrants)
+    bool confirmed = true;           // false: a bet not yet met, or void (re-send awaited)
+    bool bet = false;                // assumed empty before it arrived
+    std::optional<Message> message;  // for a re-run after this world rolls back
+  };
+  using UsedKey = std::tuple<std::int64_t, int, WorldId>;  // (step, kind, from)
+  std::map<UsedKey, Used> used_;
+  std::map<std::int64_t, int> unconfirmed_;                 // step -> unconfirmed uses
+  std::set<Key> bets_in_inbox_;
+  std::set<Key> lost_bets_;                                 // never bet on these again
+  std::set<std::int64_t> merge_steps_;                      // steps with merge messages sent or used
+  std::map<WorldId, std::uint64_t> notices_sent_;
+  std::map<std::int64_t, WorldStepReport> reports_;         // validation: reported once committed
+  std::uint32_t seen_epoch_ = 0;                            // of the rollback board
+  std::int64_t rerun_until_ = 0;                            // steps below it are re-runs
+
   bool run_phase();
   bool have_all(MessageKind kind, const std::vector<WorldId>& from) const;
   template <class Batch>
@@ -147,7 +202,7 @@ class PartitionedWorld::Process {
   bool solve_everywhere_;
   std::vector<WorldId> neighbours_;
   Safety safety_;
-  std::map<std::int64_t, WorldSnapshot> kept_states_;  // by scene step
+  std::map<std::int64_t, WorldSnapshot> kept_states_;  // by internal step
 
   Phase phase_ = Phase::Predict;
   std::int64_t step_ = 0;    // internal step in progress (= steps done)
@@ -180,6 +235,11 @@ class PartitionedWorld::Process {
   std::int64_t step_cpu_ns_ = 0;  // current step so far
   std::int64_t step_cpu_max_ns_ = 0;
   std::vector<std::int64_t> step_cpu_history_ns_;  // CPU time of every finished internal step
+  std::uint64_t bets_ = 0, bets_lost_ = 0, rollbacks_ = 0, steps_rolled_back_ = 0, bodies_resolved_ = 0;
+  std::uint64_t global_rollbacks_ = 0;
+  std::int64_t rollback_cpu_ns_ = 0;
+  std::vector<std::int32_t> lead_;
+  std::size_t kept_max_ = 0;
 };
 
 }  // namespace soda

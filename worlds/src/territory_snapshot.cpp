@@ -18,10 +18,11 @@
 
 namespace soda {
 
-TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map)
+TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map,
+                               std::int64_t internal_steps_done)
     : id_(id), map_(std::move(map)), settings_(snapshot.settings) {
   init_world();
-  steps_done_ = snapshot.steps_done * settings_.substeps;
+  steps_done_ = internal_steps_done >= 0 ? internal_steps_done : snapshot.steps_done * settings_.substeps;
   for (const BodySnapshot& b : snapshot.bodies) {
     const Body& d = b.description;
     if (d.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");

@@ -13,6 +13,13 @@
 //   Results(t)    one per border island to each child of the island's tree
 //                 (the last two not with PartitionedOptions::solve_everywhere)
 //   Migrants(t)   exactly one, possibly empty          (migrate; consumed at the end of t)
+// and, with speculation only (docs/rollback.md):
+//   Control       Notice: the sender rolled back to step t on its own; its
+//                 messages of steps >= t sent before this are void. Wake: to
+//                 itself, when the commit horizon moved or every world must
+//                 roll back (rollback_board.h).
+// Every message carries the epoch of the rollbacks of every world its sender
+// had seen.
 #pragma once
 
 #include <cstdint>
@@ -42,14 +49,25 @@ struct GatherBatch {
   std::vector<Fragment> fragments;
 };
 
-enum class MessageKind : std::uint8_t { Ghosts = 1, Glue = 2, Fragments = 3, Migrants = 4, Results = 5, Gather = 6 };
+/// Speculation's control messages (world_process.h).
+struct Control {
+  enum class Type : std::uint8_t { Notice = 1, Wake = 2 };
+  Type type = Type::Wake;
+  std::uint64_t seq = 0;        // Notice: its number, per (sender, receiver)
+  std::int64_t rolled_to = -1;  // Notice: the step the sender rolled back to
+};
+
+enum class MessageKind : std::uint8_t {
+  Ghosts = 1, Glue = 2, Fragments = 3, Migrants = 4, Results = 5, Gather = 6, Control = 7
+};
 const char* message_kind_name(MessageKind kind);
 
 struct Message {
   WorldId from = kNoWorld;
   WorldId to = kNoWorld;
   std::int64_t step = 0;  // the internal step the message belongs to
-  std::variant<GhostBatch, GlueBatch, FragmentBatch, MigrantBatch, ResultBatch, GatherBatch> payload;
+  std::variant<GhostBatch, GlueBatch, FragmentBatch, MigrantBatch, ResultBatch, GatherBatch, Control> payload;
+  std::uint32_t epoch = 0;  // rollbacks of every world the sender had seen (rollback_board.h)
 
   MessageKind kind() const { return static_cast<MessageKind>(payload.index() + 1); }
 };

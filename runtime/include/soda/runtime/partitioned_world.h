@@ -88,6 +88,25 @@ struct PartitionedOptions {
     std::int64_t step = 0;
     BodyId body = 0;
   } inject_fault = {};
+  /// Speculation (docs/rollback.md): a world may run up to `anticipation`
+  /// scene steps past the commit horizon, betting that a neighbour it sent
+  /// no ghosts at a step sends it no ghosts and no migrants at that step; a
+  /// lost bet, or a neighbour's message that differs from the one it used,
+  /// rolls the world back to that step (it keeps its state at every step
+  /// from the commit horizon on). Results are bit-identical to anticipation
+  /// 0 (lockstep with the neighbours, no bets). Not with the watchdog's Heal.
+  int anticipation = 0;
+  /// What a rollback makes the neighbours do (speculation only).
+  enum class Rollback {
+    /// Rollback and Propagate: a neighbour re-runs only if a message it used
+    /// changes (re-sent messages are compared with the ones used; merged
+    /// islands are re-merged), so a rollback stays where the change is.
+    Propagate,
+    /// Discard and recompute (the baseline to measure against): every
+    /// neighbour that used any message of a rolled-back step rolls back too.
+    Recompute,
+  };
+  Rollback rollback = Rollback::Propagate;
 };
 
 /// Thrown when the validation mode finds a broken invariant; the message names
@@ -133,6 +152,17 @@ struct WorldMetrics {
   std::uint64_t relay_messages_received = 0;
   std::uint64_t fragments_relayed = 0;       // other worlds' fragments passed on
   std::uint64_t messages_sent = 0;           // all kinds
+  // Speculation (PartitionedOptions::anticipation):
+  std::uint64_t bets = 0;                    // neighbour messages assumed empty before they arrived
+  std::uint64_t bets_lost = 0;               // ... that were not empty
+  std::uint64_t rollbacks = 0;               // times this world restored an earlier step
+  std::uint64_t steps_rolled_back = 0;       // internal steps discarded by them, summed
+  std::uint64_t bodies_resolved = 0;         // owned bodies x internal steps re-run after rollbacks
+  double rollback_cpu_seconds = 0;           // thread CPU time of restores and re-run steps
+  std::int64_t lead_max = 0;                 // most internal steps ahead of the commit horizon
+  double lead_mean = 0;                      // mean of lead over finished internal steps
+  std::vector<std::int32_t> lead;            // clock - commit horizon at the end of every internal step
+  std::size_t kept_states_max = 0;           // most states kept at once (rollback buffer occupancy)
 };
 
 /// The per-world metrics summed over worlds: counters, sizes, CPU and
@@ -220,6 +250,7 @@ class PartitionedWorld {
   std::vector<std::unique_ptr<TerritoryWorld>> worlds_;
   std::vector<std::unique_ptr<Process>> processes_;
   std::unique_ptr<class CommitHorizon> horizon_;
+  std::unique_ptr<class RollbackBoard> board_;  // speculation: rollbacks of every world
   std::shared_ptr<std::atomic<bool>> fault_fired_;
   std::shared_ptr<class FuzzRandom> fuzz_;
   int heal_attempts_ = 0;

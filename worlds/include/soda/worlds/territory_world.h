@@ -101,9 +101,10 @@ class TerritoryWorld {
   /// holds the pair at the next step). Worlds rebuilt this way from one
   /// snapshot step exactly as the worlds the snapshot was taken from, for
   /// any map (tests/worlds/territory_snapshot_test.cpp). steps_done() is
-  /// snapshot.steps_done * settings.substeps. Throws as the scene
-  /// constructor does.
-  TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map);
+  /// snapshot.steps_done * settings.substeps, or `internal_steps_done` if
+  /// given (>= 0: a boundary between substeps, which the snapshot's scene
+  /// step count cannot name). Throws as the scene constructor does.
+  TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map, std::int64_t internal_steps_done = -1);
   ~TerritoryWorld();
   TerritoryWorld(const TerritoryWorld&) = delete;
   TerritoryWorld& operator=(const TerritoryWorld&) = delete;

@@ -1,0 +1,286 @@
+// One world's speculation (world_process.h, docs/rollback.md): bets on empty
+// neighbour messages, the messages it used, rollback notices and acks, and
+// its low-water mark in the commit horizon.
+//
+// Why the result equals lockstep's: a world's step t is a function of its
+// state at t and the neighbours' messages of t it uses. Every message it used
+// is kept until GVT passes its step; a message that was assumed (a bet) or
+// that its sender has voided (a Notice) counts as unconfirmed and holds the
+// world's low-water mark at its step. When the final version of a message
+// arrives it is compared, as bytes, with the one used; a difference restores
+// the world's own kept state of that step and re-runs from there with the new
+// message. Merge messages (Glue, Fragments, Gather, Results) are not compared:
+// a merged island is re-merged by all its worlds, so a rollback over a step
+// with merge messages is one of every world (rollback_board.h), after which
+// no message of the old run of those steps is used. When no message can
+// change any more (GVT at the clock) every world has run every step on the
+// final messages, which is the lockstep run.
+//
+// Why it ends: every rollback starts from a lost bet (a message that turned
+// out not empty; that bet is never placed again) or from a message that
+// changed because of one; re-runs on equal messages send equal messages,
+// which roll nobody back.
+#include <cstdio>
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+
+#include "soda/loadbalance/thread_clock.h"
+#include "soda/runtime/message_codec.h"
+#include "world_process.h"
+
+namespace soda {
+namespace {
+
+const bool kTrace = std::getenv("SODA_SPEC_TRACE") != nullptr;
+#define SPEC_TRACE(...)                    \
+  do {                                     \
+    if (kTrace) std::fprintf(stderr, __VA_ARGS__); \
+  } while (0)
+
+std::uint64_t digest_of(const Message& m) {
+  Message plain;
+  plain.from = m.from;
+  plain.to = m.to;
+  plain.step = m.step;
+  plain.payload = m.payload;  // epoch left out: a re-sent equal message is equal
+  std::uint64_t h = 1469598103934665603ull;  // FNV-1a over the bytes
+  for (std::uint8_t b : encode_message(plain)) h = (h ^ b) * 1099511628211ull;
+  return h;
+}
+
+Message empty_message(MessageKind kind, WorldId from, WorldId to, std::int64_t step) {
+  Message m;
+  m.from = from;
+  m.to = to;
+  m.step = step;
+  if (kind == MessageKind::Ghosts) {
+    m.payload = GhostBatch{};
+  } else {
+    m.payload = MigrantBatch{};
+  }
+  return m;
+}
+
+}  // namespace
+
+
+// The neighbours whose `kind` of this step is missing: bet that it is empty,
+// if every one of them is a neighbour this world sent no ghosts to (and, for
+// Migrants, got no ghosts from), no bet on it was lost at this step, and the
+// step is within the anticipation.
+bool PartitionedWorld::Process::place_bets(MessageKind kind) {
+  std::vector<WorldId> missing;
+  for (WorldId n : neighbours_)
+    if (!inbox_.count(Key{static_cast<int>(kind), step_, n})) missing.push_back(n);
+  for (WorldId n : missing) {
+    if (world_->sends_ghosts_to(n)) return false;
+    if (kind == MessageKind::Migrants && world_->received_ghosts_from(n)) return false;
+    if (lost_bets_.count(Key{static_cast<int>(kind), step_, n})) return false;
+  }
+  if (!within_anticipation()) return false;
+  for (WorldId n : missing) {
+    const Key key{static_cast<int>(kind), step_, n};
+    inbox_.emplace(key, empty_message(kind, n, world_->id(), step_));
+    bets_in_inbox_.insert(key);
+    ++bets_;
+  }
+  return true;
+}
+
+// True if this step is fewer than `anticipation` steps past GVT; else the
+// world asks to be woken when it is.
+bool PartitionedWorld::Process::within_anticipation() {
+  const std::int64_t needed = step_ - safety_.anticipation + 1;
+  return !safety_.horizon->wake_at(world_->id(), needed);
+}
+
+void PartitionedWorld::Process::record_used(const Key& key, const Message& m) {
+  const auto& [kind, step, from] = key;
+  if (kind == static_cast<int>(MessageKind::Glue)) {
+    merge_steps_.insert(step);
+    return;  // the rollback of every world takes care of it
+  }
+  Used u;
+  if (bets_in_inbox_.erase(key)) {
+    u.bet = true;
+    u.confirmed = false;
+    ++unconfirmed_[step];
+  } else {
+    u.message = m;
+  }
+  u.digest = digest_of(m);
+  used_.insert_or_assign(UsedKey{step, kind, from}, std::move(u));
+}
+
+// A Ghosts or Migrants message for a step this run used one of: confirm it
+// or roll back. True if the message has been taken care of.
+bool PartitionedWorld::Process::compare_with_used(Message& m) {
+  auto it = used_.find(UsedKey{m.step, static_cast<int>(m.kind()), m.from});
+  if (it == used_.end()) return false;
+  Used& u = it->second;
+  if (u.confirmed)
+    throw std::logic_error("world " + std::to_string(world_->id()) + " got " + describe(m) +
+                           " again, without a rollback notice");
+  if (digest_of(m) == u.digest) {
+    u.confirmed = true;
+    u.bet = false;  // met
+    u.message = std::move(m);
+    const std::int64_t s = std::get<0>(it->first);
+    if (--unconfirmed_[s] == 0) unconfirmed_.erase(s);
+    report_mark();
+    return true;
+  }
+  if (u.bet) {
+    ++bets_lost_;
+    lost_bets_.insert(Key{static_cast<int>(m.kind()), m.step, m.from});
+  }
+  SPEC_TRACE("w%d at %lld: %s differs from the one used (bet %d)\n", world_->id(), (long long)step_,
+             describe(m).c_str(), u.bet);
+  const std::int64_t step = m.step;
+  roll_back(step);
+  deliver(std::move(m));  // to the inbox (dropped if a rollback of every world voided it)
+  return true;
+}
+
+// Neighbour `from` rolled back to `step` on its own (it had no merge
+// messages from that step on): its messages of steps >= step sent before
+// this are void. Drops those not used yet; the ones used await their
+// re-send, which is compared with them.
+void PartitionedWorld::Process::take_notice(WorldId from, std::int64_t step) {
+  SPEC_TRACE("w%d at %lld: notice from %d: rolled back to %lld\n", world_->id(), (long long)step_, from,
+             (long long)step);
+  for (auto it = inbox_.begin(); it != inbox_.end();) {
+    const auto& [kind, s, f] = it->first;
+    if (f == from && s >= step) {
+      bets_in_inbox_.erase(it->first);
+      it = inbox_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  for (auto it = fragments_.lower_bound(step); it != fragments_.end(); ++it)
+    std::erase_if(it->second, [&](const Message& m) { return m.from == from; });
+  for (auto it = used_.lower_bound(UsedKey{step, 0, kNoWorld}); it != used_.end(); ++it) {
+    const auto& [s, kind, f] = it->first;
+    Used& u = it->second;
+    if (f != from || !u.confirmed) continue;
+    u.confirmed = false;  // awaiting the re-send, compared when it comes
+    u.message.reset();
+    ++unconfirmed_[s];
+  }
+  report_mark();
+}
+
+// A message used at `step` changed: this world's own rollback if it had no
+// merge messages from `step` on (and not recomputing), else every world's.
+void PartitionedWorld::Process::roll_back(std::int64_t step) {
+  const bool merged = merge_steps_.lower_bound(step) != merge_steps_.end();
+  if (merged || safety_.recompute) {
+    SPEC_TRACE("w%d at %lld: posts a rollback of every world to %lld\n", world_->id(), (long long)step_,
+               (long long)step);
+    ++global_rollbacks_;
+    safety_.board->post(step, world_->id());
+    catch_up();
+    return;
+  }
+  restore(step);
+  for (WorldId n : neighbours_) {
+    if (!safety_.horizon->try_pin(step))
+      throw std::logic_error("world " + std::to_string(world_->id()) + ": rolled back below the commit horizon");
+    Message notice;
+    notice.payload = Control{Control::Type::Notice, ++notices_sent_[n], step};
+    send(n, std::move(notice));
+  }
+}
+
+// Rollbacks of every world this world has not taken in yet: restore each
+// step it has passed, drop every message their epochs voided.
+void PartitionedWorld::Process::catch_up() {
+  for (const RollbackBoard::Entry& e : safety_.board->since(seen_epoch_)) {
+    if (step_ > e.step || (step_ == e.step && phase_ != Phase::Predict)) restore(e.step);
+    seen_epoch_ = e.epoch;
+    auto void_message = [&](const Message& m) { return m.epoch < e.epoch && m.step >= e.step; };
+    for (auto it = inbox_.begin(); it != inbox_.end();) {
+      if (!bets_in_inbox_.count(it->first) && void_message(it->second)) {
+        it = inbox_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    for (auto& [s, list] : fragments_) std::erase_if(list, void_message);
+    for (auto it = used_.lower_bound(UsedKey{e.step, 0, kNoWorld}); it != used_.end(); ++it) {
+      Used& u = it->second;  // used at a step this world had not passed: void, awaiting the re-send
+      if (!u.confirmed || !u.message || !void_message(*u.message)) continue;
+      u.confirmed = false;
+      u.message.reset();
+      ++unconfirmed_[std::get<0>(it->first)];
+    }
+    safety_.horizon->unpin(e.step);
+  }
+  report_mark();
+}
+
+// Restores this world's kept state at `step` (at or below its clock) and
+// puts the messages it used from `step` on back in the inbox for the re-run.
+void PartitionedWorld::Process::restore(std::int64_t step) {
+  const std::int64_t cpu0 = thread_cpu_ns();
+  const std::string who = "world " + std::to_string(world_->id());
+  if (step < safety_.horizon->gvt())
+    throw std::logic_error(who + ": rollback to step " + std::to_string(step) + ", below the commit horizon " +
+                           std::to_string(safety_.horizon->gvt()));
+  if (step > step_) throw std::logic_error(who + ": rollback to step " + std::to_string(step) + " ahead of its clock");
+  auto kept = kept_states_.find(step);
+  if (kept == kept_states_.end())
+    throw std::logic_error(who + ": rollback to step " + std::to_string(step) + ", which it no longer keeps");
+  SPEC_TRACE("w%d at %lld: restores %lld\n", world_->id(), (long long)step_, (long long)step);
+  ++rollbacks_;
+  steps_rolled_back_ += static_cast<std::uint64_t>(step_ - step);
+  rerun_until_ = std::max(rerun_until_, phase_ == Phase::Predict ? step_ : step_ + 1);
+  world_ = &safety_.rebuild(kept->second, step);
+  step_ = step;
+  phase_ = Phase::Predict;
+  merger_ = IslandMerger{};
+  islands_.clear();
+  early_gathers_.clear();
+  kept_states_.erase(std::next(kept), kept_states_.end());
+  reports_.erase(reports_.upper_bound(step), reports_.end());
+  merge_steps_.erase(merge_steps_.lower_bound(step), merge_steps_.end());
+  for (const Key& k : bets_in_inbox_) inbox_.erase(k);
+  bets_in_inbox_.clear();
+  for (auto it = used_.lower_bound(UsedKey{step, 0, kNoWorld}); it != used_.end(); it = used_.erase(it)) {
+    const auto [s, kind, from] = it->first;
+    Used& u = it->second;
+    if (!u.confirmed) {
+      if (--unconfirmed_[s] == 0) unconfirmed_.erase(s);
+    } else if (u.message) {
+      inbox_.emplace(Key{kind, s, from}, std::move(*u.message));
+    }
+  }
+  report_mark();
+  rollback_cpu_ns_ += thread_cpu_ns() - cpu0;
+}
+
+// Low-water mark: the clock, or the oldest step of a message used that may
+// still change.
+void PartitionedWorld::Process::report_mark() {
+  std::int64_t mark = step_;
+  if (!unconfirmed_.empty()) mark = std::min(mark, unconfirmed_.begin()->first);
+  safety_.horizon->report(world_->id(), mark);
+}
+
+// Nothing below GVT can change: states, uses and validation reports of
+// those steps are final.
+void PartitionedWorld::Process::trim_below(std::int64_t gvt) {
+  kept_states_.erase(kept_states_.begin(), kept_states_.lower_bound(gvt));
+  used_.erase(used_.begin(), used_.lower_bound(UsedKey{gvt, 0, kNoWorld}));
+  merge_steps_.erase(merge_steps_.begin(), merge_steps_.lower_bound(gvt));
+  std::erase_if(lost_bets_, [gvt](const Key& k) { return std::get<1>(k) < gvt; });
+  if (validator_) {
+    auto end = reports_.upper_bound(gvt);
+    for (auto it = reports_.begin(); it != end; ++it) validator_->report(std::move(it->second));
+    reports_.erase(reports_.begin(), end);
+  }
+}
+
+}  // namespace soda
