@@ -223,6 +223,7 @@ void write_payload(ByteWriter& w, const Control& c) {
   w.put(static_cast<std::uint8_t>(c.type));
   w.put(c.seq);
   w.put(c.rolled_to);
+  w.put(c.pinned);
 }
 
 Control read_control(ByteReader& r) {
@@ -232,7 +233,8 @@ Control read_control(ByteReader& r) {
   c.type = static_cast<Control::Type>(type);
   c.seq = r.get<std::uint64_t>();
   c.rolled_to = r.get<std::int64_t>();
-  if (c.rolled_to < -1) r.fail("control message with a step below -1");
+  c.pinned = r.get<std::int64_t>();
+  if (c.rolled_to < -1 || c.pinned < -1) r.fail("control message with a step below -1");
   return c;
 }
 

@@ -129,6 +129,8 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   safety.keep_states = heal;
   safety.fuzz = fuzz_.get();
   safety.anticipation = options_.anticipation * substeps_;
+  if (options_.checkpoint_every < 1) throw std::invalid_argument("PartitionedWorld: checkpoint_every must be >= 1");
+  safety.checkpoint_every = options_.checkpoint_every;
   safety.recompute = options_.rollback == PartitionedOptions::Rollback::Recompute;
   board_ = std::make_unique<RollbackBoard>(k, *horizon_, [t = transport_.get()](WorldId w) {
     Message wake;

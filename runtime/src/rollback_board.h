@@ -22,22 +22,24 @@ class RollbackBoard {
  public:
   struct Entry {
     std::uint32_t epoch = 0;
-    std::int64_t step = 0;
+    std::int64_t step = 0;    // every world restores its state kept at this step
+    std::int64_t pinned = 0;  // pinned once per world until each has taken it in
   };
   /// `wake(w)` must make world w look at the board soon (a Wake message).
   RollbackBoard(int worlds, CommitHorizon& horizon, std::function<void(WorldId)> wake)
       : worlds_(worlds), horizon_(horizon), wake_(std::move(wake)) {}
 
-  /// Every world to roll back to `step` (internal); returns the epoch. Throws
-  /// std::logic_error if `step` is below the commit horizon.
-  std::uint32_t post(std::int64_t step, WorldId by) {
+  /// Every world to roll back to `step` (internal, a checkpoint step at or
+  /// below `pinned`, the step that changed); returns the epoch. Throws
+  /// std::logic_error if `pinned` is below the commit horizon.
+  std::uint32_t post(std::int64_t step, std::int64_t pinned, WorldId by) {
     std::uint32_t epoch = 0;
     {
       std::lock_guard lock(mutex_);
       for (int i = 0; i < worlds_; ++i)
-        if (!horizon_.try_pin(step)) throw std::logic_error("a rollback of every world below the commit horizon");
+        if (!horizon_.try_pin(pinned)) throw std::logic_error("a rollback of every world below the commit horizon");
       epoch = static_cast<std::uint32_t>(entries_.size()) + 1;
-      entries_.push_back(Entry{epoch, step});
+      entries_.push_back(Entry{epoch, step, pinned});
     }
     for (WorldId w = 0; w < worlds_; ++w)
       if (w != by) wake_(w);

@@ -148,8 +148,17 @@ class FuzzingTransport final : public Transport {
     fuzz_pause(random_);
     inner_->send(to, std::move(message));
   }
-  std::optional<Message> try_receive(WorldId world) override { return inner_->try_receive(world); }
-  Message receive(WorldId world) override { return inner_->receive(world); }
+  // Delivery is delayed too: the receiver pauses before it takes a message.
+  std::optional<Message> try_receive(WorldId world) override {
+    std::optional<Message> m = inner_->try_receive(world);
+    if (m) fuzz_pause(random_);
+    return m;
+  }
+  Message receive(WorldId world) override {
+    Message m = inner_->receive(world);
+    fuzz_pause(random_);
+    return m;
+  }
   bool park(WorldId world) override { return inner_->park(world); }
   void set_wake_hook(std::function<void(WorldId)> hook) override { inner_->set_wake_hook(std::move(hook)); }
   void close() override { inner_->close(); }

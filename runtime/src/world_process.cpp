@@ -25,6 +25,9 @@ PartitionedWorld::Process::Process(TerritoryWorld& world, Transport& transport, 
       neighbours_(graph.neighbours(world.id())),
       safety_(safety),
       step_(world.steps_done()) {
+  // Speculation keeps a state every checkpoint_every internal steps (a
+  // rollback restores the one at or before the step and re-runs the rest).
+  checkpoint_every_ = speculating() && !safety_.keep_states ? safety_.checkpoint_every : 1;
   sums_.world = world.id();
   sums_.neighbours = neighbours_.size();
   if (safety_.keep_states || speculating()) kept_states_.emplace(step_, world_->part_snapshot());
@@ -92,7 +95,7 @@ void PartitionedWorld::Process::deliver(Message m) {
   if (speculating()) {
     if (m.epoch > seen_epoch_) catch_up();  // a rollback of every world its sender saw first
     if (control) {
-      safety_.horizon->unpin(control->rolled_to);  // pinned by its sender
+      safety_.horizon->unpin(control->pinned);  // pinned by its sender
       if (!safety_.board->voids(m.epoch, control->rolled_to, seen_epoch_)) take_notice(m.from, control->rolled_to);
       return;
     }
@@ -448,14 +451,22 @@ void PartitionedWorld::Process::end_step() {
     WorldStepReport report{world_->id(), step_, world_->owned_ids(), world_->ghost_count(),
                            world_->static_count(), world_->bullet_object_count(), world_->held_contact_pairs()};
     if (speculating()) {
-      reports_.insert_or_assign(step_, std::move(report));  // reported once committed (trim_below)
+      if (step_ > reported_through_) reports_.insert_or_assign(step_, std::move(report));  // once committed
     } else {
       validator_->report(std::move(report));
     }
   }
   if (speculating()) {
     if (step_ <= rerun_until_) bodies_resolved_ += world_->owned_count();
-    kept_states_.insert_or_assign(step_, world_->part_snapshot());
+    if (step_ % checkpoint_every_ == 0) {
+      WorldSnapshot snapshot;
+      if (!spare_states_.empty()) {
+        snapshot = std::move(spare_states_.back());
+        spare_states_.pop_back();
+      }
+      world_->part_snapshot(snapshot);
+      kept_states_.insert_or_assign(step_, std::move(snapshot));
+    }
     kept_max_ = std::max(kept_max_, kept_states_.size());
     report_mark();
     const std::int64_t gvt = safety_.horizon->gvt();

@@ -78,6 +78,7 @@ class PartitionedWorld::Process {
     bool keep_states = false;          // keep the world's state at every boundary >= GVT
     FuzzRandom* fuzz = nullptr;        // fuzzing: a random pause before every stage
     int anticipation = 0;              // speculation: internal steps past the horizon; 0: off
+    int checkpoint_every = 1;          // speculation: internal steps between kept states
     bool recompute = false;            // speculation: discard and recompute instead of propagate
     RollbackBoard* board = nullptr;    // speculation: rollbacks of every world
     /// Speculation: replaces this world by one rebuilt from its own part of
@@ -154,13 +155,14 @@ class PartitionedWorld::Process {
   bool compare_with_used(Message& m);
   void take_notice(WorldId from, std::int64_t step);
   void roll_back(std::int64_t step);
+  std::int64_t checkpoint_at_or_before(std::int64_t step) const;
   void restore(std::int64_t step);
   void catch_up();
   void report_mark();
   void trim_below(std::int64_t gvt);
   // A neighbour's message this run used, kept while its step is above GVT.
   struct Used {
-    std::uint64_t digest = 0;        // of the message's bytes (Ghosts, Migrants)
+    std::uint64_t digest = 0;        // of the message's bytes, once unconfirmed
     bool confirmed = true;           // false: a bet not yet met, or void (re-send awaited)
     bool bet = false;                // assumed empty before it arrived
     std::optional<Message> message;  // for a re-run after this world rolls back
@@ -174,6 +176,8 @@ class PartitionedWorld::Process {
   std::map<WorldId, std::uint64_t> notices_sent_;
   std::map<std::int64_t, WorldStepReport> reports_;         // validation: reported once committed
   std::uint32_t seen_epoch_ = 0;                            // of the rollback board
+  std::int64_t reported_through_ = -1;                      // validation: steps reported
+  int checkpoint_every_ = 1;                                // speculation: keep a state every so many steps
   std::int64_t rerun_until_ = 0;                            // steps below it are re-runs
 
   bool run_phase();
@@ -203,6 +207,7 @@ class PartitionedWorld::Process {
   std::vector<WorldId> neighbours_;
   Safety safety_;
   std::map<std::int64_t, WorldSnapshot> kept_states_;  // by internal step
+  std::vector<WorldSnapshot> spare_states_;             // speculation: freed kept states, reused
 
   Phase phase_ = Phase::Predict;
   std::int64_t step_ = 0;    // internal step in progress (= steps done)

@@ -105,11 +105,11 @@ void PartitionedWorld::Process::record_used(const Key& key, const Message& m) {
   if (bets_in_inbox_.erase(key)) {
     u.bet = true;
     u.confirmed = false;
+    u.digest = digest_of(m);
     ++unconfirmed_[step];
   } else {
-    u.message = m;
+    u.message = m;  // its digest is taken only if its sender voids it
   }
-  u.digest = digest_of(m);
   used_.insert_or_assign(UsedKey{step, kind, from}, std::move(u));
 }
 
@@ -166,6 +166,7 @@ void PartitionedWorld::Process::take_notice(WorldId from, std::int64_t step) {
     Used& u = it->second;
     if (f != from || !u.confirmed) continue;
     u.confirmed = false;  // awaiting the re-send, compared when it comes
+    u.digest = digest_of(*u.message);
     u.message.reset();
     ++unconfirmed_[s];
   }
@@ -174,24 +175,39 @@ void PartitionedWorld::Process::take_notice(WorldId from, std::int64_t step) {
 
 // A message used at `step` changed: this world's own rollback if it had no
 // merge messages from `step` on (and not recomputing), else every world's.
+// The world goes back to its checkpoint at or before `step`.
 void PartitionedWorld::Process::roll_back(std::int64_t step) {
-  const bool merged = merge_steps_.lower_bound(step) != merge_steps_.end();
+  if (step < safety_.horizon->gvt())
+    throw std::logic_error("world " + std::to_string(world_->id()) + ": rollback to step " + std::to_string(step) +
+                           ", below the commit horizon " + std::to_string(safety_.horizon->gvt()));
+  const std::int64_t back = checkpoint_at_or_before(step);
+  const bool merged = merge_steps_.lower_bound(back) != merge_steps_.end();
   if (merged || safety_.recompute) {
     SPEC_TRACE("w%d at %lld: posts a rollback of every world to %lld\n", world_->id(), (long long)step_,
-               (long long)step);
+               (long long)back);
     ++global_rollbacks_;
-    safety_.board->post(step, world_->id());
+    safety_.board->post(back, step, world_->id());
     catch_up();
     return;
   }
-  restore(step);
+  restore(back);
   for (WorldId n : neighbours_) {
     if (!safety_.horizon->try_pin(step))
       throw std::logic_error("world " + std::to_string(world_->id()) + ": rolled back below the commit horizon");
     Message notice;
-    notice.payload = Control{Control::Type::Notice, ++notices_sent_[n], step};
+    notice.payload = Control{Control::Type::Notice, ++notices_sent_[n], back, step};
     send(n, std::move(notice));
   }
+}
+
+// Checkpoints are kept at internal steps that are multiples of
+// checkpoint_every_ (the same steps in every world), and at the first step.
+std::int64_t PartitionedWorld::Process::checkpoint_at_or_before(std::int64_t step) const {
+  auto it = kept_states_.upper_bound(step);
+  if (it == kept_states_.begin())
+    throw std::logic_error("world " + std::to_string(world_->id()) + ": no state kept at or before step " +
+                           std::to_string(step));
+  return std::prev(it)->first;
 }
 
 // Rollbacks of every world this world has not taken in yet: restore each
@@ -213,10 +229,11 @@ void PartitionedWorld::Process::catch_up() {
       Used& u = it->second;  // used at a step this world had not passed: void, awaiting the re-send
       if (!u.confirmed || !u.message || !void_message(*u.message)) continue;
       u.confirmed = false;
+      u.digest = digest_of(*u.message);
       u.message.reset();
       ++unconfirmed_[std::get<0>(it->first)];
     }
-    safety_.horizon->unpin(e.step);
+    safety_.horizon->unpin(e.pinned);
   }
   report_mark();
 }
@@ -226,9 +243,6 @@ void PartitionedWorld::Process::catch_up() {
 void PartitionedWorld::Process::restore(std::int64_t step) {
   const std::int64_t cpu0 = thread_cpu_ns();
   const std::string who = "world " + std::to_string(world_->id());
-  if (step < safety_.horizon->gvt())
-    throw std::logic_error(who + ": rollback to step " + std::to_string(step) + ", below the commit horizon " +
-                           std::to_string(safety_.horizon->gvt()));
   if (step > step_) throw std::logic_error(who + ": rollback to step " + std::to_string(step) + " ahead of its clock");
   auto kept = kept_states_.find(step);
   if (kept == kept_states_.end())
@@ -272,13 +286,20 @@ void PartitionedWorld::Process::report_mark() {
 // Nothing below GVT can change: states, uses and validation reports of
 // those steps are final.
 void PartitionedWorld::Process::trim_below(std::int64_t gvt) {
-  kept_states_.erase(kept_states_.begin(), kept_states_.lower_bound(gvt));
-  used_.erase(used_.begin(), used_.lower_bound(UsedKey{gvt, 0, kNoWorld}));
-  merge_steps_.erase(merge_steps_.begin(), merge_steps_.lower_bound(gvt));
-  std::erase_if(lost_bets_, [gvt](const Key& k) { return std::get<1>(k) < gvt; });
+  // A rollback to a step at or above GVT restores the checkpoint at or
+  // before it and re-runs from there with the messages used: keep both.
+  const std::int64_t keep = checkpoint_at_or_before(gvt);
+  for (auto it = kept_states_.begin(); it != kept_states_.end() && it->first < keep; it = kept_states_.erase(it))
+    if (spare_states_.size() < 4) spare_states_.push_back(std::move(it->second));  // their storage is reused
+  used_.erase(used_.begin(), used_.lower_bound(UsedKey{keep, 0, kNoWorld}));
+  merge_steps_.erase(merge_steps_.begin(), merge_steps_.lower_bound(keep));
+  std::erase_if(lost_bets_, [keep](const Key& k) { return std::get<1>(k) < keep; });
   if (validator_) {
     auto end = reports_.upper_bound(gvt);
-    for (auto it = reports_.begin(); it != end; ++it) validator_->report(std::move(it->second));
+    for (auto it = reports_.begin(); it != end; ++it) {
+      validator_->report(std::move(it->second));
+      reported_through_ = it->first;
+    }
     reports_.erase(reports_.begin(), end);
   }
 }

@@ -172,11 +172,15 @@ void bullet_aabb(const btCollisionObject& object, btVector3& min, btVector3& max
 
 ManifoldState read_manifold_state(const btPersistentManifold& m) {
   ManifoldState ms;
-  ms.id0 = static_cast<BodyId>(m.getBody0()->getUserIndex());
-  ms.id1 = static_cast<BodyId>(m.getBody1()->getUserIndex());
-  ms.points.reserve(static_cast<std::size_t>(m.getNumContacts()));
-  for (int p = 0; p < m.getNumContacts(); ++p) ms.points.push_back(to_state(m.getContactPoint(p)));
+  read_manifold_state(m, ms);
   return ms;
+}
+
+void read_manifold_state(const btPersistentManifold& m, ManifoldState& out) {
+  out.id0 = static_cast<BodyId>(m.getBody0()->getUserIndex());
+  out.id1 = static_cast<BodyId>(m.getBody1()->getUserIndex());
+  out.points.resize(static_cast<std::size_t>(m.getNumContacts()));
+  for (int p = 0; p < m.getNumContacts(); ++p) out.points[static_cast<std::size_t>(p)] = to_state(m.getContactPoint(p));
 }
 
 void write_manifold_points(const ManifoldState& ms, btPersistentManifold& m) {

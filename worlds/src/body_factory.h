@@ -43,6 +43,8 @@ void bullet_aabb(const btCollisionObject& object, btVector3& min, btVector3& max
 /// Every field of one manifold's points, in cache order; ids from the bodies'
 /// user indices.
 ManifoldState read_manifold_state(const btPersistentManifold& manifold);
+/// The same into `out`, reusing its points' storage.
+void read_manifold_state(const btPersistentManifold& manifold, ManifoldState& out);
 /// Replaces a manifold's points with the state's, in the state's order.
 void write_manifold_points(const ManifoldState& state, btPersistentManifold& manifold);
 

@@ -45,15 +45,36 @@ TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, Territ
 
 WorldSnapshot TerritoryWorld::part_snapshot() const {
   WorldSnapshot s;
-  s.settings = settings_;
-  s.steps_done = steps_done_ / settings_.substeps;
-  s.bodies.reserve(owned_.size());
-  for (const Entry* e : owned_) s.bodies.push_back(BodySnapshot{e->description, read_dynamic_state(*e->body)});
-  std::sort(s.bodies.begin(), s.bodies.end(), [](const BodySnapshot& a, const BodySnapshot& b) {
+  part_snapshot(s);
+  return s;
+}
+
+// Reuses `out`'s storage (speculation keeps one per step: no allocation
+// once the kept states recycle).
+void TerritoryWorld::part_snapshot(WorldSnapshot& out) const {
+  out.settings = settings_;
+  out.steps_done = steps_done_ / settings_.substeps;
+  out.bodies.resize(owned_.size());
+  for (std::size_t i = 0; i < owned_.size(); ++i)
+    out.bodies[i] = BodySnapshot{owned_[i]->description, read_dynamic_state(*owned_[i]->body)};
+  std::sort(out.bodies.begin(), out.bodies.end(), [](const BodySnapshot& a, const BodySnapshot& b) {
     return a.description.id < b.description.id;
   });
-  s.manifolds = kept_contact_state();
-  return s;
+  std::size_t n = 0;
+  auto next = [&]() -> ManifoldState& {
+    if (n == out.manifolds.size()) out.manifolds.emplace_back();
+    return out.manifolds[n++];
+  };
+  btDispatcher& d = parts_->dispatcher;
+  for (int i = 0; i < d.getNumManifolds(); ++i) {
+    const btPersistentManifold* m = d.getManifoldByIndexInternal(i);
+    if (m->getNumContacts() > 0) read_manifold_state(*m, next());
+  }
+  for (const auto& [pair, state] : kept_) next() = state;
+  out.manifolds.resize(n);
+  std::sort(out.manifolds.begin(), out.manifolds.end(), [](const ManifoldState& a, const ManifoldState& b) {
+    return std::make_pair(a.id0, a.id1) < std::make_pair(b.id0, b.id1);
+  });
 }
 
 std::vector<BodySnapshot> TerritoryWorld::static_snapshots() const {

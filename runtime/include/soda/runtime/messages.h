@@ -55,6 +55,7 @@ struct Control {
   Type type = Type::Wake;
   std::uint64_t seq = 0;        // Notice: its number, per (sender, receiver)
   std::int64_t rolled_to = -1;  // Notice: the step the sender rolled back to
+  std::int64_t pinned = -1;     // Notice: the step it pinned in the commit horizon (the receiver unpins it)
 };
 
 enum class MessageKind : std::uint8_t {

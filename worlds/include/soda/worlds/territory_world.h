@@ -185,6 +185,8 @@ class TerritoryWorld {
   /// Statics are not included (static_snapshots()). The parts of every
   /// world, merged (PartitionedWorld::snapshot), are the whole scene's state.
   WorldSnapshot part_snapshot() const;
+  /// The same into `out`, reusing its storage.
+  void part_snapshot(WorldSnapshot& out) const;
   /// Every static body (description + raw state), by id.
   std::vector<BodySnapshot> static_snapshots() const;
 
