@@ -15,6 +15,19 @@ nlohmann::json step_time_json(const StepTimeStats& s) {
 
 }  // namespace
 
+nlohmann::json speculation_json(const SpeculationTotals& t) {
+  return {{"bets", t.bets},
+          {"bets_lost", t.bets_lost},
+          {"rollbacks", t.rollbacks},
+          {"steps_rolled_back", t.steps_rolled_back},
+          {"bodies_resolved", t.bodies_resolved},
+          {"bodies_resolved_per_rollback", t.bodies_resolved_per_rollback()},
+          {"rollback_cpu_seconds", t.rollback_cpu_seconds},
+          {"lead_max", t.lead_max},
+          {"lead_mean", t.lead_mean},
+          {"kept_states_max", t.kept_states_max}};
+}
+
 nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
   const SceneSettings& st = d.resolved->settings;
   const double simulated = r.steps * st.dt;
@@ -45,6 +58,8 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"healed_steps", r.healed_steps},
       {"sync_test", d.config.sync_test},
       {"sync_rollbacks", r.sync_rollbacks},
+      {"anticipation", d.config.anticipation},
+      {"rollback", rollback_name(d.config.rollback)},
   };
   if (r.territories > 1) {
     j["schedule"] = r.schedule;
@@ -83,8 +98,18 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
                         {"relay_messages_sent", m.relay_messages_sent},
                         {"relay_messages_received", m.relay_messages_received},
                         {"fragments_relayed", m.fragments_relayed},
-                        {"messages_sent", m.messages_sent}});
+                        {"messages_sent", m.messages_sent},
+                        {"bets", m.bets},
+                        {"bets_lost", m.bets_lost},
+                        {"rollbacks", m.rollbacks},
+                        {"steps_rolled_back", m.steps_rolled_back},
+                        {"bodies_resolved", m.bodies_resolved},
+                        {"rollback_cpu_seconds", m.rollback_cpu_seconds},
+                        {"lead_max", m.lead_max},
+                        {"lead_mean", m.lead_mean},
+                        {"kept_states_max", m.kept_states_max}});
     j["worlds"] = std::move(worlds);
+    j["speculation"] = speculation_json(speculation_totals(r.world_metrics));
   }
   return j;
 }

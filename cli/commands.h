@@ -25,6 +25,11 @@ std::vector<Command> add_accuracy_commands(CLI::App& bench);
 /// std::invalid_argument naming the text. cmd_accuracy.cpp.
 double parse_step_size(const std::string& text);
 
+/// Under `bench`: `speculation` (anticipation against lockstep on a scene
+/// whose load alternates between territories). cmd_speculation.cpp;
+/// docs/speculation-bench.md.
+Command add_speculation_command(CLI::App& bench);
+
 /// `stress`: the numerical-stability suite. cmd_stress.cpp; docs/stress.md.
 Command add_stress_command(CLI::App& app);
 

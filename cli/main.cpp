@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <exception>
 #include <iostream>
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -36,6 +37,7 @@ struct Options {
   soda::RunConfig config;
   std::string world = "canonical";
   std::string watchdog = "stop";
+  std::string rollback = "propagate";
   std::string json_path;
   int repeat = 3;
 };
@@ -82,6 +84,23 @@ void add_run_options(CLI::App& cmd, Options& o) {
                  "SyncTest: after every step roll every world back this many steps, re-run them and require "
                  "bit-identical state (0: off; costs that many extra steps per step)")
       ->capture_default_str();
+  cmd.add_option("--anticipation", o.config.anticipation,
+                 "Speculation: scene steps a world may run past the commit horizon, betting that its neighbours "
+                 "send it nothing (0: lockstep; results are identical for every value; territories > 1; not with "
+                 "--watchdog heal); docs/rollback.md")
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()))
+      ->capture_default_str();
+  cmd.add_option("--rollback", o.rollback,
+                 "What a rollback makes the neighbours do (with --anticipation): propagate (re-run only where a "
+                 "message they used changed) | recompute (every neighbour that used a rolled-back step re-runs "
+                 "too; the baseline)")
+      ->check(CLI::IsMember({"propagate", "recompute"}))
+      ->capture_default_str();
+  cmd.add_option("--checkpoint-every", o.config.checkpoint_every,
+                 "Speculation: internal steps between the states a world keeps to roll back to (1: every step; "
+                 "a rollback restores the one at or before the step and re-runs the rest)")
+      ->check(CLI::Range(1, 1 << 20))
+      ->capture_default_str();
   cmd.add_option("--json", o.json_path, "Write results as JSON to this path ('-': stdout)");
 }
 
@@ -96,6 +115,8 @@ soda::Scene resolve_scene(Options& o) {
   else if (o.world == "stock") o.config.world = soda::WorldKind::Stock;
   else throw std::invalid_argument("--world must be 'canonical' or 'stock', got '" + o.world + "'");
   o.config.watchdog.response = soda::parse_watchdog_response(o.watchdog);
+  o.config.rollback = o.rollback == "recompute" ? soda::PartitionedOptions::Rollback::Recompute
+                                                : soda::PartitionedOptions::Rollback::Propagate;
   if (o.config.watchdog.heal_substeps < 1) throw std::invalid_argument("--heal-substeps must be >= 1");
   return scene;
 }
@@ -111,6 +132,16 @@ void print_summary(const soda::RunResult& r) {
                 r.territories, r.partition.c_str(), r.schedule.c_str(), r.threads,
                 static_cast<unsigned long long>(r.messages), r.cpu_seconds,
                 soda::slowest_world_cpu_seconds(r.world_metrics));
+  if (r.territories > 1 && r.anticipation > 0) {
+    const soda::SpeculationTotals sp = soda::speculation_totals(r.world_metrics);
+    std::printf("  speculation (anticipation %d, %s): %llu bets, %llu lost, %llu rollbacks, %llu steps rolled "
+                "back, %llu bodies re-solved, %.3f s rollback CPU, lead max %lld mean %.2f steps\n",
+                r.anticipation, soda::rollback_name(r.rollback), static_cast<unsigned long long>(sp.bets),
+                static_cast<unsigned long long>(sp.bets_lost), static_cast<unsigned long long>(sp.rollbacks),
+                static_cast<unsigned long long>(sp.steps_rolled_back),
+                static_cast<unsigned long long>(sp.bodies_resolved), sp.rollback_cpu_seconds,
+                static_cast<long long>(sp.lead_max), sp.lead_mean);
+  }
   if (r.sync_rollbacks)
     std::printf("  SyncTest: %llu rollbacks re-run bit-identical\n", static_cast<unsigned long long>(r.sync_rollbacks));
   for (std::int64_t step : r.healed_steps)
@@ -226,6 +257,7 @@ int main(int argc, char** argv) {
   part->add_option("--cell-size", cell_size, "Cell edge in metres (default: the largest body's extent)");
   part->add_option("--json", part_o.json_path, "Write the partition summary as JSON ('-': stdout)");
   std::vector<soda::cli::Command> more = soda::cli::add_accuracy_commands(*bench);  // bench accuracy|accuracy-trace|analytic
+  more.push_back(soda::cli::add_speculation_command(*bench));
   more.push_back(soda::cli::add_stress_command(app));
 
   try {

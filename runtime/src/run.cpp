@@ -4,6 +4,7 @@
 #include <numeric>
 #include <random>
 #include <stdexcept>
+#include <string>
 #include <type_traits>
 
 #include <spdlog/spdlog.h>
@@ -72,6 +73,8 @@ RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
   r.steps = config.steps;
   r.territories = config.territories;
   r.partition = config.partition;
+  r.anticipation = config.anticipation;
+  r.rollback = config.rollback;
   const TerritoryMap map = make_partition(config.partition, scene, config.territories, GridOptions{});
   const int k = map.world_count();
   PartitionedOptions options;
@@ -92,6 +95,9 @@ RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
   options.pin = config.pin;
   options.watchdog = config.watchdog;
   options.sync_test = config.sync_test;
+  options.anticipation = config.anticipation;
+  options.checkpoint_every = config.checkpoint_every;
+  options.rollback = config.rollback;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
   step_ends.reserve(static_cast<std::size_t>(config.steps));
   std::int64_t t0 = 0;
@@ -138,6 +144,14 @@ const char* world_kind_name(WorldKind kind) {
   return "unknown";
 }
 
+const char* rollback_name(PartitionedOptions::Rollback rollback) {
+  switch (rollback) {
+    case PartitionedOptions::Rollback::Propagate: return "propagate";
+    case PartitionedOptions::Rollback::Recompute: return "recompute";
+  }
+  return "unknown";
+}
+
 StepTimeStats StepTimeStats::from_ns(std::vector<std::int64_t> ns) {
   StepTimeStats s;
   if (ns.empty()) return s;
@@ -171,6 +185,14 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   if (config.territories < 1) throw std::invalid_argument("--territories must be >= 1");
   if (config.threads < 0) throw std::invalid_argument("--threads must be >= 0");
   if (config.sync_test < 0) throw std::invalid_argument("--sync-test must be >= 0");
+  if (config.checkpoint_every < 1)
+    throw std::invalid_argument("--checkpoint-every must be >= 1, got " + std::to_string(config.checkpoint_every));
+  if (config.anticipation < 0)
+    throw std::invalid_argument("--anticipation must be >= 0 (scene steps a world may run past the commit "
+                                "horizon; 0: lockstep), got " + std::to_string(config.anticipation));
+  if (config.anticipation > 0 && config.watchdog.response == WatchdogResponse::Heal)
+    throw std::invalid_argument("--anticipation > 0 cannot be combined with --watchdog heal (speculation is not "
+                                "supported with self-heal): use --watchdog stop or off, or --anticipation 0");
   if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0)
     return run_partitioned(scene, config);
   const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), config.shuffle_seed);

@@ -15,6 +15,9 @@ Scene make_cross_traffic(const SceneParams& params);
 Scene make_projectile(const SceneParams& params);
 Scene make_chain(const SceneParams& params);
 
+// load_scenes.cpp: the cost moves between regions over time.
+Scene make_alternating_load(const SceneParams& params);
+
 // stress_scenes.cpp: numerical stability (stress) and closed-form answers
 // (analytic).
 Scene make_tower(const SceneParams& params);

@@ -35,6 +35,12 @@ const std::vector<SceneGenerator>& scene_registry() {
        "a row of N touching unit boxes (default 16, N <= 200) centred on x = 0, the first pushed at "
        "3 m/s along +x: one island across every territory of grid:8x1x1",
        detail::make_chain},
+      // Load scenes (the cost moves between regions over time).
+      {"alternating-load",
+       "N unit cubes (default 6000) in columns of 3 on landing spots left and right of a 16 m gap at "
+       "x = 0, launched upwards so that the load alternates between the halves every 150 steps: left "
+       "columns land, right columns land, then small boxes wake the left, then the right columns",
+       detail::make_alternating_load},
       // Stress scenes (numerical stability).
       {"tower", "N unit boxes (default 10, N <= 100) stacked exactly resting on the origin",
        detail::make_tower},

@@ -207,3 +207,138 @@ TEST_F(CliWatchdog, BadResponseIsBadInput) {
 }
 
 }  // namespace
+
+namespace {
+
+// `--anticipation` and `--rollback` (speculation, docs/rollback.md): bad
+// values are bad input; any anticipation keeps the one-territory hash.
+class CliSpeculation : public CliTest {};
+
+TEST_F(CliSpeculation, NegativeAnticipationIsBadInput) {
+  const Outcome o = run_cli("run --scene falling-cubes --n 20 --steps 1 --territories 2 --anticipation -1");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("--anticipation"), std::string::npos) << o.output;
+}
+
+TEST_F(CliSpeculation, AnticipationWithHealIsRefused) {
+  const Outcome o = run_cli("run --scene falling-cubes --n 20 --steps 1 --anticipation 8 --watchdog heal");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("--anticipation"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("--watchdog heal"), std::string::npos) << o.output;
+}
+
+TEST_F(CliSpeculation, UnknownRollbackIsBadInput) {
+  const Outcome o = run_cli("run --scene falling-cubes --n 20 --steps 1 --territories 2 --anticipation 4 "
+                            "--rollback sideways");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("propagate"), std::string::npos) << o.output;
+}
+
+TEST_F(CliSpeculation, AnticipationKeepsTheOneTerritoryHash) {
+  const std::string scene = "run --scene falling-cubes --n 300 --seed 3 --steps 90 --log-level warn ";
+  const Outcome one = run_cli(scene + "--territories 1");
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  const std::string expected = hash_of(one);
+  ASSERT_EQ(expected.size(), 16u) << one.output;
+  std::printf("territories 1: state_hash %s\n", expected.c_str());
+  for (const char* args : {"--territories 4 --anticipation 8", "--territories 4 --anticipation 8 --rollback recompute",
+                           "--territories 1 --anticipation 8"}) {
+    const Outcome o = run_cli(scene + args);
+    ASSERT_EQ(o.exit_code, 0) << args << "\n" << o.output;
+    std::printf("%s: state_hash %s\n", args, hash_of(o).c_str());
+    EXPECT_EQ(hash_of(o), expected) << args << "\n" << o.output;
+  }
+}
+
+// The speculation benchmark's scene: on two territories (k-means) nothing
+// crosses or comes near the cut, and the hash is the one-territory hash.
+TEST_F(CliSpeculation, AlternatingLoadNeverTouchesTheCut) {
+  const std::string scene = "run --scene alternating-load --n 300 --steps 320 --log-level warn ";
+  const Outcome one = run_cli(scene + "--territories 1");
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  const std::string out = (dir_ / "alt.json").string();
+  const Outcome two = run_cli(scene + "--territories 2 --anticipation 16 --json " + out);
+  ASSERT_EQ(two.exit_code, 0) << two.output;
+  std::printf("alternating-load: territories 1 %s, territories 2 %s\n", hash_of(one).c_str(), hash_of(two).c_str());
+  EXPECT_EQ(hash_of(one), hash_of(two));
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(out));
+  ASSERT_EQ(j["worlds"].size(), 2u);
+  for (const nlohmann::json& w : j["worlds"]) {
+    EXPECT_EQ(w["owned_bodies"], 200) << w.dump();  // 150 cubes and 50 wake boxes a side
+    EXPECT_EQ(w["border_bodies"], 0) << w.dump();
+    EXPECT_EQ(w["ghosts_sent"], 0) << w.dump();
+    EXPECT_EQ(w["migrations_out"], 0) << w.dump();
+  }
+}
+
+TEST_F(CliSpeculation, RunJsonHasSpeculationFields) {
+  const std::string out = (dir_ / "spec.json").string();
+  const Outcome o = run_cli("run --scene falling-cubes --n 100 --steps 20 --territories 2 --anticipation 4 "
+                            "--rollback recompute --log-level warn --json " + out);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(out));
+  EXPECT_EQ(j["anticipation"], 4);
+  EXPECT_EQ(j["rollback"], "recompute");
+  for (const char* field : {"bets", "bets_lost", "rollbacks", "steps_rolled_back", "bodies_resolved",
+                            "bodies_resolved_per_rollback", "rollback_cpu_seconds", "lead_max", "lead_mean",
+                            "kept_states_max"})
+    EXPECT_TRUE(j["speculation"].contains(field)) << field << " missing in " << j["speculation"].dump();
+  ASSERT_EQ(j["worlds"].size(), 2u);
+  for (const char* field : {"bets", "bets_lost", "rollbacks", "steps_rolled_back", "bodies_resolved",
+                            "rollback_cpu_seconds", "lead_max", "lead_mean", "kept_states_max"})
+    EXPECT_TRUE(j["worlds"][0].contains(field)) << field << " missing in " << j["worlds"][0].dump();
+  EXPECT_FALSE(j["worlds"][0].contains("lead"));  // the per-step series is not dumped
+}
+
+}  // namespace
+
+namespace {
+
+// `soda bench speculation` (docs/speculation-bench.md): its JSON has every
+// documented figure and the hashes of all runs but the stock one agree.
+class CliSpeculationBench : public CliTest {};
+
+TEST_F(CliSpeculationBench, WritesDocumentedJson) {
+  const std::string out = (dir_ / "spec.json").string();
+  const Outcome o = run_cli("bench speculation --n 120 --steps 40 --repeat 1 --anticipation 8 --log-level warn --out " +
+                            out);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_NE(o.output.find("\"benchmark\": \"speculation\""), std::string::npos) << o.output;  // JSON on stdout
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(out));
+  for (const char* field : {"scene", "params", "seed", "precision", "dt", "iterations", "steps", "bodies",
+                            "territories", "partition", "anticipation", "baseline_wall_seconds", "runs",
+                            "speedup_propagate_vs_lockstep", "speedup_recompute_vs_lockstep", "bound",
+                            "modelled_speedup", "lockstep_load_by_window", "bodies_resolved_propagate_over_recompute",
+                            "one_territory_state_hash", "state_hashes_equal"})
+    EXPECT_TRUE(j.contains(field)) << field << " missing";
+  EXPECT_EQ(j["scene"], "alternating-load");
+  EXPECT_TRUE(j["state_hashes_equal"].get<bool>());
+  ASSERT_EQ(j["runs"].size(), 5u);
+  const char* names[] = {"stock", "one-territory", "lockstep", "propagate", "recompute"};
+  for (std::size_t i = 0; i < 5; ++i) {
+    const nlohmann::json& run = j["runs"][i];
+    EXPECT_EQ(run["name"], names[i]);
+    EXPECT_GT(run["wall_seconds"].get<double>(), 0.0);
+    EXPECT_NEAR(run["ratio_vs_baseline"].get<double>(),
+                run["wall_seconds"].get<double>() / j["baseline_wall_seconds"].get<double>(), 1e-9);
+    if (i >= 1) {
+      EXPECT_EQ(run["state_hash"], j["one_territory_state_hash"]) << names[i];
+    }
+    if (i >= 2) {
+      EXPECT_EQ(run["worlds"].size(), 2u);
+      EXPECT_TRUE(run["speculation"].contains("bodies_resolved_per_rollback"));
+      EXPECT_TRUE(run["worlds"][0].contains("lead_max"));
+    }
+  }
+  EXPECT_EQ(j["runs"][3]["anticipation"], 8);
+  EXPECT_EQ(j["runs"][4]["rollback"], "recompute");
+  EXPECT_GE(j["bound"].get<double>(), 1.0);
+}
+
+TEST_F(CliSpeculationBench, OneTerritoryIsBadInput) {
+  const Outcome o = run_cli("bench speculation --n 60 --steps 5 --repeat 1 --territories 1");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("--territories"), std::string::npos) << o.output;
+}
+
+}  // namespace

@@ -1,6 +1,7 @@
 // Scene generators: deterministic from the seed, and as BENCHMARKS.md defines them.
 #include <cmath>
 #include <set>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
@@ -95,6 +96,39 @@ TEST(Generators, NegativeCountIsRejected) { EXPECT_THROW(make_scene("cube-pile",
 TEST(Generators, LargestExtentIsBoundingDiameter) {
   const Scene s = make_scene("falling-cubes", {50, 1, false});
   EXPECT_NEAR(s.largest_dynamic_extent(), std::sqrt(3.0), 1e-12);
+}
+
+// alternating-load (docs/scenes.md): mirror-image halves, nothing near x = 0,
+// only vertical launches, a column per 3 cubes with one wake box each.
+TEST(Generators, AlternatingLoadMatchesDefinition) {
+  const std::string a = scene_to_json(make_scene("alternating-load", {600, 2, false}));
+  EXPECT_EQ(a, scene_to_json(make_scene("alternating-load", {600, 2, false})));
+  EXPECT_NE(a, scene_to_json(make_scene("alternating-load", {600, 3, false})));
+
+  const Scene s = make_scene("alternating-load", {601, 1, false});  // rounded up to 102 columns of 3
+  const std::size_t columns = 2 * 101;
+  ASSERT_EQ(s.static_count(), 1u);
+  ASSERT_EQ(s.dynamic_count(), columns * 4);  // 3 cubes and a wake box per column
+  EXPECT_NEAR(s.largest_dynamic_extent(), std::sqrt(3.0), 1e-12);
+  for (std::size_t i = 0; i < s.bodies.size(); ++i) EXPECT_EQ(s.bodies[i].id, i);  // ground 0, then 1..N
+  std::multiset<std::tuple<double, double, double>> left, right;
+  for (const Body& b : s.bodies) {
+    if (b.is_static) {
+      EXPECT_DOUBLE_EQ(b.position.y() + b.shape.half_extents.y(), 0.0);  // ground top at y = 0
+      continue;
+    }
+    EXPECT_GE(std::abs(b.position.x()), 9.0) << "body " << b.id;  // the gap around the cut at x = 0
+    EXPECT_EQ(b.linear_velocity.x(), 0.0);
+    EXPECT_EQ(b.linear_velocity.z(), 0.0);
+    EXPECT_EQ(b.angular_velocity, Vec3::Zero());
+    (b.position.x() < 0 ? left : right).insert({std::abs(b.position.x()), b.position.y(), b.position.z()});
+  }
+  EXPECT_EQ(left, right);  // mirror images in x
+}
+
+TEST(Generators, AlternatingLoadDefaultSize) {
+  const Scene s = make_scene("alternating-load", {0, 1, false});
+  EXPECT_EQ(s.dynamic_count(), 3200u);  // 2400 cubes and 800 wake boxes
 }
 
 }  // namespace

@@ -18,6 +18,8 @@ struct RunDescription {
   RunConfig config;
 };
 
+/// Speculation totals of a partitioned run (the "speculation" object of a row).
+nlohmann::json speculation_json(const SpeculationTotals& t);
 /// One row for `soda run`.
 nlohmann::json run_json(const RunDescription& d, const RunResult& r);
 /// One row for `soda bench`: run_json of the best run plus baseline fields.

@@ -25,6 +25,8 @@ enum class WorldKind {
   Stock,      // plain btDiscreteDynamicsWorld, the baseline
 };
 const char* world_kind_name(WorldKind kind);
+/// "propagate" | "recompute", the names `--rollback` takes.
+const char* rollback_name(PartitionedOptions::Rollback rollback);
 
 struct RunConfig {
   WorldKind world = WorldKind::Canonical;
@@ -43,6 +45,15 @@ struct RunConfig {
   /// partitioned runtime, which keeps a state per step to roll back to.
   WatchdogConfig watchdog = {};
   int sync_test = 0;                 // > 0: SyncTest (PartitionedOptions::sync_test); runs any K partitioned
+  /// K > 1: scene steps a world may run past the commit horizon, betting on
+  /// its neighbours' messages (PartitionedOptions::anticipation; 0: lockstep).
+  /// Results are bit-identical for every value. With K = 1 there is no
+  /// neighbour to bet on: accepted, no effect. Not with watchdog Heal.
+  int anticipation = 0;
+  /// What a lost bet makes the neighbours do (PartitionedOptions::rollback).
+  PartitionedOptions::Rollback rollback = PartitionedOptions::Rollback::Propagate;
+  /// Internal steps between kept states (PartitionedOptions::checkpoint_every).
+  int checkpoint_every = 8;
 };
 
 /// Summary statistics of per-step times, in milliseconds.
@@ -65,6 +76,8 @@ struct RunResult {
   // Partitioned runs (territories > 1) only:
   std::string partition;            // the spec used
   std::string schedule;             // sequential | thread-per-world | pool
+  int anticipation = 0;             // RunConfig::anticipation
+  PartitionedOptions::Rollback rollback = PartitionedOptions::Rollback::Propagate;
   int threads = 1;                  // threads that stepped the worlds
   std::uint64_t messages = 0;       // messages between worlds
   std::uint64_t message_bytes = 0;  // their bytes (0 unless serialised)
@@ -79,7 +92,8 @@ std::vector<std::size_t> insertion_order(std::size_t body_count, std::uint64_t s
 
 /// Runs `scene` for config.steps steps. Throws std::invalid_argument with a
 /// clear message for an unsupported configuration (territories < 1,
-/// territories > 1 or watchdog heal with the stock world, steps < 0), GridError for a bad
+/// territories > 1 or watchdog heal with the stock world, steps < 0,
+/// anticipation < 0, anticipation > 0 with watchdog heal), GridError for a bad
 /// partition, PartitionError when the scene leaves what the partitioned step
 /// supports. Blocks the calling thread; logs a progress line through spdlog
 /// every config.progress_seconds.
