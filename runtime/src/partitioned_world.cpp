@@ -113,13 +113,16 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   for (WorldId w = 0; w < k; ++w) worlds_.push_back(make_world(w));
   const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
   horizon_ = std::make_unique<SharedMemoryHorizon>(k, steps_done_ * substeps_);
-  horizon_->set_wake_hook([t = transport_.get()](WorldId w) {
-    Message wake;
-    wake.from = w;
-    wake.to = w;
-    wake.payload = Control{Control::Type::Wake};
-    t->send(w, std::move(wake));
-  });
+  // Speculation: a world waiting for the horizon, or told to roll back
+  // with every world, is woken by a message to itself.
+  auto wake = [t = transport_.get()](WorldId w) {
+    Message m;
+    m.from = w;
+    m.to = w;
+    m.payload = Control{Control::Type::Wake};
+    t->send(w, std::move(m));
+  };
+  horizon_->set_wake_hook(wake);
   if (options_.fuzz_seed && !fuzz_) fuzz_ = std::make_shared<FuzzRandom>(options_.fuzz_seed ^ 0x5A5A5A5A5A5A5A5Aull);
   Process::Safety safety;
   safety.watchdog = &options_.watchdog;
@@ -132,13 +135,7 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   if (options_.checkpoint_every < 1) throw std::invalid_argument("PartitionedWorld: checkpoint_every must be >= 1");
   safety.checkpoint_every = options_.checkpoint_every;
   safety.recompute = options_.rollback == PartitionedOptions::Rollback::Recompute;
-  board_ = std::make_unique<RollbackBoard>(k, *horizon_, [t = transport_.get()](WorldId w) {
-    Message wake;
-    wake.from = w;
-    wake.to = w;
-    wake.payload = Control{Control::Type::Wake};
-    t->send(w, std::move(wake));
-  });
+  board_ = std::make_unique<RollbackBoard>(k, *horizon_, wake);
   safety.board = board_.get();
   if (options_.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");
   if (options_.anticipation > 0 && options_.watchdog.response == WatchdogResponse::Heal)
