@@ -52,15 +52,19 @@ WorldMetrics totals(const PartitionedWorld& w) { return total_metrics(w.metrics(
 
 // Every scene, anticipation 0, 1, 8 and 64, sequential and a thread per
 // world: the one-territory hash.
+// Under ThreadSanitizer (CI keeps its run under 30 minutes on 2 cores):
+// the threaded runs only, and the two extreme anticipations.
 #if defined(__SANITIZE_THREAD__)
-const std::vector<Schedule> kSchedules = {Schedule::ThreadPerWorld};  // the threaded runs are what TSan is for
+const std::vector<Schedule> kSchedules = {Schedule::ThreadPerWorld};
+const std::vector<int> kAnticipations = {1, 64};
 #else
 const std::vector<Schedule> kSchedules = {Schedule::Sequential, Schedule::ThreadPerWorld};
+const std::vector<int> kAnticipations = {0, 1, 8, 64};
 #endif
 
 TEST(Speculation, EveryAnticipationMatchesOneTerritory) {
   for (const Case& c : cases())
-    for (int anticipation : {0, 1, 8, 64})
+    for (int anticipation : kAnticipations)
       for (Schedule schedule : kSchedules) {
         const Scene s = test::scene(c.scene, c.n);
         PartitionedOptions o;
@@ -84,7 +88,7 @@ TEST(Speculation, EveryAnticipationMatchesOneTerritory) {
 
 
 #if defined(__SANITIZE_THREAD__)
-constexpr int kSeeds = 12;
+constexpr int kSeeds = 6;
 #else
 constexpr int kSeeds = 50;
 #endif
@@ -121,12 +125,11 @@ TEST(Speculation, FuzzedThreadsAndDeliveryNeverChangeTheResult) {
 
 // SyncTest on top of speculation: after every step every world is rolled
 // back 4 steps and re-run; bit-identical, and the one-territory hash.
+// (Release build only: the same threads and messages as the other tests,
+// which ThreadSanitizer runs.)
+#if !defined(__SANITIZE_THREAD__)
 TEST(Speculation, SyncTestOfSpeculativeRuns) {
-#if defined(__SANITIZE_THREAD__)
-  for (const Case& c : {cases()[2]}) {
-#else
   for (const Case& c : {cases()[0], cases()[2]}) {
-#endif
     const Scene s = test::scene(c.scene, c.n);
     PartitionedOptions o;
     o.schedule = Schedule::ThreadPerWorld;
@@ -138,6 +141,7 @@ TEST(Speculation, SyncTestOfSpeculativeRuns) {
     EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(reference(c))) << c.scene;
   }
 }
+#endif
 
 // A rollback below the commit horizon is never asked for: validation of
 // the horizon (rollback_to throws) is on in every run above; here the
