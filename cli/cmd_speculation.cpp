@@ -115,6 +115,10 @@ Command add_speculation_command(CLI::App& bench) {
                   "Internal steps between the states a world keeps to roll back to")
       ->check(CLI::Range(1, 1 << 20))
       ->capture_default_str();
+  cmd->add_option("--slow-world0", o->bench.run.slow_world0_ms,
+                  "Milliseconds world 0's thread sleeps after each step in the partitioned runs (a slow world)")
+      ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str();
   cmd->add_option("--repeat", o->bench.repeat, "Interleaved repeats; the fastest of each run is kept")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();

@@ -1,7 +1,9 @@
 #include "soda/runtime/run.h"
 
 #include <algorithm>
+#include <chrono>
 #include <numeric>
+#include <thread>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -103,6 +105,8 @@ RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
   std::int64_t t0 = 0;
   std::int64_t next_progress = 0;
   options.progress = [&](std::int64_t done) {
+    if (config.slow_world0_ms > 0)
+      std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(config.slow_world0_ms));
     const std::int64_t now = wall_ns();
     step_ends.push_back(now);
     if (config.progress_seconds > 0 && now >= next_progress) {
@@ -185,6 +189,8 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   if (config.territories < 1) throw std::invalid_argument("--territories must be >= 1");
   if (config.threads < 0) throw std::invalid_argument("--threads must be >= 0");
   if (config.sync_test < 0) throw std::invalid_argument("--sync-test must be >= 0");
+  if (!(config.slow_world0_ms >= 0) || config.slow_world0_ms > 1000)
+    throw std::invalid_argument("--slow-world0 must be in [0, 1000] ms");
   if (config.checkpoint_every < 1)
     throw std::invalid_argument("--checkpoint-every must be >= 1, got " + std::to_string(config.checkpoint_every));
   if (config.anticipation < 0)

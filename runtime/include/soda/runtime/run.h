@@ -54,6 +54,10 @@ struct RunConfig {
   PartitionedOptions::Rollback rollback = PartitionedOptions::Rollback::Propagate;
   /// Internal steps between kept states (PartitionedOptions::checkpoint_every).
   int checkpoint_every = 8;
+  /// K > 1, experiments: world 0's thread sleeps this long after each of
+  /// its steps (a slow world, as in the thesis' strip with world 0 slowed
+  /// down). 0: none.
+  double slow_world0_ms = 0;
 };
 
 /// Summary statistics of per-step times, in milliseconds.
