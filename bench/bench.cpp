@@ -62,28 +62,8 @@ double slowest_world_cpu_seconds(const std::vector<WorldMetrics>& worlds) {
   return total_ms * 1e-3;
 }
 
-SpeculationTotals speculation_totals(const std::vector<WorldMetrics>& worlds) {
-  SpeculationTotals t;
-  double lead_sum = 0;
-  std::int64_t steps = 0;
-  for (const WorldMetrics& w : worlds) {
-    t.bets += w.bets;
-    t.bets_lost += w.bets_lost;
-    t.rollbacks += w.rollbacks;
-    t.steps_rolled_back += w.steps_rolled_back;
-    t.bodies_resolved += w.bodies_resolved;
-    t.rollback_cpu_seconds += w.rollback_cpu_seconds;
-    t.lead_max = std::max(t.lead_max, w.lead_max);
-    t.kept_states_max = std::max(t.kept_states_max, w.kept_states_max);
-    lead_sum += w.lead_mean * static_cast<double>(w.steps);
-    steps += w.steps;
-  }
-  t.lead_mean = steps > 0 ? lead_sum / static_cast<double>(steps) : 0.0;
-  return t;
-}
-
-double SpeculationTotals::bodies_resolved_per_rollback() const {
-  return rollbacks > 0 ? static_cast<double>(bodies_resolved) / static_cast<double>(rollbacks) : 0.0;
+double bodies_resolved_per_rollback(const WorldMetrics& m) {
+  return m.rollbacks > 0 ? static_cast<double>(m.bodies_resolved) / static_cast<double>(m.rollbacks) : 0.0;
 }
 
 }  // namespace soda

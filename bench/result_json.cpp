@@ -15,17 +15,17 @@ nlohmann::json step_time_json(const StepTimeStats& s) {
 
 }  // namespace
 
-nlohmann::json speculation_json(const SpeculationTotals& t) {
-  return {{"bets", t.bets},
-          {"bets_lost", t.bets_lost},
-          {"rollbacks", t.rollbacks},
-          {"steps_rolled_back", t.steps_rolled_back},
-          {"bodies_resolved", t.bodies_resolved},
-          {"bodies_resolved_per_rollback", t.bodies_resolved_per_rollback()},
-          {"rollback_cpu_seconds", t.rollback_cpu_seconds},
-          {"lead_max", t.lead_max},
-          {"lead_mean", t.lead_mean},
-          {"kept_states_max", t.kept_states_max}};
+nlohmann::json speculation_json(const WorldMetrics& m) {
+  return {{"bets", m.bets},
+          {"bets_lost", m.bets_lost},
+          {"rollbacks", m.rollbacks},
+          {"steps_rolled_back", m.steps_rolled_back},
+          {"bodies_resolved", m.bodies_resolved},
+          {"bodies_resolved_per_rollback", bodies_resolved_per_rollback(m)},
+          {"rollback_cpu_seconds", m.rollback_cpu_seconds},
+          {"lead_max", m.lead_max},
+          {"lead_mean", m.lead_mean},
+          {"kept_states_max", m.kept_states_max}};
 }
 
 nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
@@ -68,8 +68,8 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
     j["message_bytes"] = r.message_bytes;
     j["slowest_world_cpu_seconds"] = slowest_world_cpu_seconds(r.world_metrics);
     nlohmann::json worlds = nlohmann::json::array();
-    for (const WorldMetrics& m : r.world_metrics)
-      worlds.push_back({{"world", m.world},
+    for (const WorldMetrics& m : r.world_metrics) {
+      nlohmann::json row = {{"world", m.world},
                         {"cpu_seconds", m.cpu_seconds},
                         {"cpu_step_mean_ms", m.cpu_step_mean_ms},
                         {"cpu_step_max_ms", m.cpu_step_max_ms},
@@ -98,18 +98,12 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
                         {"relay_messages_sent", m.relay_messages_sent},
                         {"relay_messages_received", m.relay_messages_received},
                         {"fragments_relayed", m.fragments_relayed},
-                        {"messages_sent", m.messages_sent},
-                        {"bets", m.bets},
-                        {"bets_lost", m.bets_lost},
-                        {"rollbacks", m.rollbacks},
-                        {"steps_rolled_back", m.steps_rolled_back},
-                        {"bodies_resolved", m.bodies_resolved},
-                        {"rollback_cpu_seconds", m.rollback_cpu_seconds},
-                        {"lead_max", m.lead_max},
-                        {"lead_mean", m.lead_mean},
-                        {"kept_states_max", m.kept_states_max}});
+                        {"messages_sent", m.messages_sent}};
+      row.update(speculation_json(m));
+      worlds.push_back(std::move(row));
+    }
     j["worlds"] = std::move(worlds);
-    j["speculation"] = speculation_json(speculation_totals(r.world_metrics));
+    j["speculation"] = speculation_json(total_metrics(r.world_metrics));
   }
   return j;
 }

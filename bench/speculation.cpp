@@ -24,23 +24,14 @@ std::size_t step_count(const std::vector<WorldMetrics>& worlds) {
 double step_ms(const WorldMetrics& w, std::size_t s) { return s < w.cpu_step_ms.size() ? w.cpu_step_ms[s] : 0.0; }
 
 nlohmann::json world_json(const WorldMetrics& m) {
-  return {{"world", m.world},
-          {"cpu_seconds", m.cpu_seconds},
-          {"blocked_seconds", m.blocked_seconds},
-          {"owned_bodies", m.owned_bodies},
-          {"ghosts_sent", m.ghosts_sent},
-          {"migrations_out", m.migrations_out},
-          {"lead_max", m.lead_max},
-          {"lead_mean", m.lead_mean},
-          {"kept_states_max", m.kept_states_max},
-          {"bets", m.bets},
-          {"bets_lost", m.bets_lost},
-          {"rollbacks", m.rollbacks},
-          {"steps_rolled_back", m.steps_rolled_back},
-          {"bodies_resolved", m.bodies_resolved},
-          {"bodies_resolved_per_rollback",
-           m.rollbacks ? static_cast<double>(m.bodies_resolved) / static_cast<double>(m.rollbacks) : 0.0},
-          {"rollback_cpu_seconds", m.rollback_cpu_seconds}};
+  nlohmann::json j = {{"world", m.world},
+                      {"cpu_seconds", m.cpu_seconds},
+                      {"blocked_seconds", m.blocked_seconds},
+                      {"owned_bodies", m.owned_bodies},
+                      {"ghosts_sent", m.ghosts_sent},
+                      {"migrations_out", m.migrations_out}};
+  j.update(speculation_json(m));
+  return j;
 }
 
 nlohmann::json load_by_window_json(const std::vector<WorldMetrics>& worlds) {
@@ -169,7 +160,7 @@ nlohmann::json speculation_bench_json(const RunDescription& d, const Speculation
       j["threads"] = b.threads;
       j["messages"] = b.messages;
       j["slowest_world_cpu_seconds"] = slowest_world_cpu_seconds(b.world_metrics);
-      j["speculation"] = speculation_json(speculation_totals(b.world_metrics));
+      j["speculation"] = speculation_json(total_metrics(b.world_metrics));
       nlohmann::json worlds = nlohmann::json::array();
       for (const WorldMetrics& m : b.world_metrics) worlds.push_back(world_json(m));
       j["worlds"] = std::move(worlds);
@@ -177,8 +168,8 @@ nlohmann::json speculation_bench_json(const RunDescription& d, const Speculation
     runs.push_back(std::move(j));
   }
   const std::int64_t lead = static_cast<std::int64_t>(config.anticipation) * st.substeps;
-  const std::uint64_t propagate_resolved = speculation_totals(r.run("propagate").best.world_metrics).bodies_resolved;
-  const std::uint64_t recompute_resolved = speculation_totals(r.run("recompute").best.world_metrics).bodies_resolved;
+  const std::uint64_t propagate_resolved = total_metrics(r.run("propagate").best.world_metrics).bodies_resolved;
+  const std::uint64_t recompute_resolved = total_metrics(r.run("recompute").best.world_metrics).bodies_resolved;
   const double speedup = ratio(lockstep.best.wall_seconds, r.run("propagate").best.wall_seconds);
   return {
       {"benchmark", "speculation"},

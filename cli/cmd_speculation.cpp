@@ -32,7 +32,7 @@ void print_worlds(const SpeculationRun& run) {
                  m.lead_mean, static_cast<unsigned long long>(m.bets), static_cast<unsigned long long>(m.bets_lost),
                  static_cast<unsigned long long>(m.rollbacks), static_cast<unsigned long long>(m.steps_rolled_back),
                  static_cast<unsigned long long>(m.bodies_resolved),
-                 m.rollbacks ? static_cast<double>(m.bodies_resolved) / static_cast<double>(m.rollbacks) : 0.0,
+                 bodies_resolved_per_rollback(m),
                  m.rollback_cpu_seconds);
 }
 

@@ -133,7 +133,7 @@ void print_summary(const soda::RunResult& r) {
                 static_cast<unsigned long long>(r.messages), r.cpu_seconds,
                 soda::slowest_world_cpu_seconds(r.world_metrics));
   if (r.territories > 1 && r.anticipation > 0) {
-    const soda::SpeculationTotals sp = soda::speculation_totals(r.world_metrics);
+    const soda::WorldMetrics sp = soda::total_metrics(r.world_metrics);
     std::printf("  speculation (anticipation %d, %s): %llu bets, %llu lost, %llu rollbacks, %llu steps rolled "
                 "back, %llu bodies re-solved, %.3f s rollback CPU, lead max %lld mean %.2f steps\n",
                 r.anticipation, soda::rollback_name(r.rollback), static_cast<unsigned long long>(sp.bets),

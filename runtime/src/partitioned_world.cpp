@@ -509,14 +509,19 @@ std::vector<WorldMetrics> PartitionedWorld::metrics() const {
 
 WorldMetrics total_metrics(const std::vector<WorldMetrics>& worlds) {
   WorldMetrics t;
+  double lead_sum = 0;
+  std::int64_t steps = 0;
   for (const WorldMetrics& m : worlds) {
     add_counts(t, m);
     t.steps = std::max(t.steps, m.steps);
     t.owned_bodies += m.owned_bodies;
     t.ghosts += m.ghosts;
     t.neighbours += m.neighbours;
+    lead_sum += m.lead_mean * static_cast<double>(m.steps);
+    steps += m.steps;
   }
   t.cpu_step_max_ms = 0;
+  t.lead_mean = steps > 0 ? lead_sum / static_cast<double>(steps) : 0.0;  // weighted by each world's steps
   return t;
 }
 

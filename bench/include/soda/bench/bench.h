@@ -36,23 +36,9 @@ struct BenchResult {
 /// one core per world (a projection on a machine with fewer cores).
 double slowest_world_cpu_seconds(const std::vector<WorldMetrics>& worlds);
 
-/// Speculation figures of a partitioned run over all its worlds
-/// (WorldMetrics; all zero with anticipation 0).
-struct SpeculationTotals {
-  std::uint64_t bets = 0;                // summed over worlds
-  std::uint64_t bets_lost = 0;
-  std::uint64_t rollbacks = 0;
-  std::uint64_t steps_rolled_back = 0;
-  std::uint64_t bodies_resolved = 0;     // owned bodies x internal steps re-run
-  double rollback_cpu_seconds = 0;
-  std::int64_t lead_max = 0;             // largest over worlds, internal steps
-  double lead_mean = 0;                  // worlds' lead_mean weighted by their internal steps
-  std::size_t kept_states_max = 0;       // largest over worlds
-  /// bodies_resolved / rollbacks (0 without rollbacks): bodies re-solved
-  /// per rollback, lower is better.
-  double bodies_resolved_per_rollback() const;
-};
-SpeculationTotals speculation_totals(const std::vector<WorldMetrics>& worlds);
+/// bodies_resolved / rollbacks of one world or of total_metrics over all
+/// (0 without rollbacks): bodies re-solved per rollback, lower is better.
+double bodies_resolved_per_rollback(const WorldMetrics& m);
 
 /// Runs the baseline and `config.run` on `scene`, interleaved: repeat i runs
 /// the baseline first when i is even, the run under test first when odd, so

@@ -18,8 +18,9 @@ struct RunDescription {
   RunConfig config;
 };
 
-/// Speculation totals of a partitioned run (the "speculation" object of a row).
-nlohmann::json speculation_json(const SpeculationTotals& t);
+/// Speculation figures of one world, or of a run (total_metrics over its
+/// worlds: the "speculation" object of a row).
+nlohmann::json speculation_json(const WorldMetrics& m);
 /// One row for `soda run`.
 nlohmann::json run_json(const RunDescription& d, const RunResult& r);
 /// One row for `soda bench`: run_json of the best run plus baseline fields.
