@@ -241,7 +241,6 @@ class PartitionedWorld::Process {
   std::int64_t step_cpu_max_ns_ = 0;
   std::vector<std::int64_t> step_cpu_history_ns_;  // CPU time of every finished internal step
   std::uint64_t bets_ = 0, bets_lost_ = 0, rollbacks_ = 0, steps_rolled_back_ = 0, bodies_resolved_ = 0;
-  std::uint64_t global_rollbacks_ = 0;
   std::int64_t rollback_cpu_ns_ = 0;
   std::vector<std::int32_t> lead_;
   std::size_t kept_max_ = 0;

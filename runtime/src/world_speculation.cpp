@@ -185,7 +185,6 @@ void PartitionedWorld::Process::roll_back(std::int64_t step) {
   if (merged || safety_.recompute) {
     SPEC_TRACE("w%d at %lld: posts a rollback of every world to %lld\n", world_->id(), (long long)step_,
                (long long)back);
-    ++global_rollbacks_;
     safety_.board->post(back, step, world_->id());
     catch_up();
     return;

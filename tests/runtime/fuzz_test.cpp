@@ -18,37 +18,15 @@ constexpr int kSeeds = 50;
 #endif
 constexpr int kSteps = 60;
 
-struct Case {
-  const char* scene;
-  int n;
-  const char* partition;
-  int territories;
-  bool border_grid;
-};
-
-GridOptions grid_of(const Case& c) {
-  GridOptions g;
-  if (c.border_grid) {
-    g.cell_size = 2.0;
-    g.origin = Vec3::Zero();
-    if (std::string(c.scene) == "chain") g.box = CellBox{{-4, 0, -1}, {3, 0, 0}};
-  }
-  return g;
-}
-
 TEST(Fuzz, SeededPausesInThreadsAndMessagesNeverChangeTheResult) {
-  const std::vector<Case> cases = {
-      {"falling-cubes", 150, "kmeans", 4, false}, {"cube-pile", 150, "rcb", 3, false},
-      {"seam-stack", 0, "grid:2x1x2", 4, true},   {"cross-traffic", 0, "grid:2x1x2", 4, true},
-      {"projectile", 0, "kmeans", 8, true},       {"chain", 16, "grid:8x1x1", 8, true},
-  };
+  const std::vector<test::Case>& cases = test::mixed_cases();
   std::map<std::string, std::uint64_t> reference;
-  for (const Case& c : cases) reference[c.scene] = test::reference_hash(test::scene(c.scene, c.n), kSteps);
+  for (const test::Case& c : cases) reference[c.scene] = test::reference_hash(test::scene(c.scene, c.n), kSteps);
   int pool_runs = 0;
   for (int seed = 1; seed <= kSeeds; ++seed) {
-    const Case& c = cases[static_cast<std::size_t>(seed) % cases.size()];
+    const test::Case& c = cases[static_cast<std::size_t>(seed) % cases.size()];
     const Scene s = test::scene(c.scene, c.n);
-    const TerritoryMap map = make_partition(c.partition, s, c.territories, grid_of(c));
+    const TerritoryMap map = test::map_of(c, s);
     PartitionedOptions o;
     o.schedule = seed % 2 ? Schedule::ThreadPerWorld : Schedule::Pool;
     o.threads = 2;

@@ -61,6 +61,40 @@ inline std::string first_divergence(const Scene& s, const TerritoryMap& map, int
   return "";
 }
 
+/// A scene of the fuzz and speculation suites with the partition it runs
+/// on; border scenes use 2 m cells at the origin (the chain a box of them).
+struct Case {
+  const char* scene;
+  int n;
+  const char* partition;
+  int territories;
+  bool border_grid;
+};
+
+inline GridOptions grid_of(const Case& c) {
+  GridOptions g;
+  if (c.border_grid) {
+    g.cell_size = 2.0;
+    g.origin = Vec3::Zero();
+    if (std::string(c.scene) == "chain") g.box = CellBox{{-4, 0, -1}, {3, 0, 0}};
+  }
+  return g;
+}
+
+inline TerritoryMap map_of(const Case& c, const Scene& s) {
+  return make_partition(c.partition, s, c.territories, grid_of(c));
+}
+
+/// falling-cubes, cube-pile, seam-stack, cross-traffic, projectile, chain.
+inline const std::vector<Case>& mixed_cases() {
+  static const std::vector<Case> all = {
+      {"falling-cubes", 150, "kmeans", 4, false}, {"cube-pile", 150, "rcb", 3, false},
+      {"seam-stack", 0, "grid:2x1x2", 4, true},   {"cross-traffic", 0, "grid:2x1x2", 4, true},
+      {"projectile", 0, "kmeans", 8, true},       {"chain", 16, "grid:8x1x1", 8, true},
+  };
+  return all;
+}
+
 /// Sums of the per-world metrics.
 inline WorldMetrics total(const std::vector<WorldMetrics>& ms) { return total_metrics(ms); }
 

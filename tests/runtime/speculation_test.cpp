@@ -14,32 +14,9 @@ namespace {
 
 constexpr int kSteps = 60;
 
-struct Case {
-  const char* scene;
-  int n;
-  const char* partition;
-  int territories;
-  bool border_grid;
-};
+using test::Case;
 
-GridOptions grid_of(const Case& c) {
-  GridOptions g;
-  if (c.border_grid) {
-    g.cell_size = 2.0;
-    g.origin = Vec3::Zero();
-    if (std::string(c.scene) == "chain") g.box = CellBox{{-4, 0, -1}, {3, 0, 0}};
-  }
-  return g;
-}
-
-const std::vector<Case>& cases() {
-  static const std::vector<Case> all = {
-      {"falling-cubes", 150, "kmeans", 4, false}, {"cube-pile", 150, "rcb", 3, false},
-      {"seam-stack", 0, "grid:2x1x2", 4, true},   {"cross-traffic", 0, "grid:2x1x2", 4, true},
-      {"projectile", 0, "kmeans", 8, true},       {"chain", 16, "grid:8x1x1", 8, true},
-  };
-  return all;
-}
+const std::vector<Case>& cases() { return test::mixed_cases(); }
 
 std::uint64_t reference(const Case& c) {
   static std::map<std::string, std::uint64_t> cache;
@@ -48,7 +25,7 @@ std::uint64_t reference(const Case& c) {
   return it->second;
 }
 
-WorldMetrics totals(const PartitionedWorld& w) { return total_metrics(w.metrics()); }
+WorldMetrics totals(const PartitionedWorld& w) { return test::total(w.metrics()); }
 
 // Every scene, anticipation 0, 1, 8 and 64, sequential and a thread per
 // world: the one-territory hash.
@@ -71,7 +48,7 @@ TEST(Speculation, EveryAnticipationMatchesOneTerritory) {
         o.schedule = schedule;
         o.anticipation = anticipation;
         o.validate = true;
-        PartitionedWorld world(s, make_partition(c.partition, s, c.territories, grid_of(c)), o);
+        PartitionedWorld world(s, test::map_of(c, s), o);
         world.step(kSteps);
         const WorldMetrics t = totals(world);
         std::printf("%-14s K=%d anticipation %2d %-16s: %4llu bets, %3llu lost, %3llu rollbacks, lead max %lld\n",
@@ -109,7 +86,7 @@ TEST(Speculation, FuzzedThreadsAndDeliveryNeverChangeTheResult) {
     o.validate = true;
     o.anticipation = std::vector<int>{1, 8, 64}[static_cast<std::size_t>(seed / 2) % 3];
     o.rollback = seed % 5 == 0 ? PartitionedOptions::Rollback::Recompute : PartitionedOptions::Rollback::Propagate;
-    PartitionedWorld world(s, make_partition(c.partition, s, c.territories, grid_of(c)), o);
+    PartitionedWorld world(s, test::map_of(c, s), o);
     world.step(kSteps);
     const WorldMetrics t = totals(world);
     bets += t.bets;
@@ -135,7 +112,7 @@ TEST(Speculation, SyncTestOfSpeculativeRuns) {
     o.schedule = Schedule::ThreadPerWorld;
     o.anticipation = 8;
     o.sync_test = 4;
-    PartitionedWorld world(s, make_partition(c.partition, s, c.territories, grid_of(c)), o);
+    PartitionedWorld world(s, test::map_of(c, s), o);
     world.step(kSteps);
     EXPECT_EQ(world.sync_rollbacks(), static_cast<std::uint64_t>(kSteps));
     EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(reference(c))) << c.scene;
@@ -152,7 +129,7 @@ TEST(Speculation, HorizonReachesTheTargetAndStatesAreFreed) {
   PartitionedOptions o;
   o.schedule = Schedule::ThreadPerWorld;
   o.anticipation = 64;
-  PartitionedWorld world(s, make_partition(c.partition, s, c.territories, grid_of(c)), o);
+  PartitionedWorld world(s, test::map_of(c, s), o);
   world.step(kSteps);
   for (const WorldMetrics& m : world.metrics()) {
     EXPECT_EQ(m.lead.size(), static_cast<std::size_t>(m.steps + m.steps_rolled_back)) << "world " << m.world;
