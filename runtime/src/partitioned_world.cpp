@@ -151,7 +151,7 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
           return a.description.id < b.description.id;
         });
         auto& slot = worlds_[static_cast<std::size_t>(w)];
-        slot = std::make_unique<TerritoryWorld>(whole, w, map, internal_step);
+        slot = std::make_unique<TerritoryWorld>(whole, w, map, internal_step, slot.get());
         return *slot;
       };
     processes_.push_back(std::make_unique<Process>(*worlds_[static_cast<std::size_t>(w)], *transport_, *graph_,

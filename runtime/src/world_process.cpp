@@ -100,7 +100,7 @@ void PartitionedWorld::Process::deliver(Message m) {
       return;
     }
     if (safety_.board->voids(m.epoch, m.step, seen_epoch_)) return;
-    if ((m.kind() == MessageKind::Ghosts || m.kind() == MessageKind::Migrants) && compare_with_used(m)) return;
+    if (!is_merge_message(m) && compare_with_used(m)) return;
     // Glue of a step whose glue this world no longer waits for: not needed
     // (a neighbour re-sent it after rolling back).
     if (m.kind() == MessageKind::Glue &&
@@ -150,8 +150,9 @@ PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
       cpu_ns_ += step_cpu_ns_;
       step_cpu_max_ns_ = std::max(step_cpu_max_ns_, step_cpu_ns_);
       step_cpu_history_ns_.push_back(step_cpu_ns_);
-      if (step_ <= rerun_until_) rollback_cpu_ns_ += step_cpu_ns_;
+      if (step_ <= rerun_until_) rollback_cpu_ns_ += step_cpu_ns_ - restore_ns_in_step_;  // restores: counted
       step_cpu_ns_ = 0;
+      restore_ns_in_step_ = 0;
       cpu0 = now;
     }
   }
@@ -183,9 +184,7 @@ void PartitionedWorld::Process::send(WorldId to, Message message) {
   message.to = to;
   message.step = step_;
   message.epoch = seen_epoch_;
-  if (speculating() && message.kind() != MessageKind::Ghosts && message.kind() != MessageKind::Migrants &&
-      message.kind() != MessageKind::Control)
-    merge_steps_.insert(step_);
+  if (speculating() && is_merge_message(message)) merge_steps_.insert(step_);
   ++sums_.messages_sent;
   transport_.send(to, std::move(message));
 }
@@ -516,7 +515,7 @@ std::string PartitionedWorld::Process::waiting_for() const {
 WorldMetrics PartitionedWorld::Process::metrics() const {
   WorldMetrics m = sums_;
   m.steps = step_;
-  m.cpu_seconds = static_cast<double>(cpu_ns_) * 1e-9;
+  m.cpu_seconds = static_cast<double>(cpu_ns_ + step_cpu_ns_) * 1e-9;  // with a step not finished
   m.cpu_step_mean_ms = step_ ? static_cast<double>(cpu_ns_) * 1e-6 / static_cast<double>(step_) : 0.0;
   m.cpu_step_max_ms = static_cast<double>(step_cpu_max_ns_) * 1e-6;
   m.cpu_step_ms.reserve(step_cpu_history_ns_.size());

@@ -66,6 +66,20 @@ namespace soda {
 
 class RunControl;
 
+/// Speculation: a message of a merged island — Glue with entries, Fragments,
+/// Gather, Results. A rollback over a step with one sent or used is a
+/// rollback of every world. Ghosts, Migrants and empty Glue (no island
+/// crosses the border) are kept when used and compared with their re-sends.
+inline bool is_merge_message(const Message& m) {
+  switch (m.kind()) {
+    case MessageKind::Glue: return !std::get<GlueBatch>(m.payload).entries.empty();
+    case MessageKind::Fragments:
+    case MessageKind::Gather:
+    case MessageKind::Results: return true;
+    default: return false;
+  }
+}
+
 class PartitionedWorld::Process {
  public:
   /// The watchdog, the injected fault and the rollback ring (options of the
@@ -241,7 +255,8 @@ class PartitionedWorld::Process {
   std::int64_t step_cpu_max_ns_ = 0;
   std::vector<std::int64_t> step_cpu_history_ns_;  // CPU time of every finished internal step
   std::uint64_t bets_ = 0, bets_lost_ = 0, rollbacks_ = 0, steps_rolled_back_ = 0, bodies_resolved_ = 0;
-  std::int64_t rollback_cpu_ns_ = 0;
+  std::int64_t rollback_cpu_ns_ = 0;    // restores and re-run steps
+  std::int64_t restore_ns_in_step_ = 0;  // restores counted in step_cpu_ns_ so far
   std::vector<std::int32_t> lead_;
   std::size_t kept_max_ = 0;
 };

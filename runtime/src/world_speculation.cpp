@@ -9,10 +9,12 @@
 // world's low-water mark at its step. When the final version of a message
 // arrives it is compared, as bytes, with the one used; a difference restores
 // the world's own kept state of that step and re-runs from there with the new
-// message. Merge messages (Glue, Fragments, Gather, Results) are not compared:
-// a merged island is re-merged by all its worlds, so a rollback over a step
-// with merge messages is one of every world (rollback_board.h), after which
-// no message of the old run of those steps is used. When no message can
+// message; Glue without entries (no island crosses the border) is kept and
+// compared the same way. Merge messages (Glue with entries, Fragments, Gather,
+// Results) are not compared: a merged island is re-merged by all its worlds,
+// so a rollback over a step with merge messages is one of every world
+// (rollback_board.h), after which no message of the old run of those steps
+// is used. When no message can
 // change any more (GVT at the clock) every world has run every step on the
 // final messages, which is the lockstep run.
 //
@@ -97,9 +99,9 @@ bool PartitionedWorld::Process::within_anticipation() {
 
 void PartitionedWorld::Process::record_used(const Key& key, const Message& m) {
   const auto& [kind, step, from] = key;
-  if (kind == static_cast<int>(MessageKind::Glue)) {
+  if (is_merge_message(m)) {
     merge_steps_.insert(step);
-    return;  // the rollback of every world takes care of it
+    return;  // a merge: the rollback of every world takes care of it
   }
   Used u;
   if (bets_in_inbox_.erase(key)) {
@@ -113,8 +115,8 @@ void PartitionedWorld::Process::record_used(const Key& key, const Message& m) {
   used_.insert_or_assign(UsedKey{step, kind, from}, std::move(u));
 }
 
-// A Ghosts or Migrants message for a step this run used one of: confirm it
-// or roll back. True if the message has been taken care of.
+// A Ghosts, Migrants or empty Glue message for a step this run used one
+// of: confirm it or roll back. True if the message has been taken care of.
 bool PartitionedWorld::Process::compare_with_used(Message& m) {
   auto it = used_.find(UsedKey{m.step, static_cast<int>(m.kind()), m.from});
   if (it == used_.end()) return false;
@@ -271,7 +273,12 @@ void PartitionedWorld::Process::restore(std::int64_t step) {
     }
   }
   report_mark();
-  rollback_cpu_ns_ += thread_cpu_ns() - cpu0;
+  // Restores run outside advance()'s CPU window (on delivery, or before the
+  // stages): count them in the step in progress too, not only here.
+  const std::int64_t ns = thread_cpu_ns() - cpu0;
+  rollback_cpu_ns_ += ns;
+  step_cpu_ns_ += ns;
+  restore_ns_in_step_ += ns;
 }
 
 // Low-water mark: the clock, or the oldest step of a message used that may

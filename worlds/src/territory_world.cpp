@@ -50,11 +50,11 @@ TerritoryWorld::TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map)
   init_interior();
 }
 
-void TerritoryWorld::init_world() {
+void TerritoryWorld::init_world(const TerritoryWorld* share_pools_of) {
   if (id_ < 0 || id_ >= map_.world_count())
     throw PartitionError("TerritoryWorld: world id " + std::to_string(id_) + " outside the map's " +
                          std::to_string(map_.world_count()) + " worlds");
-  parts_ = std::make_unique<Parts>(this);
+  parts_ = std::make_unique<Parts>(this, share_pools_of ? share_pools_of->parts_->config : nullptr);
   parts_->world.setGravity(to_bt(settings_.gravity));
   parts_->world.getSolverInfo().m_numIterations = settings_.iterations;
 }

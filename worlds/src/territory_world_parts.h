@@ -50,14 +50,17 @@ class TerritoryWorld::Dispatcher final : public btCollisionDispatcher {
 };
 
 /// Every Bullet object of one territory world is its own (pool allocators
-/// are not thread-safe).
+/// are not thread-safe), except that a world rebuilt from a snapshot may
+/// share the collision configuration (its pools) of the world it replaces.
 struct TerritoryWorld::Parts {
-  explicit Parts(TerritoryWorld* owner) : dispatcher(&config, owner) {}
-  btDefaultCollisionConfiguration config;
+  Parts(TerritoryWorld* owner, std::shared_ptr<btDefaultCollisionConfiguration> shared)
+      : config(shared ? std::move(shared) : std::make_shared<btDefaultCollisionConfiguration>()),
+        dispatcher(config.get(), owner) {}
+  std::shared_ptr<btDefaultCollisionConfiguration> config;  // first: outlives every user of its pools
   Dispatcher dispatcher;
   btDbvtBroadphase broadphase;
   btSequentialImpulseConstraintSolver solver;
-  btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
+  btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, config.get()};
   btManifoldArray scratch;  // near callback
 };
 

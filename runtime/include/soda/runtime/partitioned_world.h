@@ -127,7 +127,7 @@ class ValidationError : public std::runtime_error {
 struct WorldMetrics {
   WorldId world = 0;
   std::int64_t steps = 0;              // internal steps
-  double cpu_seconds = 0;              // thread CPU time spent stepping this world
+  double cpu_seconds = 0;              // thread CPU time spent stepping this world (restores included)
   double cpu_step_mean_ms = 0;         // per internal step
   double cpu_step_max_ms = 0;
   std::vector<double> cpu_step_ms;     // thread CPU time of every internal step, in order

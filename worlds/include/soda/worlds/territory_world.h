@@ -104,7 +104,15 @@ class TerritoryWorld {
   /// snapshot.steps_done * settings.substeps, or `internal_steps_done` if
   /// given (>= 0: a boundary between substeps, which the snapshot's scene
   /// step count cannot name). Throws as the scene constructor does.
-  TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map, std::int64_t internal_steps_done = -1);
+  ///
+  /// `share_pools_of`: a world this one replaces (a rollback). The two then
+  /// share Bullet's collision configuration, whose manifold and algorithm
+  /// pools cost about 1 ms to build (a rollback of every world rebuilt 8 of
+  /// them at a time); results do not depend on it. Both must then be used by
+  /// one thread at a time between them; the shared pools live as long as
+  /// either world.
+  TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map, std::int64_t internal_steps_done = -1,
+                 const TerritoryWorld* share_pools_of = nullptr);
   ~TerritoryWorld();
   TerritoryWorld(const TerritoryWorld&) = delete;
   TerritoryWorld& operator=(const TerritoryWorld&) = delete;
@@ -223,7 +231,7 @@ class TerritoryWorld {
  private:
   using PairKey = std::pair<BodyId, BodyId>;
 
-  void init_world();
+  void init_world(const TerritoryWorld* share_pools_of = nullptr);
   void init_interior();
   void check_contract(const Entry& e) const;
   void insert_static(const Body& body);
