@@ -66,4 +66,8 @@ double bodies_resolved_per_rollback(const WorldMetrics& m) {
   return m.rollbacks > 0 ? static_cast<double>(m.bodies_resolved) / static_cast<double>(m.rollbacks) : 0.0;
 }
 
+double bodies_resolved_per_lost_bet(const WorldMetrics& m) {
+  return m.bets_lost > 0 ? static_cast<double>(m.bodies_resolved) / static_cast<double>(m.bets_lost) : 0.0;
+}
+
 }  // namespace soda

@@ -20,9 +20,12 @@ nlohmann::json speculation_json(const WorldMetrics& m) {
           {"bets_lost", m.bets_lost},
           {"rollbacks", m.rollbacks},
           {"steps_rolled_back", m.steps_rolled_back},
+          {"steps_rejoined", m.steps_rejoined},
           {"bodies_resolved", m.bodies_resolved},
           {"bodies_resolved_per_rollback", bodies_resolved_per_rollback(m)},
+          {"bodies_resolved_per_lost_bet", bodies_resolved_per_lost_bet(m)},
           {"rollback_cpu_seconds", m.rollback_cpu_seconds},
+          {"rollback_cpu_share", m.cpu_seconds > 0 ? m.rollback_cpu_seconds / m.cpu_seconds : 0.0},
           {"lead_max", m.lead_max},
           {"lead_mean", m.lead_mean},
           {"kept_states_max", m.kept_states_max}};
@@ -60,6 +63,8 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"sync_rollbacks", r.sync_rollbacks},
       {"anticipation", d.config.anticipation},
       {"rollback", rollback_name(d.config.rollback)},
+      {"checkpoint_every", d.config.checkpoint_every},
+      {"eager_bets", d.config.eager_bets},
   };
   if (r.territories > 1) {
     j["schedule"] = r.schedule;

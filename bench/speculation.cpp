@@ -156,6 +156,10 @@ nlohmann::json speculation_bench_json(const RunDescription& d, const Speculation
                         {"sleeping_bodies", b.sleeping_bodies}};
     if (b.territories > 1) {
       j["speedup_vs_lockstep"] = ratio(lockstep.best.wall_seconds, b.wall_seconds);
+      // The thesis' worth of anticipation with Rollback and Propagate: the
+      // time of computing every step just in time (lockstep) minus the time
+      // with speculation, rollbacks included; negative when it loses.
+      j["time_saved_vs_lockstep_seconds"] = lockstep.best.wall_seconds - b.wall_seconds;
       j["schedule"] = b.schedule;
       j["threads"] = b.threads;
       j["messages"] = b.messages;
@@ -168,8 +172,11 @@ nlohmann::json speculation_bench_json(const RunDescription& d, const Speculation
     runs.push_back(std::move(j));
   }
   const std::int64_t lead = static_cast<std::int64_t>(config.anticipation) * st.substeps;
-  const std::uint64_t propagate_resolved = total_metrics(r.run("propagate").best.world_metrics).bodies_resolved;
-  const std::uint64_t recompute_resolved = total_metrics(r.run("recompute").best.world_metrics).bodies_resolved;
+  const WorldMetrics propagate_totals = total_metrics(r.run("propagate").best.world_metrics);
+  const WorldMetrics recompute_totals = total_metrics(r.run("recompute").best.world_metrics);
+  const double per_bet_recompute = bodies_resolved_per_lost_bet(recompute_totals);
+  const std::uint64_t propagate_resolved = propagate_totals.bodies_resolved;
+  const std::uint64_t recompute_resolved = recompute_totals.bodies_resolved;
   const double speedup = ratio(lockstep.best.wall_seconds, r.run("propagate").best.wall_seconds);
   return {
       {"benchmark", "speculation"},
@@ -186,6 +193,9 @@ nlohmann::json speculation_bench_json(const RunDescription& d, const Speculation
       {"territories", d.config.territories},
       {"partition", d.config.partition},
       {"anticipation", config.anticipation},
+      {"checkpoint_every", config.run.checkpoint_every},
+      {"eager_bets", config.run.eager_bets},
+      {"slow_world0_ms", config.run.slow_world0_ms},
       {"repeat", config.repeat},
       {"baseline", "stock btDiscreteDynamicsWorld, one world, same scene, same process"},
       {"baseline_wall_seconds", baseline},
@@ -207,6 +217,9 @@ nlohmann::json speculation_bench_json(const RunDescription& d, const Speculation
        recompute_resolved ? nlohmann::json(static_cast<double>(propagate_resolved) /
                                            static_cast<double>(recompute_resolved))
                           : nlohmann::json(nullptr)},
+      {"bodies_resolved_per_lost_bet_propagate_over_recompute",
+       per_bet_recompute > 0 ? nlohmann::json(bodies_resolved_per_lost_bet(propagate_totals) / per_bet_recompute)
+                             : nlohmann::json(nullptr)},
       {"one_territory_state_hash", hash_hex(one.best.state_hash)},
       {"stock_state_hash", hash_hex(stock.best.state_hash)},
       {"state_hashes_equal", r.hashes_equal},

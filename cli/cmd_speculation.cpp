@@ -60,8 +60,16 @@ void print_summary(const nlohmann::json& j, const SpeculationBenchResult& r) {
   const nlohmann::json& ratio = j["bodies_resolved_propagate_over_recompute"];
   if (ratio.is_null())
     std::fprintf(stderr, "  bodies re-solved, propagate / recompute: n/a (recompute re-solved none)\n");
-  else
-    std::fprintf(stderr, "  bodies re-solved, propagate / recompute: %.3f\n", ratio.get<double>());
+  else {
+    const nlohmann::json& per_bet = j["bodies_resolved_per_lost_bet_propagate_over_recompute"];
+    std::fprintf(stderr, "  bodies re-solved, propagate / recompute: %.3f in all, %.3f per lost bet\n",
+                 ratio.get<double>(), per_bet.is_null() ? 0.0 : per_bet.get<double>());
+  }
+  for (const nlohmann::json& run : j["runs"])
+    if (run.contains("time_saved_vs_lockstep_seconds") && run["anticipation"].get<int>() > 0)
+      std::fprintf(stderr, "  %s: time saved against lockstep %.3f s, rollback CPU %.1f %% of its CPU\n",
+                   run["name"].get<std::string>().c_str(), run["time_saved_vs_lockstep_seconds"].get<double>(),
+                   100.0 * run["speculation"]["rollback_cpu_share"].get<double>());
   std::fprintf(stderr, "  state hashes: %s\n",
                r.hashes_equal ? ("every partitioned run equals one territory's, " +
                                  j["one_territory_state_hash"].get<std::string>())
@@ -115,6 +123,8 @@ Command add_speculation_command(CLI::App& bench) {
                   "Internal steps between the states a world keeps to roll back to")
       ->check(CLI::Range(1, 1 << 20))
       ->capture_default_str();
+  cmd->add_flag("--eager-bets", o->bench.run.eager_bets,
+                "Bet also on neighbours whose newest ghosts were not empty in the speculative runs");
   cmd->add_option("--slow-world0", o->bench.run.slow_world0_ms,
                   "Milliseconds world 0's thread sleeps after each step in the partitioned runs (a slow world)")
       ->check(CLI::Range(0.0, 1000.0))

@@ -101,6 +101,9 @@ void add_run_options(CLI::App& cmd, Options& o) {
                  "a rollback restores the one at or before the step and re-runs the rest)")
       ->check(CLI::Range(1, 1 << 20))
       ->capture_default_str();
+  cmd.add_flag("--eager-bets", o.config.eager_bets,
+               "Speculation: bet also on neighbours whose newest ghosts were not empty (more bets and rollbacks; "
+               "by default a world waits for a busy border)");
   cmd.add_option("--json", o.json_path, "Write results as JSON to this path ('-': stdout)");
 }
 

@@ -67,6 +67,7 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.bets_lost += m.bets_lost;
   t.rollbacks += m.rollbacks;
   t.steps_rolled_back += m.steps_rolled_back;
+  t.steps_rejoined += m.steps_rejoined;
   t.bodies_resolved += m.bodies_resolved;
   t.rollback_cpu_seconds += m.rollback_cpu_seconds;
   t.lead_max = std::max(t.lead_max, m.lead_max);
@@ -135,6 +136,7 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   if (options_.checkpoint_every < 1) throw std::invalid_argument("PartitionedWorld: checkpoint_every must be >= 1");
   safety.checkpoint_every = options_.checkpoint_every;
   safety.recompute = options_.rollback == PartitionedOptions::Rollback::Recompute;
+  safety.eager_bets = options_.eager_bets;
   board_ = std::make_unique<RollbackBoard>(k, *horizon_, wake);
   safety.board = board_.get();
   if (options_.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");

@@ -100,6 +100,7 @@ RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
   options.anticipation = config.anticipation;
   options.checkpoint_every = config.checkpoint_every;
   options.rollback = config.rollback;
+  options.eager_bets = config.eager_bets;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
   step_ends.reserve(static_cast<std::size_t>(config.steps));
   std::int64_t t0 = 0;

@@ -46,6 +46,8 @@ void PartitionedWorld::Process::rewind(TerritoryWorld& world, std::int64_t scene
   room_wait_since_ns_ = 0;
   kept_states_.erase(kept_states_.upper_bound(step_), kept_states_.end());
   used_.clear();
+  sent_log_.clear();
+  old_run_.reset();
   unconfirmed_.clear();
   bets_in_inbox_.clear();
   merge_steps_.clear();
@@ -100,6 +102,11 @@ void PartitionedWorld::Process::deliver(Message m) {
       return;
     }
     if (safety_.board->voids(m.epoch, m.step, seen_epoch_)) return;
+    if (m.kind() == MessageKind::Ghosts) {
+      auto [it, fresh] = newest_ghosts_.try_emplace(m.from, m.step, false);
+      if (fresh || m.step >= it->second.first)
+        it->second = {m.step, !std::get<GhostBatch>(m.payload).ghosts.empty()};
+    }
     if (!is_merge_message(m) && compare_with_used(m)) return;
     // Glue of a step whose glue this world no longer waits for: not needed
     // (a neighbour re-sent it after rolling back).
@@ -184,7 +191,13 @@ void PartitionedWorld::Process::send(WorldId to, Message message) {
   message.to = to;
   message.step = step_;
   message.epoch = seen_epoch_;
-  if (speculating() && is_merge_message(message)) merge_steps_.insert(step_);
+  if (speculating()) {
+    if (is_merge_message(message)) {
+      merge_steps_.insert(step_);
+    } else if (message.kind() != MessageKind::Control) {
+      sent_log_[step_].push_back(message);  // re-sent if a re-run rejoins the run that sent it
+    }
+  }
   ++sums_.messages_sent;
   transport_.send(to, std::move(message));
 }
@@ -471,6 +484,7 @@ void PartitionedWorld::Process::end_step() {
     const std::int64_t gvt = safety_.horizon->gvt();
     lead_.push_back(static_cast<std::int32_t>(step_ - gvt));
     trim_below(gvt);
+    if (old_run_) try_rejoin();
   }
   if (step_ % substeps_ != 0) return;
   if (!speculating()) {
@@ -530,6 +544,7 @@ WorldMetrics PartitionedWorld::Process::metrics() const {
   m.bets_lost = bets_lost_;
   m.rollbacks = rollbacks_;
   m.steps_rolled_back = steps_rolled_back_;
+  m.steps_rejoined = steps_rejoined_;
   m.bodies_resolved = bodies_resolved_;
   m.rollback_cpu_seconds = static_cast<double>(rollback_cpu_ns_) * 1e-9;
   m.lead = lead_;

@@ -26,15 +26,17 @@
 // a neighbour's Ghosts(t) or Migrants(t) bets that they are empty when it sent
 // that neighbour no ghosts at t (so the neighbour cannot glue or merge with it
 // at t), as long as t is within `anticipation` steps of the commit horizon.
-// It keeps its state at every step from the horizon on and the neighbours'
-// messages it used. A message that differs from the one used (a lost bet, a
-// message re-sent after its sender rolled back) rolls it back to that step:
-// it rebuilds itself from the kept state and re-runs. If it had sent or used
-// no merge message (Glue, Fragments, Gather, Results) from that step on, the
+// It keeps its state every checkpoint_every steps from the horizon on and
+// the neighbours' messages it used. A message that differs from the one used
+// (a lost bet, a message re-sent after its sender rolled back) rolls it back
+// to that step: it rebuilds itself from the kept state and re-runs. If it had
+// sent or used no merge message (is_merge_message) from that step on, the
 // rollback is its own: it tells its neighbours (Notice: my messages of steps
-// >= t sent before this are void), which keep the Ghosts and Migrants they
-// used and compare them with the re-sent ones — only a difference rolls them
-// back (Rollback and Propagate). Otherwise every world of the merged islands
+// >= t sent before this are void), which keep the Ghosts, Migrants and empty
+// Glue they used and compare them with the re-sent ones — only a difference
+// rolls them back (Rollback and Propagate) — and its re-run rejoins the run
+// it left once its state is bit-equal to that run's again (try_rejoin).
+// Otherwise every world of the merged islands
 // must re-merge, and the rollback is posted for every world at once
 // (rollback_board.h). Safety::recompute posts every rollback for every world
 // (discard and recompute, the baseline).
@@ -94,6 +96,7 @@ class PartitionedWorld::Process {
     int anticipation = 0;              // speculation: internal steps past the horizon; 0: off
     int checkpoint_every = 1;          // speculation: internal steps between kept states
     bool recompute = false;            // speculation: discard and recompute instead of propagate
+    bool eager_bets = false;           // speculation: bet on neighbours whose newest ghosts were not empty
     RollbackBoard* board = nullptr;    // speculation: rollbacks of every world
     /// Speculation: replaces this world by one rebuilt from its own part of
     /// the state (as kept) at an internal step boundary; returns it.
@@ -170,7 +173,9 @@ class PartitionedWorld::Process {
   void take_notice(WorldId from, std::int64_t step);
   void roll_back(std::int64_t step);
   std::int64_t checkpoint_at_or_before(std::int64_t step) const;
-  void restore(std::int64_t step);
+  void restore(std::int64_t step, std::int64_t changed_step = -1);
+  void try_rejoin();
+  void drop_old_run();
   void catch_up();
   void report_mark();
   void trim_below(std::int64_t gvt);
@@ -186,9 +191,26 @@ class PartitionedWorld::Process {
   std::map<std::int64_t, int> unconfirmed_;                 // step -> unconfirmed uses
   std::set<Key> bets_in_inbox_;
   std::set<Key> lost_bets_;                                 // never bet on these again
+  std::map<WorldId, std::pair<std::int64_t, bool>> newest_ghosts_;  // per neighbour: step, not empty
   std::set<std::int64_t> merge_steps_;                      // steps with merge messages sent or used
   std::map<WorldId, std::uint64_t> notices_sent_;
   std::map<std::int64_t, WorldStepReport> reports_;         // validation: reported once committed
+  std::map<std::int64_t, std::vector<Message>> sent_log_;   // Ghosts, Migrants, empty Glue sent, by step
+  // What this world's run had done past a rollback of its own, kept while
+  // the re-run may rejoin it: once the re-run's state at a step after the
+  // message that changed is bit-equal to the old run's, and the messages the
+  // old run used from there on are the ones at hand, the old run's later
+  // steps are still exact (a step is a function of the state and the
+  // messages used) and are taken back instead of re-run (try_rejoin).
+  struct OldRun {
+    std::int64_t changed_step = 0;                      // the step whose message changed
+    std::map<std::int64_t, WorldSnapshot> kept;         // its states after the rollback's step
+    std::map<UsedKey, Used> used;                       // messages it used from that step on
+    std::map<std::int64_t, std::vector<Message>> sent;  // messages it sent from that step on
+    std::map<std::int64_t, WorldStepReport> reports;    // validation reports after that step
+  };
+  std::optional<OldRun> old_run_;
+  std::uint64_t steps_rejoined_ = 0;                        // steps taken back from old runs, not re-run
   std::uint32_t seen_epoch_ = 0;                            // of the rollback board
   std::int64_t reported_through_ = -1;                      // validation: steps reported
   int checkpoint_every_ = 1;                                // speculation: keep a state every so many steps

@@ -29,6 +29,7 @@
 
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/message_codec.h"
+#include "soda/worlds/world_snapshot.h"
 #include "world_process.h"
 
 namespace soda {
@@ -69,8 +70,11 @@ Message empty_message(MessageKind kind, WorldId from, WorldId to, std::int64_t s
 
 // The neighbours whose `kind` of this step is missing: bet that it is empty,
 // if every one of them is a neighbour this world sent no ghosts to (and, for
-// Migrants, got no ghosts from), no bet on it was lost at this step, and the
-// step is within the anticipation.
+// Migrants, got no ghosts from), no bet on it was lost at this step, the
+// newest ghosts that arrived from it were empty unless bets are eager (a
+// border that has just become busy stays busy: betting on each following
+// step lost one bet and re-ran the world each time), and the step is within
+// the anticipation.
 bool PartitionedWorld::Process::place_bets(MessageKind kind) {
   std::vector<WorldId> missing;
   for (WorldId n : neighbours_)
@@ -79,6 +83,8 @@ bool PartitionedWorld::Process::place_bets(MessageKind kind) {
     if (world_->sends_ghosts_to(n)) return false;
     if (kind == MessageKind::Migrants && world_->received_ghosts_from(n)) return false;
     if (lost_bets_.count(Key{static_cast<int>(kind), step_, n})) return false;
+    auto newest = newest_ghosts_.find(n);
+    if (!safety_.eager_bets && newest != newest_ghosts_.end() && newest->second.second) return false;
   }
   if (!within_anticipation()) return false;
   for (WorldId n : missing) {
@@ -191,7 +197,7 @@ void PartitionedWorld::Process::roll_back(std::int64_t step) {
     catch_up();
     return;
   }
-  restore(back);
+  restore(back, step);
   for (WorldId n : neighbours_) {
     if (!safety_.horizon->try_pin(step))
       throw std::logic_error("world " + std::to_string(world_->id()) + ": rolled back below the commit horizon");
@@ -241,7 +247,9 @@ void PartitionedWorld::Process::catch_up() {
 
 // Restores this world's kept state at `step` (at or below its clock) and
 // puts the messages it used from `step` on back in the inbox for the re-run.
-void PartitionedWorld::Process::restore(std::int64_t step) {
+// `changed_step` >= 0: a rollback of its own because a message of that step
+// changed; what the run had done past `step` is kept for try_rejoin.
+void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_step) {
   const std::int64_t cpu0 = thread_cpu_ns();
   const std::string who = "world " + std::to_string(world_->id());
   if (step > step_) throw std::logic_error(who + ": rollback to step " + std::to_string(step) + " ahead of its clock");
@@ -258,8 +266,20 @@ void PartitionedWorld::Process::restore(std::int64_t step) {
   merger_ = IslandMerger{};
   islands_.clear();
   early_gathers_.clear();
-  kept_states_.erase(std::next(kept), kept_states_.end());
+  if (old_run_) drop_old_run();  // rolled back again (or for every world): the re-run leaves the old run
+  if (changed_step >= 0 && std::next(kept) != kept_states_.end()) {
+    OldRun& old = old_run_.emplace();
+    old.changed_step = changed_step;
+    while (std::next(kept) != kept_states_.end()) old.kept.insert(kept_states_.extract(std::next(kept)));
+    for (auto it = used_.lower_bound(UsedKey{step, 0, kNoWorld}); it != used_.end(); ++it)
+      old.used.emplace(it->first, it->second);
+    while (sent_log_.lower_bound(step) != sent_log_.end()) old.sent.insert(sent_log_.extract(sent_log_.lower_bound(step)));
+    while (reports_.upper_bound(step) != reports_.end()) old.reports.insert(reports_.extract(reports_.upper_bound(step)));
+  }
+  for (auto it = std::next(kept); it != kept_states_.end(); it = kept_states_.erase(it))
+    if (spare_states_.size() < 4) spare_states_.push_back(std::move(it->second));
   reports_.erase(reports_.upper_bound(step), reports_.end());
+  sent_log_.erase(sent_log_.lower_bound(step), sent_log_.end());
   merge_steps_.erase(merge_steps_.lower_bound(step), merge_steps_.end());
   for (const Key& k : bets_in_inbox_) inbox_.erase(k);
   bets_in_inbox_.clear();
@@ -281,6 +301,97 @@ void PartitionedWorld::Process::restore(std::int64_t step) {
   restore_ns_in_step_ += ns;
 }
 
+// After a re-run step: if the state equals the old run's at this step, past
+// the message that changed, and every message the old run used from here to
+// its newest kept state is the one at hand (in the inbox, or voided since by
+// its sender and so awaiting its re-send), the old run's steps from here on
+// are what the re-run would compute. Take them back: its uses, its kept
+// states and reports, its sent messages (re-sent: the rollback's Notice
+// voided them), and the world rebuilt at its newest kept state.
+void PartitionedWorld::Process::try_rejoin() {
+  OldRun& old = *old_run_;
+  const std::int64_t s = step_;
+  const std::int64_t j = old.kept.rbegin()->first;
+  if (s >= j) {
+    drop_old_run();  // the re-run has caught up: nothing left to take back
+    return;
+  }
+  if (s <= old.changed_step) return;
+  auto old_state = old.kept.find(s);
+  auto new_state = kept_states_.find(s);
+  if (old_state == old.kept.end() || new_state == kept_states_.end()) return;
+  if (serialize(old_state->second) != serialize(new_state->second)) return;
+
+  const auto in_range = [&](std::int64_t step) { return step >= s && step < j; };
+  std::size_t at_hand = 0;
+  for (const auto& [key, m] : inbox_) at_hand += in_range(std::get<1>(key));
+  for (const auto& [step, list] : fragments_)
+    if (in_range(step) && !list.empty()) return;  // a merge the old run did not have
+  const UsedKey from{s, 0, kNoWorld}, to{j, 0, kNoWorld};
+  std::size_t matched = 0;
+  for (auto it = old.used.lower_bound(from); it != old.used.end() && it->first < to; ++it) {
+    const auto& [step, kind, sender] = it->first;
+    auto in = inbox_.find(Key{kind, step, sender});
+    if (in == inbox_.end()) continue;
+    ++matched;
+    const Used& u = it->second;
+    if (digest_of(in->second) != (u.message ? digest_of(*u.message) : u.digest)) {
+      drop_old_run();  // a message of the old run's steps changed: re-run them
+      return;
+    }
+  }
+  if (matched != at_hand) return;  // messages the old run did not use: re-run
+
+  SPEC_TRACE("w%d at %lld: re-run rejoins the old run at %lld, takes back %lld steps\n", world_->id(),
+             (long long)s, (long long)s, (long long)(j - s));
+  for (auto it = old.used.lower_bound(from); it != old.used.end() && it->first < to; ++it) {
+    const auto& [step, kind, sender] = it->first;
+    Used u = std::move(it->second);
+    auto in = inbox_.find(Key{kind, step, sender});
+    if (in != inbox_.end()) {
+      u.confirmed = true;  // equal to the one used (checked above)
+      u.bet = false;
+      u.message = std::move(in->second);
+      inbox_.erase(in);
+    } else if (u.message) {
+      u.confirmed = false;  // voided by its sender since: awaiting the re-send
+      u.digest = digest_of(*u.message);
+      u.message.reset();
+    }
+    if (!u.confirmed) ++unconfirmed_[step];
+    used_.insert_or_assign(it->first, std::move(u));
+  }
+  for (auto it = old.sent.lower_bound(s); it != old.sent.end() && it->first < j; ++it) {
+    for (const Message& m : it->second) {
+      Message again = m;
+      again.epoch = seen_epoch_;
+      ++sums_.messages_sent;
+      transport_.send(again.to, std::move(again));
+    }
+    sent_log_.insert_or_assign(it->first, std::move(it->second));
+  }
+  for (auto it = old.kept.upper_bound(s); it != old.kept.end();) {
+    auto next = std::next(it);
+    kept_states_.insert(old.kept.extract(it));
+    it = next;
+  }
+  for (auto it = old.reports.upper_bound(s); it != old.reports.end() && it->first <= j; ++it)
+    if (it->first > reported_through_) reports_.insert_or_assign(it->first, std::move(it->second));
+  steps_rejoined_ += static_cast<std::uint64_t>(j - s);
+  old_run_.reset();
+  world_ = &safety_.rebuild(kept_states_.at(j), j);
+  step_ = j;
+  phase_ = Phase::Predict;
+  kept_max_ = std::max(kept_max_, kept_states_.size());
+  report_mark();
+}
+
+void PartitionedWorld::Process::drop_old_run() {
+  for (auto& [step, state] : old_run_->kept)
+    if (spare_states_.size() < 4) spare_states_.push_back(std::move(state));
+  old_run_.reset();
+}
+
 // Low-water mark: the clock, or the oldest step of a message used that may
 // still change.
 void PartitionedWorld::Process::report_mark() {
@@ -298,6 +409,7 @@ void PartitionedWorld::Process::trim_below(std::int64_t gvt) {
   for (auto it = kept_states_.begin(); it != kept_states_.end() && it->first < keep; it = kept_states_.erase(it))
     if (spare_states_.size() < 4) spare_states_.push_back(std::move(it->second));  // their storage is reused
   used_.erase(used_.begin(), used_.lower_bound(UsedKey{keep, 0, kNoWorld}));
+  sent_log_.erase(sent_log_.begin(), sent_log_.lower_bound(keep));
   merge_steps_.erase(merge_steps_.begin(), merge_steps_.lower_bound(keep));
   std::erase_if(lost_bets_, [keep](const Key& k) { return std::get<1>(k) < keep; });
   if (validator_) {

@@ -40,6 +40,12 @@ double slowest_world_cpu_seconds(const std::vector<WorldMetrics>& worlds);
 /// (0 without rollbacks): bodies re-solved per rollback, lower is better.
 double bodies_resolved_per_rollback(const WorldMetrics& m);
 
+/// bodies_resolved / bets_lost (0 without lost bets): bodies re-solved per
+/// lost bet, the measure that compares Rollback and Propagate with discard
+/// and recompute (one lost bet is one rollback of every world there, a few
+/// local rollbacks here).
+double bodies_resolved_per_lost_bet(const WorldMetrics& m);
+
 /// Runs the baseline and `config.run` on `scene`, interleaved: repeat i runs
 /// the baseline first when i is even, the run under test first when odd, so
 /// that neither side always gets the warm (or cold) machine. With

@@ -114,6 +114,14 @@ struct PartitionedOptions {
   /// what changed and stays local more often (a re-run over a step with
   /// merged islands is a rollback of every world). >= 1.
   int checkpoint_every = 8;
+  /// Speculation: also bet on a neighbour whose newest ghosts to arrive were
+  /// not empty. Off (the default), a world waits for such a neighbour's
+  /// messages: a border that has just become busy mostly stays busy, and
+  /// betting on each following step lost a bet and re-ran the world each
+  /// time (falling-cubes 100 over a 1x8 strip with a slow world 0: 1078
+  /// rollbacks eager, 8 not; docs/rollback.md). On: as many bets and
+  /// rollbacks as possible (tests of the rollback machinery use it).
+  bool eager_bets = false;
 };
 
 /// Thrown when the validation mode finds a broken invariant; the message names
@@ -164,6 +172,7 @@ struct WorldMetrics {
   std::uint64_t bets_lost = 0;               // ... that were not empty
   std::uint64_t rollbacks = 0;               // times this world restored an earlier step
   std::uint64_t steps_rolled_back = 0;       // internal steps discarded by them, summed
+  std::uint64_t steps_rejoined = 0;          // ... of which taken back unchanged, not re-run (re-run rejoined)
   std::uint64_t bodies_resolved = 0;         // owned bodies x internal steps re-run after rollbacks
   double rollback_cpu_seconds = 0;           // thread CPU time of restores and re-run steps
   std::int64_t lead_max = 0;                 // most internal steps ahead of the commit horizon

@@ -54,6 +54,8 @@ struct RunConfig {
   PartitionedOptions::Rollback rollback = PartitionedOptions::Rollback::Propagate;
   /// Internal steps between kept states (PartitionedOptions::checkpoint_every).
   int checkpoint_every = 8;
+  /// Bet on busy borders too (PartitionedOptions::eager_bets).
+  bool eager_bets = false;
   /// K > 1, experiments: world 0's thread sleeps this long after each of
   /// its steps (a slow world, as in the thesis' strip with world 0 slowed
   /// down). 0: none.
