@@ -265,9 +265,7 @@ std::string describe(const Message& m) {
 
 std::vector<std::uint8_t> encode_message(const Message& m) {
   ByteWriter w;
-  w.put(kMagic);
-  w.put(kVersion);
-  w.put(static_cast<std::uint32_t>(sizeof(btScalar)));
+  write_header(w, kMagic, kVersion);
   w.put(static_cast<std::uint8_t>(m.kind()));
   w.put(m.from), w.put(m.to), w.put(m.step), w.put(m.epoch);
   std::visit([&w](const auto& payload) { write_payload(w, payload); }, m.payload);
@@ -276,12 +274,7 @@ std::vector<std::uint8_t> encode_message(const Message& m) {
 
 Message decode_message(const std::vector<std::uint8_t>& bytes) {
   ByteReader r(bytes, "decode_message", raise_message_error);
-  char magic[8];
-  r.get(magic);
-  if (std::memcmp(magic, kMagic, sizeof magic) != 0) r.fail("not a SODA message (bad magic)");
-  if (r.get<std::uint32_t>() != kVersion) r.fail("unsupported message version");
-  if (r.get<std::uint32_t>() != sizeof(btScalar))
-    r.fail(std::string("message precision differs from this build's (") + (sizeof(btScalar) == 8 ? "double" : "float") + ")");
+  read_header(r, kMagic, kVersion, "message");
   const auto kind = r.get<std::uint8_t>();
   Message m;
   m.from = read_world(r);

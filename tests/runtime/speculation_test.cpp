@@ -5,7 +5,9 @@
 // rollback mode. Label "concurrency" (ThreadSanitizer in CI).
 #include "runtime/partitioned_test_util.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <map>
 #include <thread>
 
@@ -68,19 +70,27 @@ TEST(Speculation, EveryAnticipationMatchesOneTerritory) {
 }
 
 
+// Seeds of the fuzz test: 50 (6 under ThreadSanitizer); the environment
+// variable SODA_SPEC_FUZZ_SEEDS asks for more in a soak run.
+int fuzz_seeds() {
 #if defined(__SANITIZE_THREAD__)
-constexpr int kSeeds = 6;
+  int seeds = 6;
 #else
-constexpr int kSeeds = 50;
+  int seeds = 50;
 #endif
+  if (const char* env = std::getenv("SODA_SPEC_FUZZ_SEEDS")) seeds = std::max(1, std::atoi(env));
+  return seeds;
+}
 
 // Fuzzing: seeded random pauses in every world stage, before every send and
 // before every delivery, with anticipation 1, 8 or 64, Rollback and
-// Propagate or discard and recompute, eager or cautious bets, a thread per
-// world or a pool of two: always the one-territory hash.
+// Propagate or discard and recompute, eager or cautious bets, a state kept
+// every step or every 8, a thread per world or a pool of two: always the
+// one-territory hash.
 TEST(Speculation, FuzzedThreadsAndDeliveryNeverChangeTheResult) {
   std::uint64_t bets = 0, rollbacks = 0, rejoined = 0;
-  for (int seed = 1; seed <= kSeeds; ++seed) {
+  const int seeds = fuzz_seeds();
+  for (int seed = 1; seed <= seeds; ++seed) {
     const Case& c = cases()[static_cast<std::size_t>(seed) % cases().size()];
     const Scene s = test::scene(c.scene, c.n);
     PartitionedOptions o;
@@ -91,6 +101,7 @@ TEST(Speculation, FuzzedThreadsAndDeliveryNeverChangeTheResult) {
     o.anticipation = std::vector<int>{1, 8, 64}[static_cast<std::size_t>(seed / 2) % 3];
     o.rollback = seed % 5 == 0 ? PartitionedOptions::Rollback::Recompute : PartitionedOptions::Rollback::Propagate;
     o.eager_bets = seed % 3 != 0;
+    o.checkpoint_every = seed % 4 == 1 ? 1 : 8;
     PartitionedWorld world(s, test::map_of(c, s), o);
     world.step(kSteps);
     const WorldMetrics t = totals(world);
@@ -103,7 +114,7 @@ TEST(Speculation, FuzzedThreadsAndDeliveryNeverChangeTheResult) {
   }
   std::printf("%d fuzzed speculative runs: %llu bets, %llu rollbacks, %llu steps rejoined, all equal to one "
               "territory\n",
-              kSeeds, (unsigned long long)bets, (unsigned long long)rollbacks, (unsigned long long)rejoined);
+              seeds, (unsigned long long)bets, (unsigned long long)rollbacks, (unsigned long long)rejoined);
   EXPECT_GT(rollbacks, 0u);
   EXPECT_GT(rejoined, 0u);
 }

@@ -27,9 +27,7 @@ constexpr std::uint32_t kVersion = 1;
 
 std::vector<std::uint8_t> serialize(const WorldSnapshot& s) {
   ByteWriter w;
-  w.put(kMagic);
-  w.put(kVersion);
-  w.put(static_cast<std::uint32_t>(sizeof(btScalar)));
+  write_header(w, kMagic, kVersion);
   w.put(s.settings.dt), w.put(s.settings.substeps), w.put(s.settings.iterations);
   w.vec3(s.settings.gravity);
   w.put(s.settings.steps);
@@ -43,12 +41,7 @@ std::vector<std::uint8_t> serialize(const WorldSnapshot& s) {
 
 WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes) {
   ByteReader r(bytes, "deserialize_snapshot", raise_snapshot_error);
-  char magic[8];
-  r.get(magic);
-  if (std::memcmp(magic, kMagic, sizeof magic) != 0) r.fail("not a SODA world snapshot (bad magic)");
-  if (r.get<std::uint32_t>() != kVersion) r.fail("unsupported snapshot version");
-  if (r.get<std::uint32_t>() != sizeof(btScalar))
-    r.fail(std::string("snapshot precision differs from this build's (") + (sizeof(btScalar) == 8 ? "double" : "float") + ")");
+  read_header(r, kMagic, kVersion, "world snapshot");
   WorldSnapshot s;
   s.settings.dt = r.finite();
   s.settings.substeps = r.get<int>();

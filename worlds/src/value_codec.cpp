@@ -3,6 +3,7 @@
 
 #include <bit>
 #include <cmath>
+#include <cstring>
 
 namespace soda {
 
@@ -45,6 +46,21 @@ std::uint32_t ByteReader::count(std::size_t min_bytes_each) {
   const auto n = get<std::uint32_t>();
   if (min_bytes_each && n > (bytes_.size() - pos_) / min_bytes_each) fail("count larger than the data");
   return n;
+}
+
+void write_header(ByteWriter& w, const char (&magic)[8], std::uint32_t version) {
+  w.put(magic);
+  w.put(version);
+  w.put(static_cast<std::uint32_t>(sizeof(btScalar)));
+}
+
+void read_header(ByteReader& r, const char (&magic)[8], std::uint32_t version, const std::string& what) {
+  char got[8];
+  r.get(got);
+  if (std::memcmp(got, magic, sizeof got) != 0) r.fail("not a SODA " + what + " (bad magic)");
+  if (r.get<std::uint32_t>() != version) r.fail("unsupported " + what + " version");
+  if (r.get<std::uint32_t>() != sizeof(btScalar))
+    r.fail(what + " precision differs from this build's (" + (sizeof(btScalar) == 8 ? "double" : "float") + ")");
 }
 
 void write_body(ByteWriter& w, const BodySnapshot& b) {

@@ -78,6 +78,14 @@ class ByteReader {
   Raise raise_;
 };
 
+/// The header every SODA byte format begins with: an 8-byte magic, a u32
+/// version and a u32 sizeof(btScalar) (the precision of the build).
+void write_header(ByteWriter& w, const char (&magic)[8], std::uint32_t version);
+/// Reads and checks it; fails with "not a SODA <what> (bad magic)",
+/// "unsupported <what> version" or "<what> precision differs from this
+/// build's (float|double)".
+void read_header(ByteReader& r, const char (&magic)[8], std::uint32_t version, const std::string& what);
+
 /// Lower bounds of encoded sizes, for count checks.
 inline constexpr std::size_t kMinBodyBytes = 4 + 1 + 1 + 8 * 5 + 4;
 inline constexpr std::size_t kMinManifoldBytes = 4 + 4 + 4;
