@@ -39,9 +39,19 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
   o.validate = c.validate;
   o.pin = c.pin;
   o.keep_states = c.past_inputs;
+  o.anticipation = c.anticipation;
+  o.rollback = c.rollback;
+  o.checkpoint_every = c.checkpoint_every;
+  o.eager_bets = c.eager_bets;
   if (c.past_inputs && c.validate)
     throw std::invalid_argument("SimulationConfig: past_inputs with validate is not supported (the validator "
                                 "cannot follow a rollback yet)");
+  if (c.anticipation < 0) throw std::invalid_argument("SimulationConfig: anticipation must be >= 0");
+  if (c.anticipation > 0 && c.buffer_capacity < static_cast<std::size_t>(c.anticipation) + 3)
+    throw std::invalid_argument("SimulationConfig: buffer_capacity (" + std::to_string(c.buffer_capacity) +
+                                ") must be >= anticipation + 3 (" + std::to_string(c.anticipation + 3) +
+                                "): entries above the commit horizon cannot be freed, and a full buffer of "
+                                "them would stop the world that wrote them");
   return o;
 }
 
@@ -135,6 +145,9 @@ void SimulationEngine::wait_idle(const char* caller) const {
   if (core->control.limit() >= RunControl::kUnlimited)
     throw std::logic_error(std::string("Simulation::") + caller +
                            ": the worlds run without a limit (start() without end time); stop() first");
+  // Speculation: parked at the limit is not final until the commit horizon
+  // reaches it (no rollback can come any more).
+  if (config_.anticipation > 0) core->control.wait_published(core->control.limit() / substeps_);
   core->control.wait_all_parked();
 }
 
@@ -386,6 +399,17 @@ void SimulationEngine::input(UserInput in) {
     std::int64_t step;
     ~Unpin() { h.unpin(step); }
   } unpin{horizon, in.step * substeps_};
+  if (config_.anticipation > 0) {
+    // Speculation: a rollback of every world to the input's step, on the
+    // rollback board (docs/rollback.md): each world that has passed it
+    // restores it on its own thread and re-runs with the input; nobody is
+    // held. Queued first, so that every run of that step sees it.
+    inputs_.add(in);
+    record();
+    world->board_->post(in.step * substeps_, in.step * substeps_, kNoWorld);
+    ++rollbacks_;
+    return;
+  }
   const std::int64_t hold = core->control.hold() / substeps_;
   if (hold - in.step >= static_cast<std::int64_t>(config_.buffer_capacity) - 1) {
     core->control.release_hold();

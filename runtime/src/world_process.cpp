@@ -44,6 +44,7 @@ void PartitionedWorld::Process::rewind(TerritoryWorld& world, std::int64_t scene
   early_gathers_.clear();
   pending_.reset();
   room_wait_since_ns_ = 0;
+  next_publish_ = scene_step + 1;  // the buffer dropped the later entries
   kept_states_.erase(kept_states_.upper_bound(step_), kept_states_.end());
   used_.clear();
   sent_log_.clear();
@@ -164,6 +165,7 @@ PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
     }
   }
   step_cpu_ns_ += thread_cpu_ns() - cpu0;
+  report_committed();
   return result;
 }
 
@@ -323,17 +325,39 @@ void PartitionedWorld::Process::published(bool kept) {
   const std::int64_t scene_step = pending_->step;
   pending_.reset();
   phase_ = Phase::Predict;
+  next_publish_ = scene_step + 1;
   if (!kept) {
     ++entries_dropped_;
     return;
   }
   ++entries_published_;
+  if (speculating()) {
+    last_published_ = scene_step;
+    report_committed();
+    return;
+  }
   // Kept states (rollback for past inputs): a step above GVT may still be
   // rewritten, so only steps below it are committed.
   std::int64_t commit = scene_step - 1;
   if (safety_.keep_states) commit = std::min(commit, safety_.horizon->gvt() / substeps_ - 1);
   if (commit > output_.buffer->commit_step()) output_.buffer->set_commit_step(commit);
   output_.control->published(world_->id(), scene_step);
+}
+
+// Speculation under a Simulation: entries above the commit horizon may still
+// be rewritten. The buffer's commit step follows GVT (one behind the newest
+// entry, which stays readable), and the RunControl hears only of committed
+// steps, so advance_to() and the readouts never see a speculative state.
+void PartitionedWorld::Process::report_committed() {
+  if (!output_.control || !speculating()) return;
+  const std::int64_t horizon = safety_.horizon->gvt() / substeps_;
+  const std::int64_t commit = std::min(last_published_ - 1, horizon - 1);
+  if (commit > output_.buffer->commit_step()) output_.buffer->set_commit_step(commit);
+  const std::int64_t committed = std::min(last_published_, horizon);
+  if (committed > committed_reported_) {
+    committed_reported_ = committed;
+    output_.control->published(world_->id(), committed);
+  }
 }
 
 void PartitionedWorld::Process::flush_merger() {
@@ -495,7 +519,9 @@ void PartitionedWorld::Process::end_step() {
   }
   if (progress_) progress_(step_ / substeps_);
   if (output_.after_step) output_.after_step(world_->id(), step_ / substeps_);
-  if (output_.buffer) phase_ = Phase::Publish;
+  // A re-run after a rollback (speculation) does not publish the steps whose
+  // entries it could not invalidate (committed: they are unchanged).
+  if (output_.buffer && step_ / substeps_ >= next_publish_) phase_ = Phase::Publish;
 }
 
 std::string PartitionedWorld::Process::waiting_for() const {

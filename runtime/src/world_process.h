@@ -173,7 +173,7 @@ class PartitionedWorld::Process {
   void take_notice(WorldId from, std::int64_t step);
   void roll_back(std::int64_t step);
   std::int64_t checkpoint_at_or_before(std::int64_t step) const;
-  void restore(std::int64_t step, std::int64_t changed_step = -1);
+  void restore(std::int64_t step, std::int64_t changed_step, bool keep_old_run);
   void try_rejoin();
   void drop_old_run();
   void catch_up();
@@ -232,6 +232,7 @@ class PartitionedWorld::Process {
   bool may_start();
   bool try_publish();
   void published(bool kept);
+  void report_committed();
 
   TerritoryWorld* world_;  // replaced by rewind()
   Transport& transport_;
@@ -250,6 +251,9 @@ class PartitionedWorld::Process {
   std::int64_t target_ = 0;
   Output output_;
   std::optional<TransformEntry<btScalar>> pending_;  // Publish: the entry waiting for room
+  std::int64_t next_publish_ = 0;      // scene steps below it are published (a re-run skips them)
+  std::int64_t last_published_ = 0;    // speculation: newest scene step published
+  std::int64_t committed_reported_ = 0;  // speculation: newest scene step reported to the RunControl
   std::int64_t room_wait_since_ns_ = 0;               // Publish: when it first found the buffer full
   std::map<Key, Message> inbox_;
   std::map<std::int64_t, std::vector<Message>> fragments_;  // Fragments and Results, by step

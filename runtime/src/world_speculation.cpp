@@ -197,7 +197,7 @@ void PartitionedWorld::Process::roll_back(std::int64_t step) {
     catch_up();
     return;
   }
-  restore(back, step);
+  restore(back, step, true);
   for (WorldId n : neighbours_) {
     if (!safety_.horizon->try_pin(step))
       throw std::logic_error("world " + std::to_string(world_->id()) + ": rolled back below the commit horizon");
@@ -221,7 +221,7 @@ std::int64_t PartitionedWorld::Process::checkpoint_at_or_before(std::int64_t ste
 // step it has passed, drop every message their epochs voided.
 void PartitionedWorld::Process::catch_up() {
   for (const RollbackBoard::Entry& e : safety_.board->since(seen_epoch_)) {
-    if (step_ > e.step || (step_ == e.step && phase_ != Phase::Predict)) restore(e.step);
+    if (step_ > e.step || (step_ == e.step && phase_ != Phase::Predict)) restore(e.step, e.pinned, false);
     seen_epoch_ = e.epoch;
     auto void_message = [&](const Message& m) { return m.epoch < e.epoch && m.step >= e.step; };
     for (auto it = inbox_.begin(); it != inbox_.end();) {
@@ -247,9 +247,11 @@ void PartitionedWorld::Process::catch_up() {
 
 // Restores this world's kept state at `step` (at or below its clock) and
 // puts the messages it used from `step` on back in the inbox for the re-run.
-// `changed_step` >= 0: a rollback of its own because a message of that step
-// changed; what the run had done past `step` is kept for try_rejoin.
-void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_step) {
+// `changed_step` (>= step, >= GVT): the step whose message or input changed;
+// states before it come out of the re-run unchanged. `keep_old_run`: a
+// rollback of its own; what the run had done past `step` is kept for
+// try_rejoin.
+void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_step, bool keep_old_run) {
   const std::int64_t cpu0 = thread_cpu_ns();
   const std::string who = "world " + std::to_string(world_->id());
   if (step > step_) throw std::logic_error(who + ": rollback to step " + std::to_string(step) + " ahead of its clock");
@@ -266,8 +268,22 @@ void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_
   merger_ = IslandMerger{};
   islands_.clear();
   early_gathers_.clear();
+  if (output_.buffer) {
+    // Entries of boundaries after the changed step are void: republished
+    // with a new revision by the re-run. Earlier ones come out of the re-run
+    // unchanged and stay (the re-run skips them); the changed step is at or
+    // above GVT, and the commit step below it, so none is committed.
+    pending_.reset();
+    room_wait_since_ns_ = 0;
+    const std::int64_t first = changed_step / substeps_ + 1;
+    output_.buffer->invalidate_from(first);
+    next_publish_ = std::min(next_publish_, first);
+    last_published_ = std::min(last_published_, first - 1);
+  }
   if (old_run_) drop_old_run();  // rolled back again (or for every world): the re-run leaves the old run
-  if (changed_step >= 0 && std::next(kept) != kept_states_.end()) {
+  // Under a Simulation the old run's entries are invalidated below, so a
+  // rejoin would have to republish them: not done, the re-run runs on.
+  if (keep_old_run && !output_.buffer && std::next(kept) != kept_states_.end()) {
     OldRun& old = old_run_.emplace();
     old.changed_step = changed_step;
     while (std::next(kept) != kept_states_.end()) old.kept.insert(kept_states_.extract(std::next(kept)));

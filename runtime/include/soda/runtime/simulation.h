@@ -74,6 +74,21 @@ struct SimulationConfig {
   /// an input rolls every world back to its step. Off: input only at steps
   /// no world has begun. Not with `validate`.
   bool past_inputs = false;
+  /// Speculation (PartitionedOptions::anticipation, docs/rollback.md): a
+  /// world may run up to this many scene steps past the commit horizon,
+  /// betting on its neighbours' messages. A lost bet rolls it back; entries
+  /// it published for the rolled-back steps are republished with a new
+  /// revision (readers may see an entry, then a newer revision of its step).
+  /// published_step(), advance_to() and the readouts count only committed
+  /// steps (at or below the commit horizon), so they never return a state
+  /// that can still change. With past_inputs an input at a past step is a
+  /// rollback of every world to it (no hold). 0: lockstep.
+  int anticipation = 0;
+  /// Speculation: PartitionedOptions::rollback, checkpoint_every (1 with
+  /// past_inputs, which keeps every step) and eager_bets.
+  PartitionedOptions::Rollback rollback = PartitionedOptions::Rollback::Propagate;
+  int checkpoint_every = 8;
+  bool eager_bets = false;
 };
 
 /// A world failed. world(): the world whose thread threw (kNoWorld if no
@@ -155,7 +170,9 @@ class Simulation {
   // An input at a step no world has begun is queued. One at a step some
   // world has passed needs config.past_inputs: every world is held at one
   // boundary, rolled back to the input's step and runs again (entries of
-  // later steps are republished with a new revision). An input older than
+  // later steps are republished with a new revision); with speculation
+  // (config.anticipation) it is posted as a rollback of every world that
+  // each takes on its own thread, nobody held. An input older than
   // the commit horizon (commit_horizon_step()) is refused. Errors:
   // std::invalid_argument naming the body and the step (unknown or reused
   // id, a body not present at that step, a bad body, a step too old or past
@@ -193,7 +210,8 @@ class Simulation {
   std::int64_t step_at(double time) const;
   /// step * dt: the time an entry of `step` carries.
   double time_of(std::int64_t step) const;
-  /// The newest scene step every world has published (0 at construction).
+  /// The newest scene step every world has published (0 at construction);
+  /// with speculation, published and committed.
   std::int64_t published_step() const;
   double published_time() const { return time_of(published_step()); }
   /// Per world, the newest scene step it has published: how far each runs

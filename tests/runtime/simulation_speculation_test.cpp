@@ -1,0 +1,170 @@
+// Speculation under a Simulation (SimulationConfig::anticipation,
+// docs/rollback.md): worlds run ahead of the commit horizon and publish
+// speculative entries; rollbacks republish them with new revisions. Readers,
+// advance_to and the readouts only ever see committed steps, so every frame
+// read and every hash equals the one-territory run's; an input at a past
+// step is a rollback of every world on the rollback board. Label
+// "concurrency" (ThreadSanitizer in CI).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <thread>
+#include <vector>
+
+#include "runtime/simulation_test_util.h"
+#include "soda/grid/partition.h"
+
+namespace soda {
+namespace {
+
+std::string name_of(int threads) {
+  return threads == 0 ? "thread per world" : threads == 1 ? "one thread" : "pool of " + std::to_string(threads);
+}
+
+// World 0 sleeps after each of its steps, so that the far end of the strip
+// runs ahead; `newest` keeps each world's newest scene step (re-runs
+// included).
+struct SlowWorldZero {
+  std::vector<std::atomic<std::int64_t>> newest;
+  int sleep_ms;
+  SlowWorldZero(int worlds, int ms) : newest(static_cast<std::size_t>(worlds)), sleep_ms(ms) {}
+  std::function<void(WorldId, std::int64_t)> hook() {
+    return [this](WorldId w, std::int64_t step) {
+      std::atomic<std::int64_t>& n = newest[static_cast<std::size_t>(w)];
+      n.store(std::max(n.load(), step));
+      if (w == 0) std::this_thread::sleep_for(std::chrono::milliseconds(sleep_ms));
+    };
+  }
+};
+
+class SpeculativeSimulation : public ::testing::TestWithParam<int> {};  // threads: 0 per world, 3 pool, 1 one
+
+// A 1x8 strip, eager bets (the most rollbacks), a reader reading every step
+// while the worlds run: every frame is the one-territory frame bit for bit,
+// and so is the final hash.
+TEST_P(SpeculativeSimulation, FramesAndHashEqualOneTerritory) {
+  constexpr int kSteps = 60;
+  const Scene s = test::scene("falling-cubes", 100);
+  const test::Reference ref = test::reference_run(s, kSteps);
+  const TerritoryMap map = make_partition("grid:8x1x1", s, 8, GridOptions{});
+  SlowWorldZero slow(8, 2);
+  SimulationConfig config{.threads = GetParam(), .buffer_capacity = 16};
+  config.anticipation = 8;
+  config.checkpoint_every = 1;
+  config.eager_bets = true;
+  config.after_step = slow.hook();
+  Simulation sim(s, map, config);
+  std::atomic<int> bad_frames{0};
+  std::thread reader([&, r = sim.add_reader()]() mutable {
+    for (int k = 0; k <= kSteps; ++k) {
+      std::optional<SceneFrame> f = r.read_at(sim.time_of(k));
+      if (!f || f->step != k || !test::frame_difference(f->poses, ref.frames[static_cast<std::size_t>(k)]).empty())
+        ++bad_frames;
+    }
+  });
+  EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
+  EXPECT_GE(sim.commit_horizon_step(), kSteps);
+  reader.join();
+  const WorldMetrics t = test::total(sim.metrics());
+  std::printf("[ falling-cubes 100 grid:8x1x1 %s anticipation 8, %s ] %llu bets, %llu lost, %llu rollbacks, lead max "
+              "%lld\n",
+              kPrecisionName, name_of(GetParam()).c_str(), (unsigned long long)t.bets,
+              (unsigned long long)t.bets_lost, (unsigned long long)t.rollbacks, (long long)t.lead_max);
+  EXPECT_GT(t.bets, 0u);
+  EXPECT_EQ(bad_frames.load(), 0);
+  EXPECT_EQ(sim.steps_done(), kSteps);
+  EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(ref.hashes[kSteps]));
+}
+
+// Thesis §3.2.3, late spawn under speculation: a 1x8 strip whose world 0 is
+// slowed down, anticipation 16; a body is added at a step the world at the
+// far end (which owns its position) has passed, 2 or more steps ahead of
+// the horizon (its borders are busy: few bets, so little more). Every world rolls back to that step on the
+// rollback board, without being held; the result equals the one-territory
+// run with the body added at that step from the start.
+TEST_P(SpeculativeSimulation, LateSpawnInATerritoryThatIsAheadMatchesOneTerritory) {
+  constexpr int kSteps = 120;
+  const Scene s = test::scene("falling-cubes", 200);
+  const TerritoryMap map = make_partition("grid:8x1x1", s, 8, GridOptions{});
+  const Body* far = nullptr;
+  double top = 0;
+  for (const Body& b : s.bodies) {
+    if (b.is_static) continue;
+    if (!far || b.position.x() > far->position.x()) far = &b;
+    top = std::max(top, b.position.y());
+  }
+  ASSERT_NE(far, nullptr);
+  const Vec3 at(far->position.x(), top + 2.0, far->position.z());
+  const WorldId target = map.owner_of(at);  // the far end of the strip
+  ASSERT_GE(target, 5);
+  BodyId added = 0;
+  for (const Body& b : s.bodies) added = std::max(added, b.id);
+  ++added;
+  Body cube;
+  cube.id = added;
+  cube.shape = Shape::box(Vec3(0.5, 0.5, 0.5));
+  cube.mass = 1.0;
+  cube.position = at;
+  cube.linear_velocity = Vec3(0, -2, 0);
+
+  SlowWorldZero slow(8, 4);
+  SimulationConfig config{.threads = GetParam(), .buffer_capacity = 64, .past_inputs = true};
+  config.anticipation = 16;
+  config.eager_bets = true;
+  config.after_step = slow.hook();
+  Simulation sim(s, map, config);
+  sim.start(sim.time_of(kSteps));
+  std::int64_t step = -1, lead = 0;
+  for (int attempt = 0; attempt < 4000 && step < 0; ++attempt) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    const std::int64_t gvt = sim.commit_horizon_step();
+    lead = slow.newest[static_cast<std::size_t>(target)].load() - gvt;
+    if (lead < 2 || gvt < 10) continue;
+    try {
+      sim.add_body(sim.time_of(gvt), cube);
+      step = gvt;
+    } catch (const std::invalid_argument& e) {
+      ASSERT_NE(std::string(e.what()).find("older than the commit horizon"), std::string::npos) << e.what();
+    }
+  }
+  ASSERT_GE(step, 0) << "world " << target << " never got 2 steps ahead of the horizon";
+  EXPECT_EQ(sim.rollbacks(), 1u);
+  try {
+    sim.set_velocity(sim.time_of(1), added - 1, Vec3(1, 0, 0));
+    ADD_FAILURE() << "an input at step 1 was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("older than the commit horizon"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
+  const std::uint64_t late = sim.state_hash();
+
+  Simulation one(s, SimulationConfig{.threads = 1});
+  one.add_body(one.time_of(step), cube);
+  EXPECT_TRUE(one.advance_to(one.time_of(kSteps)));
+  std::printf("speculative late spawn at step %lld (%s; world %d %lld steps ahead of the horizon): 8 territories %s, "
+              "one %s\n",
+              static_cast<long long>(step), name_of(GetParam()).c_str(), target, static_cast<long long>(lead),
+              hash_hex(late).c_str(), hash_hex(one.state_hash()).c_str());
+  EXPECT_EQ(hash_hex(late), hash_hex(one.state_hash()));
+  EXPECT_EQ(sim.body_count(), s.bodies.size() + 1);
+}
+
+INSTANTIATE_TEST_SUITE_P(SimulationSpeculation, SpeculativeSimulation, ::testing::Values(0, 3, 1));
+
+TEST(SimulationSpeculation, BufferTooSmallForTheAnticipationIsRefused) {
+  const Scene s = test::scene("falling-cubes", 40);
+  SimulationConfig config{.territories = 2, .buffer_capacity = 8};
+  config.anticipation = 6;
+  try {
+    Simulation sim(s, config);
+    ADD_FAILURE() << "accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("anticipation + 3"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace soda
