@@ -208,6 +208,7 @@ class PartitionedWorld::Process {
     std::map<UsedKey, Used> used;                       // messages it used from that step on
     std::map<std::int64_t, std::vector<Message>> sent;  // messages it sent from that step on
     std::map<std::int64_t, WorldStepReport> reports;    // validation reports after that step
+    std::set<std::int64_t> merge_steps;                 // its steps with merge messages (never taken back)
   };
   std::optional<OldRun> old_run_;
   std::uint64_t steps_rejoined_ = 0;                        // steps taken back from old runs, not re-run

@@ -221,7 +221,10 @@ std::int64_t PartitionedWorld::Process::checkpoint_at_or_before(std::int64_t ste
 // step it has passed, drop every message their epochs voided.
 void PartitionedWorld::Process::catch_up() {
   for (const RollbackBoard::Entry& e : safety_.board->since(seen_epoch_)) {
-    if (step_ > e.step || (step_ == e.step && phase_ != Phase::Predict)) restore(e.step, e.pinned, false);
+    // Rollback and Propagate: the world keeps its old run, which its re-run
+    // rejoins if its own state and messages turn out unchanged.
+    if (step_ > e.step || (step_ == e.step && phase_ != Phase::Predict))
+      restore(e.step, e.pinned, !safety_.recompute);
     seen_epoch_ = e.epoch;
     auto void_message = [&](const Message& m) { return m.epoch < e.epoch && m.step >= e.step; };
     for (auto it = inbox_.begin(); it != inbox_.end();) {
@@ -290,6 +293,7 @@ void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_
     for (auto it = used_.lower_bound(UsedKey{step, 0, kNoWorld}); it != used_.end(); ++it)
       old.used.emplace(it->first, it->second);
     while (sent_log_.lower_bound(step) != sent_log_.end()) old.sent.insert(sent_log_.extract(sent_log_.lower_bound(step)));
+    old.merge_steps.insert(merge_steps_.lower_bound(step), merge_steps_.end());
     while (reports_.upper_bound(step) != reports_.end()) old.reports.insert(reports_.extract(reports_.upper_bound(step)));
   }
   for (auto it = std::next(kept); it != kept_states_.end(); it = kept_states_.erase(it))
@@ -343,6 +347,10 @@ void PartitionedWorld::Process::try_rejoin() {
   for (const auto& [key, m] : inbox_) at_hand += in_range(std::get<1>(key));
   for (const auto& [step, list] : fragments_)
     if (in_range(step) && !list.empty()) return;  // a merge the old run did not have
+  // Merge messages are not kept for comparison: steps of the old run that
+  // merged islands cannot be taken back.
+  auto merged = old.merge_steps.lower_bound(s);
+  if (merged != old.merge_steps.end() && *merged < j) return;
   const UsedKey from{s, 0, kNoWorld}, to{j, 0, kNoWorld};
   std::size_t matched = 0;
   for (auto it = old.used.lower_bound(from); it != old.used.end() && it->first < to; ++it) {
