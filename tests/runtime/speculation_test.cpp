@@ -216,6 +216,11 @@ TEST(Speculation, StripWithSlowWorldZeroRunsAheadAndRollsBack) {
   // (a ghost that touched nothing changes nothing).
   EXPECT_GT(propagate.total.steps_rejoined, 0u);
   EXPECT_EQ(recompute.total.steps_rejoined, 0u);
+  // Rollback CPU (restores and re-runs) is part of each world's CPU time.
+  for (const StripRun* r : {&propagate, &recompute}) {
+    EXPECT_GT(r->total.rollback_cpu_seconds, 0.0);
+    EXPECT_LE(r->total.rollback_cpu_seconds, r->total.cpu_seconds);
+  }
   ASSERT_GT(recompute.total.bets_lost, 0u);
   // Bodies re-solved per lost bet: fewer than discarding and recomputing.
   EXPECT_LT(static_cast<double>(propagate.total.bodies_resolved) / static_cast<double>(propagate.total.bets_lost),
