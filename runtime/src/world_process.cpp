@@ -43,6 +43,8 @@ void PartitionedWorld::Process::rewind(TerritoryWorld& world, std::int64_t scene
   islands_.clear();
   early_gathers_.clear();
   pending_.reset();
+  backlog_.clear();
+  publish_current_ = false;
   room_wait_since_ns_ = 0;
   next_publish_ = scene_step + 1;  // the buffer dropped the later entries
   kept_states_.erase(kept_states_.upper_bound(step_), kept_states_.end());
@@ -284,9 +286,27 @@ bool PartitionedWorld::Process::may_start() {
   return output_.control ? output_.control->may_start(world_->id(), step_) : step_ < target_;
 }
 
-// Publish: the entry is made once, when the step ends; a full buffer keeps
-// it pending. A stopped buffer drops it (the run is being stopped).
+// Publish: first the entries a rejoin took back (backlog_), then, if due,
+// the entry of the step just ended, made once; a full buffer keeps it
+// pending. A stopped buffer drops it (the run is being stopped).
 bool PartitionedWorld::Process::try_publish() {
+  while (!backlog_.empty()) {
+    const std::int64_t scene_step = backlog_.front().step;
+    if (output_.buffer->try_publish(std::move(backlog_.front()))) {
+      backlog_.pop_front();
+      entry_published(scene_step, true);
+    } else if (!output_.buffer->stopped()) {
+      if (!room_wait_since_ns_) room_wait_since_ns_ = wall_ns();
+      return false;
+    } else {
+      backlog_.pop_front();
+      entry_published(scene_step, false);
+    }
+  }
+  if (!publish_current_) {
+    phase_ = Phase::Predict;
+    return true;
+  }
   if (!pending_) {
     const std::int64_t scene_step = step_ / substeps_;
     pending_.emplace();
@@ -309,6 +329,13 @@ bool PartitionedWorld::Process::try_publish() {
 }
 
 void PartitionedWorld::Process::publish_blocking() {
+  while (!backlog_.empty()) {
+    if (!room_wait_since_ns_) room_wait_since_ns_ = wall_ns();
+    const std::int64_t scene_step = backlog_.front().step;
+    const bool kept = output_.buffer->publish(std::move(backlog_.front()));
+    backlog_.pop_front();
+    entry_published(scene_step, kept);
+  }
   if (!pending_) {
     if (try_publish()) return;
   }
@@ -320,11 +347,16 @@ void PartitionedWorld::Process::publish_blocking() {
 // the writer, one behind, so that the newest entry stays readable even with
 // no reader (a reader added later starts from it).
 void PartitionedWorld::Process::published(bool kept) {
-  if (room_wait_since_ns_) room_blocked_ns_ += wall_ns() - room_wait_since_ns_;
-  room_wait_since_ns_ = 0;
   const std::int64_t scene_step = pending_->step;
   pending_.reset();
+  publish_current_ = false;
   phase_ = Phase::Predict;
+  entry_published(scene_step, kept);
+}
+
+void PartitionedWorld::Process::entry_published(std::int64_t scene_step, bool kept) {
+  if (room_wait_since_ns_) room_blocked_ns_ += wall_ns() - room_wait_since_ns_;
+  room_wait_since_ns_ = 0;
   next_publish_ = scene_step + 1;
   if (!kept) {
     ++entries_dropped_;
@@ -509,6 +541,7 @@ void PartitionedWorld::Process::end_step() {
     lead_.push_back(static_cast<std::int32_t>(step_ - gvt));
     trim_below(gvt);
     if (old_run_) try_rejoin();
+    if (!backlog_.empty()) phase_ = Phase::Publish;  // a rejoin took steps back: their entries first
   }
   if (step_ % substeps_ != 0) return;
   if (!speculating()) {
@@ -521,7 +554,10 @@ void PartitionedWorld::Process::end_step() {
   if (output_.after_step) output_.after_step(world_->id(), step_ / substeps_);
   // A re-run after a rollback (speculation) does not publish the steps whose
   // entries it could not invalidate (committed: they are unchanged).
-  if (output_.buffer && step_ / substeps_ >= next_publish_) phase_ = Phase::Publish;
+  if (output_.buffer && step_ / substeps_ >= next_publish_) {
+    publish_current_ = true;
+    phase_ = Phase::Publish;
+  }
 }
 
 std::string PartitionedWorld::Process::waiting_for() const {

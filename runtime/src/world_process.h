@@ -46,6 +46,7 @@
 #pragma once
 
 #include <atomic>
+#include <deque>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -233,6 +234,7 @@ class PartitionedWorld::Process {
   bool may_start();
   bool try_publish();
   void published(bool kept);
+  void entry_published(std::int64_t scene_step, bool kept);
   void report_committed();
 
   TerritoryWorld* world_;  // replaced by rewind()
@@ -252,6 +254,8 @@ class PartitionedWorld::Process {
   std::int64_t target_ = 0;
   Output output_;
   std::optional<TransformEntry<btScalar>> pending_;  // Publish: the entry waiting for room
+  std::deque<TransformEntry<btScalar>> backlog_;  // Publish: entries of steps a rejoin took back, first
+  bool publish_current_ = false;       // Publish: the entry of the step just ended is due
   std::int64_t next_publish_ = 0;      // scene steps below it are published (a re-run skips them)
   std::int64_t last_published_ = 0;    // speculation: newest scene step published
   std::int64_t committed_reported_ = 0;  // speculation: newest scene step reported to the RunControl

@@ -28,7 +28,9 @@
 #include <string>
 
 #include "soda/loadbalance/thread_clock.h"
+#include "run_control.h"
 #include "soda/runtime/message_codec.h"
+#include "soda/runtime/scene_reader.h"
 #include "soda/worlds/world_snapshot.h"
 #include "world_process.h"
 
@@ -277,6 +279,8 @@ void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_
     // unchanged and stay (the re-run skips them); the changed step is at or
     // above GVT, and the commit step below it, so none is committed.
     pending_.reset();
+    backlog_.clear();
+    publish_current_ = false;
     room_wait_since_ns_ = 0;
     const std::int64_t first = changed_step / substeps_ + 1;
     output_.buffer->invalidate_from(first);
@@ -284,9 +288,7 @@ void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_
     last_published_ = std::min(last_published_, first - 1);
   }
   if (old_run_) drop_old_run();  // rolled back again (or for every world): the re-run leaves the old run
-  // Under a Simulation the old run's entries are invalidated below, so a
-  // rejoin would have to republish them: not done, the re-run runs on.
-  if (keep_old_run && !output_.buffer && std::next(kept) != kept_states_.end()) {
+  if (keep_old_run && std::next(kept) != kept_states_.end()) {
     OldRun& old = old_run_.emplace();
     old.changed_step = changed_step;
     while (std::next(kept) != kept_states_.end()) old.kept.insert(kept_states_.extract(std::next(kept)));
@@ -365,6 +367,20 @@ void PartitionedWorld::Process::try_rejoin() {
     }
   }
   if (matched != at_hand) return;  // messages the old run did not use: re-run
+  // Under a Simulation the old run's entries of these steps were dropped
+  // from the buffer (restore): they are republished from the kept states,
+  // so each scene step not yet published needs one.
+  std::vector<std::pair<std::int64_t, const WorldSnapshot*>> entries;  // (scene step, state)
+  if (output_.buffer) {
+    for (std::int64_t b = std::max(next_publish_, (s + substeps_ - 1) / substeps_); b * substeps_ < j; ++b) {
+      const std::int64_t at = b * substeps_;
+      const WorldSnapshot* state = nullptr;
+      if (at == s) state = &new_state->second;
+      if (auto it = old.kept.find(at); at != s && it != old.kept.end()) state = &it->second;
+      if (!state) return;  // not kept (checkpoint_every > 1): re-run
+      entries.emplace_back(b, state);
+    }
+  }
 
   SPEC_TRACE("w%d at %lld: re-run rejoins the old run at %lld, takes back %lld steps\n", world_->id(),
              (long long)s, (long long)s, (long long)(j - s));
@@ -401,6 +417,23 @@ void PartitionedWorld::Process::try_rejoin() {
   }
   for (auto it = old.reports.upper_bound(s); it != old.reports.end() && it->first <= j; ++it)
     if (it->first > reported_through_) reports_.insert_or_assign(it->first, std::move(it->second));
+  for (const auto& [scene_step, state] : entries) {
+    TransformEntry<btScalar> e;
+    e.step = scene_step;
+    e.time = scene_time(e.step, output_.dt);
+    e.poses.reserve(state->bodies.size());
+    for (const BodySnapshot& b : state->bodies) {
+      BodyState raw;
+      raw.id = b.description.id;
+      std::copy(std::begin(b.state.basis), std::end(b.state.basis), raw.basis);
+      std::copy(std::begin(b.state.origin), std::end(b.state.origin), raw.origin);
+      std::copy(std::begin(b.state.linear_velocity), std::end(b.state.linear_velocity), raw.linear_velocity);
+      std::copy(std::begin(b.state.angular_velocity), std::end(b.state.angular_velocity), raw.angular_velocity);
+      raw.activation_state = b.state.activation_state;
+      e.poses.push_back(body_pose(raw));
+    }
+    backlog_.push_back(std::move(e));
+  }
   steps_rejoined_ += static_cast<std::uint64_t>(j - s);
   old_run_.reset();
   world_ = &safety_.rebuild(kept_states_.at(j), j);

@@ -44,7 +44,8 @@ class SpeculativeSimulation : public ::testing::TestWithParam<int> {};  // threa
 
 // A 1x8 strip, eager bets (the most rollbacks), a reader reading every step
 // while the worlds run: every frame is the one-territory frame bit for bit,
-// and so is the final hash.
+// and so is the final hash; re-runs rejoin their old runs and republish the
+// entries of the steps they take back.
 TEST_P(SpeculativeSimulation, FramesAndHashEqualOneTerritory) {
   constexpr int kSteps = 60;
   const Scene s = test::scene("falling-cubes", 100);
@@ -69,11 +70,13 @@ TEST_P(SpeculativeSimulation, FramesAndHashEqualOneTerritory) {
   EXPECT_GE(sim.commit_horizon_step(), kSteps);
   reader.join();
   const WorldMetrics t = test::total(sim.metrics());
-  std::printf("[ falling-cubes 100 grid:8x1x1 %s anticipation 8, %s ] %llu bets, %llu lost, %llu rollbacks, lead max "
-              "%lld\n",
+  std::printf("[ falling-cubes 100 grid:8x1x1 %s anticipation 8, %s ] %llu bets, %llu lost, %llu rollbacks, %llu of "
+              "%llu steps rolled back rejoined, lead max %lld\n",
               kPrecisionName, name_of(GetParam()).c_str(), (unsigned long long)t.bets,
-              (unsigned long long)t.bets_lost, (unsigned long long)t.rollbacks, (long long)t.lead_max);
+              (unsigned long long)t.bets_lost, (unsigned long long)t.rollbacks,
+              (unsigned long long)t.steps_rejoined, (unsigned long long)t.steps_rolled_back, (long long)t.lead_max);
   EXPECT_GT(t.bets, 0u);
+  EXPECT_GT(t.steps_rejoined, 0u);  // re-runs rejoined, their steps' entries republished
   EXPECT_EQ(bad_frames.load(), 0);
   EXPECT_EQ(sim.steps_done(), kSteps);
   EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(ref.hashes[kSteps]));
