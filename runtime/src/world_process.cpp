@@ -591,7 +591,9 @@ std::string PartitionedWorld::Process::waiting_for() const {
 WorldMetrics PartitionedWorld::Process::metrics() const {
   WorldMetrics m = sums_;
   m.steps = step_;
-  m.cpu_seconds = static_cast<double>(cpu_ns_ + step_cpu_ns_) * 1e-9;  // with a step not finished
+  // Finished steps only: a world parked at its limit may still be in
+  // advance() (writing step_cpu_ns_) while a Simulation reads its metrics.
+  m.cpu_seconds = static_cast<double>(cpu_ns_) * 1e-9;
   m.cpu_step_mean_ms = step_ ? static_cast<double>(cpu_ns_) * 1e-6 / static_cast<double>(step_) : 0.0;
   m.cpu_step_max_ms = static_cast<double>(step_cpu_max_ns_) * 1e-6;
   m.cpu_step_ms.reserve(step_cpu_history_ns_.size());
