@@ -307,15 +307,7 @@ bool PartitionedWorld::Process::try_publish() {
     phase_ = Phase::Predict;
     return true;
   }
-  if (!pending_) {
-    const std::int64_t scene_step = step_ / substeps_;
-    pending_.emplace();
-    pending_->step = scene_step;
-    pending_->time = scene_time(scene_step, output_.dt);
-    const std::vector<BodyState> states = world_->owned_states();
-    pending_->poses.reserve(states.size());
-    for (const BodyState& b : states) pending_->poses.push_back(body_pose(b));
-  }
+  if (!pending_) pending_ = entry_of(step_ / substeps_, world_->owned_states());
   if (output_.buffer->try_publish(std::move(*pending_))) {
     published(true);
     return true;
@@ -326,6 +318,17 @@ bool PartitionedWorld::Process::try_publish() {
   }
   published(false);
   return true;
+}
+
+// The entry of scene step `scene_step`: the poses of the owned bodies' states.
+TransformEntry<btScalar> PartitionedWorld::Process::entry_of(std::int64_t scene_step,
+                                                            const std::vector<BodyState>& states) const {
+  TransformEntry<btScalar> e;
+  e.step = scene_step;
+  e.time = scene_time(scene_step, output_.dt);
+  e.poses.reserve(states.size());
+  for (const BodyState& b : states) e.poses.push_back(body_pose(b));
+  return e;
 }
 
 void PartitionedWorld::Process::publish_blocking() {
@@ -552,8 +555,8 @@ void PartitionedWorld::Process::end_step() {
   }
   if (progress_) progress_(step_ / substeps_);
   if (output_.after_step) output_.after_step(world_->id(), step_ / substeps_);
-  // A re-run after a rollback (speculation) does not publish the steps whose
-  // entries it could not invalidate (committed: they are unchanged).
+  // A re-run after a rollback (speculation) does not publish the steps up to
+  // the changed one: their entries were kept, and the re-run reproduces them.
   if (output_.buffer && step_ / substeps_ >= next_publish_) {
     publish_current_ = true;
     phase_ = Phase::Publish;

@@ -177,6 +177,7 @@ class PartitionedWorld::Process {
   void restore(std::int64_t step, std::int64_t changed_step, bool keep_old_run);
   void try_rejoin();
   void drop_old_run();
+  void recycle(WorldSnapshot&& state);
   void catch_up();
   void report_mark();
   void trim_below(std::int64_t gvt);
@@ -189,6 +190,7 @@ class PartitionedWorld::Process {
   };
   using UsedKey = std::tuple<std::int64_t, int, WorldId>;  // (step, kind, from)
   std::map<UsedKey, Used> used_;
+  void await_resend(std::int64_t step, Used& u);
   std::map<std::int64_t, int> unconfirmed_;                 // step -> unconfirmed uses
   std::set<Key> bets_in_inbox_;
   std::set<Key> lost_bets_;                                 // never bet on these again
@@ -235,6 +237,7 @@ class PartitionedWorld::Process {
   bool try_publish();
   void published(bool kept);
   void entry_published(std::int64_t scene_step, bool kept);
+  TransformEntry<btScalar> entry_of(std::int64_t scene_step, const std::vector<BodyState>& states) const;
   void report_committed();
 
   TerritoryWorld* world_;  // replaced by rewind()

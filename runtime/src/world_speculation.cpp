@@ -1,6 +1,6 @@
 // One world's speculation (world_process.h, docs/rollback.md): bets on empty
-// neighbour messages, the messages it used, rollback notices and acks, and
-// its low-water mark in the commit horizon.
+// neighbour messages, the messages it used, rollback notices, rejoining the
+// run a re-run left, and its low-water mark in the commit horizon.
 //
 // Why the result equals lockstep's: a world's step t is a function of its
 // state at t and the neighbours' messages of t it uses. Every message it used
@@ -14,23 +14,21 @@
 // Results) are not compared: a merged island is re-merged by all its worlds,
 // so a rollback over a step with merge messages is one of every world
 // (rollback_board.h), after which no message of the old run of those steps
-// is used. When no message can
-// change any more (GVT at the clock) every world has run every step on the
-// final messages, which is the lockstep run.
+// is used. When no message can change any more (GVT at the clock) every
+// world has run every step on the final messages, which is the lockstep run.
 //
 // Why it ends: every rollback starts from a lost bet (a message that turned
 // out not empty; that bet is never placed again) or from a message that
 // changed because of one; re-runs on equal messages send equal messages,
 // which roll nobody back.
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
 
 #include "soda/loadbalance/thread_clock.h"
-#include "run_control.h"
 #include "soda/runtime/message_codec.h"
-#include "soda/runtime/scene_reader.h"
 #include "soda/worlds/world_snapshot.h"
 #include "world_process.h"
 
@@ -52,6 +50,23 @@ std::uint64_t digest_of(const Message& m) {
   std::uint64_t h = 1469598103934665603ull;  // FNV-1a over the bytes
   for (std::uint8_t b : encode_message(plain)) h = (h ^ b) * 1099511628211ull;
   return h;
+}
+
+// The raw states of a part snapshot's bodies (what owned_states() gives for
+// the world the snapshot was taken of).
+std::vector<BodyState> body_states_of(const WorldSnapshot& part) {
+  std::vector<BodyState> out(part.bodies.size());
+  for (std::size_t i = 0; i < part.bodies.size(); ++i) {
+    const BodyDynamicState& d = part.bodies[i].state;
+    BodyState& s = out[i];
+    s.id = part.bodies[i].description.id;
+    std::copy(std::begin(d.basis), std::end(d.basis), s.basis);
+    std::copy(std::begin(d.origin), std::end(d.origin), s.origin);
+    std::copy(std::begin(d.linear_velocity), std::end(d.linear_velocity), s.linear_velocity);
+    std::copy(std::begin(d.angular_velocity), std::end(d.angular_velocity), s.angular_velocity);
+    s.activation_state = d.activation_state;
+  }
+  return out;
 }
 
 Message empty_message(MessageKind kind, WorldId from, WorldId to, std::int64_t step) {
@@ -174,11 +189,7 @@ void PartitionedWorld::Process::take_notice(WorldId from, std::int64_t step) {
   for (auto it = used_.lower_bound(UsedKey{step, 0, kNoWorld}); it != used_.end(); ++it) {
     const auto& [s, kind, f] = it->first;
     Used& u = it->second;
-    if (f != from || !u.confirmed) continue;
-    u.confirmed = false;  // awaiting the re-send, compared when it comes
-    u.digest = digest_of(*u.message);
-    u.message.reset();
-    ++unconfirmed_[s];
+    if (f == from && u.confirmed) await_resend(s, u);
   }
   report_mark();
 }
@@ -239,11 +250,7 @@ void PartitionedWorld::Process::catch_up() {
     for (auto& [s, list] : fragments_) std::erase_if(list, void_message);
     for (auto it = used_.lower_bound(UsedKey{e.step, 0, kNoWorld}); it != used_.end(); ++it) {
       Used& u = it->second;  // used at a step this world had not passed: void, awaiting the re-send
-      if (!u.confirmed || !u.message || !void_message(*u.message)) continue;
-      u.confirmed = false;
-      u.digest = digest_of(*u.message);
-      u.message.reset();
-      ++unconfirmed_[std::get<0>(it->first)];
+      if (u.confirmed && u.message && void_message(*u.message)) await_resend(std::get<0>(it->first), u);
     }
     safety_.horizon->unpin(e.pinned);
   }
@@ -298,8 +305,7 @@ void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_
     old.merge_steps.insert(merge_steps_.lower_bound(step), merge_steps_.end());
     while (reports_.upper_bound(step) != reports_.end()) old.reports.insert(reports_.extract(reports_.upper_bound(step)));
   }
-  for (auto it = std::next(kept); it != kept_states_.end(); it = kept_states_.erase(it))
-    if (spare_states_.size() < 4) spare_states_.push_back(std::move(it->second));
+  for (auto it = std::next(kept); it != kept_states_.end(); it = kept_states_.erase(it)) recycle(std::move(it->second));
   reports_.erase(reports_.upper_bound(step), reports_.end());
   sent_log_.erase(sent_log_.lower_bound(step), sent_log_.end());
   merge_steps_.erase(merge_steps_.lower_bound(step), merge_steps_.end());
@@ -394,11 +400,10 @@ void PartitionedWorld::Process::try_rejoin() {
       u.message = std::move(in->second);
       inbox_.erase(in);
     } else if (u.message) {
-      u.confirmed = false;  // voided by its sender since: awaiting the re-send
-      u.digest = digest_of(*u.message);
-      u.message.reset();
+      await_resend(step, u);  // voided by its sender since
+    } else {
+      ++unconfirmed_[step];  // a bet not yet met, or a re-send still awaited
     }
-    if (!u.confirmed) ++unconfirmed_[step];
     used_.insert_or_assign(it->first, std::move(u));
   }
   for (auto it = old.sent.lower_bound(s); it != old.sent.end() && it->first < j; ++it) {
@@ -417,23 +422,7 @@ void PartitionedWorld::Process::try_rejoin() {
   }
   for (auto it = old.reports.upper_bound(s); it != old.reports.end() && it->first <= j; ++it)
     if (it->first > reported_through_) reports_.insert_or_assign(it->first, std::move(it->second));
-  for (const auto& [scene_step, state] : entries) {
-    TransformEntry<btScalar> e;
-    e.step = scene_step;
-    e.time = scene_time(e.step, output_.dt);
-    e.poses.reserve(state->bodies.size());
-    for (const BodySnapshot& b : state->bodies) {
-      BodyState raw;
-      raw.id = b.description.id;
-      std::copy(std::begin(b.state.basis), std::end(b.state.basis), raw.basis);
-      std::copy(std::begin(b.state.origin), std::end(b.state.origin), raw.origin);
-      std::copy(std::begin(b.state.linear_velocity), std::end(b.state.linear_velocity), raw.linear_velocity);
-      std::copy(std::begin(b.state.angular_velocity), std::end(b.state.angular_velocity), raw.angular_velocity);
-      raw.activation_state = b.state.activation_state;
-      e.poses.push_back(body_pose(raw));
-    }
-    backlog_.push_back(std::move(e));
-  }
+  for (const auto& [scene_step, state] : entries) backlog_.push_back(entry_of(scene_step, body_states_of(*state)));
   steps_rejoined_ += static_cast<std::uint64_t>(j - s);
   old_run_.reset();
   world_ = &safety_.rebuild(kept_states_.at(j), j);
@@ -444,9 +433,22 @@ void PartitionedWorld::Process::try_rejoin() {
 }
 
 void PartitionedWorld::Process::drop_old_run() {
-  for (auto& [step, state] : old_run_->kept)
-    if (spare_states_.size() < 4) spare_states_.push_back(std::move(state));
+  for (auto& [step, state] : old_run_->kept) recycle(std::move(state));
   old_run_.reset();
+}
+
+// A kept state no longer needed: its storage is reused by a later one.
+void PartitionedWorld::Process::recycle(WorldSnapshot&& state) {
+  if (spare_states_.size() < 4) spare_states_.push_back(std::move(state));
+}
+
+// A used message its sender voided (a Notice, a rollback of every world):
+// kept as a digest, unconfirmed, until the re-send is compared with it.
+void PartitionedWorld::Process::await_resend(std::int64_t step, Used& u) {
+  u.confirmed = false;
+  u.digest = digest_of(*u.message);
+  u.message.reset();
+  ++unconfirmed_[step];
 }
 
 // Low-water mark: the clock, or the oldest step of a message used that may
@@ -464,7 +466,7 @@ void PartitionedWorld::Process::trim_below(std::int64_t gvt) {
   // before it and re-runs from there with the messages used: keep both.
   const std::int64_t keep = checkpoint_at_or_before(gvt);
   for (auto it = kept_states_.begin(); it != kept_states_.end() && it->first < keep; it = kept_states_.erase(it))
-    if (spare_states_.size() < 4) spare_states_.push_back(std::move(it->second));  // their storage is reused
+    recycle(std::move(it->second));
   used_.erase(used_.begin(), used_.lower_bound(UsedKey{keep, 0, kNoWorld}));
   sent_log_.erase(sent_log_.begin(), sent_log_.lower_bound(keep));
   merge_steps_.erase(merge_steps_.begin(), merge_steps_.lower_bound(keep));

@@ -18,27 +18,9 @@ namespace {
 
 constexpr int kSteps = 160;
 
-Body new_cube(BodyId id, const Vec3& at) {
-  Body b;
-  b.id = id;
-  b.shape = Shape::box(Vec3(0.5, 0.5, 0.5));
-  b.mass = 1.0;
-  b.position = at;
-  b.linear_velocity = Vec3(0, -2, 0);
-  return b;
-}
-
-BodyId first_dynamic(const Scene& s) {
-  for (const Body& b : s.bodies)
-    if (!b.is_static) return b.id;
-  return 0;
-}
-
-BodyId unused_id(const Scene& s) {
-  BodyId id = 0;
-  for (const Body& b : s.bodies) id = std::max(id, b.id);
-  return id + 1;
-}
+using test::first_dynamic;
+using test::new_cube;
+using test::unused_id;
 
 // The same inputs, given before the run starts: 1 territory on one thread
 // and 4 territories on threads (the inputs are in every world's future).
@@ -78,15 +60,9 @@ TEST_P(LateSpawn, InATerritoryThatIsAheadMatchesOneTerritory) {
   const Scene s = test::scene("falling-cubes", 200);
   const TerritoryMap map = make_partition("grid:8x1x1", s, 8, GridOptions{});
   // A position in the last territory, above everything.
-  const Body* far = nullptr;
-  double top = 0;
-  for (const Body& b : s.bodies) {
-    if (b.is_static) continue;
-    if (!far || b.position.x() > far->position.x()) far = &b;
-    top = std::max(top, b.position.y());
-  }
-  ASSERT_NE(far, nullptr);
-  const Vec3 at(far->position.x(), top + 2.0, far->position.z());
+  const std::optional<Vec3> spawn = test::far_spawn_point(s);
+  ASSERT_TRUE(spawn.has_value());
+  const Vec3 at = *spawn;
   ASSERT_EQ(map.owner_of(at), 7);
   const BodyId added = unused_id(s);
 

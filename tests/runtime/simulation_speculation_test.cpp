@@ -85,33 +85,20 @@ TEST_P(SpeculativeSimulation, FramesAndHashEqualOneTerritory) {
 // Thesis §3.2.3, late spawn under speculation: a 1x8 strip whose world 0 is
 // slowed down, anticipation 16; a body is added at a step the world at the
 // far end (which owns its position) has passed, 2 or more steps ahead of
-// the horizon (its borders are busy: few bets, so little more). Every world rolls back to that step on the
-// rollback board, without being held; the result equals the one-territory
-// run with the body added at that step from the start.
+// the horizon (its borders are busy: few bets, so little more). Every world
+// rolls back to that step on the rollback board, without being held; the
+// result equals the one-territory run with the body added at that step from
+// the start.
 TEST_P(SpeculativeSimulation, LateSpawnInATerritoryThatIsAheadMatchesOneTerritory) {
   constexpr int kSteps = 120;
   const Scene s = test::scene("falling-cubes", 200);
   const TerritoryMap map = make_partition("grid:8x1x1", s, 8, GridOptions{});
-  const Body* far = nullptr;
-  double top = 0;
-  for (const Body& b : s.bodies) {
-    if (b.is_static) continue;
-    if (!far || b.position.x() > far->position.x()) far = &b;
-    top = std::max(top, b.position.y());
-  }
-  ASSERT_NE(far, nullptr);
-  const Vec3 at(far->position.x(), top + 2.0, far->position.z());
-  const WorldId target = map.owner_of(at);  // the far end of the strip
+  const std::optional<Vec3> spawn = test::far_spawn_point(s);
+  ASSERT_TRUE(spawn.has_value());
+  const WorldId target = map.owner_of(*spawn);  // the far end of the strip
   ASSERT_GE(target, 5);
-  BodyId added = 0;
-  for (const Body& b : s.bodies) added = std::max(added, b.id);
-  ++added;
-  Body cube;
-  cube.id = added;
-  cube.shape = Shape::box(Vec3(0.5, 0.5, 0.5));
-  cube.mass = 1.0;
-  cube.position = at;
-  cube.linear_velocity = Vec3(0, -2, 0);
+  const BodyId added = test::unused_id(s);
+  const Body cube = test::new_cube(added, *spawn);
 
   SlowWorldZero slow(8, 4);
   SimulationConfig config{.threads = GetParam(), .buffer_capacity = 64, .past_inputs = true};
@@ -136,7 +123,7 @@ TEST_P(SpeculativeSimulation, LateSpawnInATerritoryThatIsAheadMatchesOneTerritor
   ASSERT_GE(step, 0) << "world " << target << " never got 2 steps ahead of the horizon";
   EXPECT_EQ(sim.rollbacks(), 1u);
   try {
-    sim.set_velocity(sim.time_of(1), added - 1, Vec3(1, 0, 0));
+    sim.set_velocity(sim.time_of(1), test::first_dynamic(s), Vec3(1, 0, 0));
     ADD_FAILURE() << "an input at step 1 was accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("older than the commit horizon"), std::string::npos) << e.what();

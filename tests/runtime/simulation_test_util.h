@@ -6,7 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <algorithm>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -57,6 +59,45 @@ inline std::string frame_difference(const std::vector<ScenePose>& frame, const s
     if (!same_bits(frame[i], expected[i])) return "body " + std::to_string(expected[i].id) + " differs";
   }
   return "";
+}
+
+/// A unit cube (1 kg) at `at`, falling at 2 m/s: the body the input tests add.
+inline Body new_cube(BodyId id, const Vec3& at) {
+  Body b;
+  b.id = id;
+  b.shape = Shape::box(Vec3(0.5, 0.5, 0.5));
+  b.mass = 1.0;
+  b.position = at;
+  b.linear_velocity = Vec3(0, -2, 0);
+  return b;
+}
+
+inline BodyId first_dynamic(const Scene& s) {
+  for (const Body& b : s.bodies)
+    if (!b.is_static) return b.id;
+  return 0;
+}
+
+/// One more than the largest id in the scene.
+inline BodyId unused_id(const Scene& s) {
+  BodyId id = 0;
+  for (const Body& b : s.bodies) id = std::max(id, b.id);
+  return id + 1;
+}
+
+/// Late spawn: a point 2 m above the highest dynamic body, over the dynamic
+/// body furthest along +x (the far end of a strip cut along x). nullopt if
+/// the scene has no dynamic body.
+inline std::optional<Vec3> far_spawn_point(const Scene& s) {
+  const Body* far = nullptr;
+  double top = 0;
+  for (const Body& b : s.bodies) {
+    if (b.is_static) continue;
+    if (!far || b.position.x() > far->position.x()) far = &b;
+    top = std::max(top, b.position.y());
+  }
+  if (!far) return std::nullopt;
+  return Vec3(far->position.x(), top + 2.0, far->position.z());
 }
 
 }  // namespace soda::test
