@@ -69,6 +69,7 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.steps_rolled_back += m.steps_rolled_back;
   t.steps_rejoined += m.steps_rejoined;
   t.bodies_resolved += m.bodies_resolved;
+  t.bodies_replayed += m.bodies_replayed;
   t.rollback_cpu_seconds += m.rollback_cpu_seconds;
   t.lead_max = std::max(t.lead_max, m.lead_max);
   t.kept_states_max = std::max(t.kept_states_max, m.kept_states_max);
@@ -137,6 +138,7 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   safety.checkpoint_every = options_.checkpoint_every;
   safety.recompute = options_.rollback == PartitionedOptions::Rollback::Recompute;
   safety.eager_bets = options_.eager_bets;
+  safety.verify_replay = options_.verify_replay;
   board_ = std::make_unique<RollbackBoard>(k, *horizon_, wake);
   safety.board = board_.get();
   if (options_.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");

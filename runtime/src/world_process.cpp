@@ -50,7 +50,9 @@ void PartitionedWorld::Process::rewind(TerritoryWorld& world, std::int64_t scene
   kept_states_.erase(kept_states_.upper_bound(step_), kept_states_.end());
   used_.clear();
   sent_log_.clear();
+  island_log_.clear();
   old_run_.reset();
+  partial_step_.reset();
   unconfirmed_.clear();
   bets_in_inbox_.clear();
   merge_steps_.clear();
@@ -211,6 +213,7 @@ bool PartitionedWorld::Process::run_phase() {
   switch (phase_) {
     case Phase::Predict: {
       if (output_.inputs && step_ % substeps_ == 0) apply_inputs();
+      if (old_run_ || partial_step_) arm_replay();
       world_->predict();
       for (WorldId n : neighbours_) send(n, Message{.payload = world_->ghost_batch_for(n)});
       phase_ = Phase::AwaitGhosts;
@@ -528,7 +531,18 @@ void PartitionedWorld::Process::end_step() {
     }
   }
   if (speculating()) {
-    if (step_ <= rerun_until_) bodies_resolved_ += world_->owned_count();
+    if (partial_step_ && partial_step_->step < step_) partial_step_.reset();
+    if (step_ <= rerun_until_) {
+      bodies_resolved_ += world_->owned_count() - std::min(world_->owned_count(), c.bodies_replayed);
+      bodies_replayed_ += c.bodies_replayed;
+    }
+    if (!safety_.recompute) {
+      // Replaying a re-run (arm_replay) needs the islands of every step a
+      // rollback may restore.
+      LocalIslands& log = island_log_[step_ - 1];
+      log.ids.assign(world_->local_islands().ids.begin(), world_->local_islands().ids.end());
+      log.begin.assign(world_->local_islands().begin.begin(), world_->local_islands().begin.end());
+    }
     if (step_ % checkpoint_every_ == 0) {
       WorldSnapshot snapshot;
       if (!spare_states_.empty()) {
@@ -613,6 +627,7 @@ WorldMetrics PartitionedWorld::Process::metrics() const {
   m.steps_rolled_back = steps_rolled_back_;
   m.steps_rejoined = steps_rejoined_;
   m.bodies_resolved = bodies_resolved_;
+  m.bodies_replayed = bodies_replayed_;
   m.rollback_cpu_seconds = static_cast<double>(rollback_cpu_ns_) * 1e-9;
   m.lead = lead_;
   double sum = 0;

@@ -98,6 +98,7 @@ class PartitionedWorld::Process {
     int checkpoint_every = 1;          // speculation: internal steps between kept states
     bool recompute = false;            // speculation: discard and recompute instead of propagate
     bool eager_bets = false;           // speculation: bet on neighbours whose newest ghosts were not empty
+    bool verify_replay = false;        // speculation: solve replayed islands anyway and compare
     RollbackBoard* board = nullptr;    // speculation: rollbacks of every world
     /// Speculation: replaces this world by one rebuilt from its own part of
     /// the state (as kept) at an internal step boundary; returns it.
@@ -176,6 +177,7 @@ class PartitionedWorld::Process {
   std::int64_t checkpoint_at_or_before(std::int64_t step) const;
   void restore(std::int64_t step, std::int64_t changed_step, bool keep_old_run);
   void try_rejoin();
+  void arm_replay();
   void drop_old_run();
   void recycle(WorldSnapshot&& state);
   void catch_up();
@@ -199,6 +201,7 @@ class PartitionedWorld::Process {
   std::map<WorldId, std::uint64_t> notices_sent_;
   std::map<std::int64_t, WorldStepReport> reports_;         // validation: reported once committed
   std::map<std::int64_t, std::vector<Message>> sent_log_;   // Ghosts, Migrants, empty Glue sent, by step
+  std::map<std::int64_t, LocalIslands> island_log_;         // islands solved in place, by step (propagate only)
   // What this world's run had done past a rollback of its own, kept while
   // the re-run may rejoin it: once the re-run's state at a step after the
   // message that changed is bit-equal to the old run's, and the messages the
@@ -212,8 +215,19 @@ class PartitionedWorld::Process {
     std::map<std::int64_t, std::vector<Message>> sent;  // messages it sent from that step on
     std::map<std::int64_t, WorldStepReport> reports;    // validation reports after that step
     std::set<std::int64_t> merge_steps;                 // its steps with merge messages (never taken back)
+    std::map<std::int64_t, LocalIslands> islands;       // the islands it solved in place, by step (arm_replay)
   };
   std::optional<OldRun> old_run_;
+  // The step a rollback interrupted after its islands were solved: what it
+  // had solved, for the re-run of that step to replay (arm_replay).
+  struct PartialStep {
+    std::int64_t step = -1;
+    bool integrated = false;  // state taken after integrate(), else right after the solve
+    LocalIslands islands;
+    WorldSnapshot state;
+  };
+  std::optional<PartialStep> partial_step_;
+  std::int64_t restored_to_ = -1;                           // the step the newest restore went back to
   std::uint64_t steps_rejoined_ = 0;                        // steps taken back from old runs, not re-run
   std::uint32_t seen_epoch_ = 0;                            // of the rollback board
   std::int64_t reported_through_ = -1;                      // validation: steps reported
@@ -289,6 +303,7 @@ class PartitionedWorld::Process {
   std::int64_t step_cpu_max_ns_ = 0;
   std::vector<std::int64_t> step_cpu_history_ns_;  // CPU time of every finished internal step
   std::uint64_t bets_ = 0, bets_lost_ = 0, rollbacks_ = 0, steps_rolled_back_ = 0, bodies_resolved_ = 0;
+  std::uint64_t bodies_replayed_ = 0;
   std::int64_t rollback_cpu_ns_ = 0;    // restores and re-run steps
   std::int64_t restore_ns_in_step_ = 0;  // restores counted in step_cpu_ns_ so far
   std::vector<std::int32_t> lead_;

@@ -270,10 +270,27 @@ void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_
   auto kept = kept_states_.find(step);
   if (kept == kept_states_.end())
     throw std::logic_error(who + ": rollback to step " + std::to_string(step) + ", which it no longer keeps");
-  SPEC_TRACE("w%d at %lld: restores %lld\n", world_->id(), (long long)step_, (long long)step);
+  SPEC_TRACE("w%d at %lld: restores %lld (phase %d)\n", world_->id(), (long long)step_, (long long)step, static_cast<int>(phase_));
   ++rollbacks_;
   steps_rolled_back_ += static_cast<std::uint64_t>(step_ - step);
-  rerun_until_ = std::max(rerun_until_, phase_ == Phase::Predict ? step_ : step_ + 1);
+  // The step in progress is a re-run once it has solved something (the
+  // islands are solved after the ghosts arrive); a world waiting for ghosts
+  // had only predicted, one publishing had ended the step.
+  const bool solved = phase_ == Phase::AwaitGlue || phase_ == Phase::Merging || phase_ == Phase::AwaitMigrants;
+  rerun_until_ = std::max(rerun_until_, solved ? step_ + 1 : step_);
+  partial_step_.reset();
+  if (solved && keep_old_run) {
+    PartialStep& p = partial_step_.emplace();
+    p.step = step_;
+    p.integrated = phase_ == Phase::AwaitMigrants;
+    if (p.integrated) {
+      p.islands = world_->local_islands();
+      world_->part_snapshot(p.state);
+    } else if (!world_->solved_state(p.islands, p.state)) {
+      partial_step_.reset();
+    }
+  }
+  restored_to_ = step;
   world_ = &safety_.rebuild(kept->second, step);
   step_ = step;
   phase_ = Phase::Predict;
@@ -303,11 +320,14 @@ void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_
       old.used.emplace(it->first, it->second);
     while (sent_log_.lower_bound(step) != sent_log_.end()) old.sent.insert(sent_log_.extract(sent_log_.lower_bound(step)));
     old.merge_steps.insert(merge_steps_.lower_bound(step), merge_steps_.end());
+    while (island_log_.lower_bound(step) != island_log_.end())
+      old.islands.insert(island_log_.extract(island_log_.lower_bound(step)));
     while (reports_.upper_bound(step) != reports_.end()) old.reports.insert(reports_.extract(reports_.upper_bound(step)));
   }
   for (auto it = std::next(kept); it != kept_states_.end(); it = kept_states_.erase(it)) recycle(std::move(it->second));
   reports_.erase(reports_.upper_bound(step), reports_.end());
   sent_log_.erase(sent_log_.lower_bound(step), sent_log_.end());
+  island_log_.erase(island_log_.lower_bound(step), island_log_.end());
   merge_steps_.erase(merge_steps_.lower_bound(step), merge_steps_.end());
   for (const Key& k : bets_in_inbox_) inbox_.erase(k);
   bets_in_inbox_.clear();
@@ -415,6 +435,11 @@ void PartitionedWorld::Process::try_rejoin() {
     }
     sent_log_.insert_or_assign(it->first, std::move(it->second));
   }
+  for (auto it = old.islands.lower_bound(s); it != old.islands.end() && it->first < j;) {
+    auto next = std::next(it);
+    island_log_.insert_or_assign(it->first, std::move(it->second));
+    it = next;
+  }
   for (auto it = old.kept.upper_bound(s); it != old.kept.end();) {
     auto next = std::next(it);
     kept_states_.insert(old.kept.extract(it));
@@ -425,11 +450,45 @@ void PartitionedWorld::Process::try_rejoin() {
   for (const auto& [scene_step, state] : entries) backlog_.push_back(entry_of(scene_step, body_states_of(*state)));
   steps_rejoined_ += static_cast<std::uint64_t>(j - s);
   old_run_.reset();
+  partial_step_.reset();
   world_ = &safety_.rebuild(kept_states_.at(j), j);
   step_ = j;
   phase_ = Phase::Predict;
   kept_max_ = std::max(kept_max_, kept_states_.size());
   report_mark();
+}
+
+// Before a re-run step's predict(): the step replays the islands of the old
+// run's step that come out unchanged (TerritoryWorld::set_replay) if the old
+// run's state at both ends of the step and its islands are at hand (states
+// are kept every checkpoint_every steps: 1 replays every step). At or before
+// the step whose message changed, the re-run's state is the old run's.
+void PartitionedWorld::Process::arm_replay() {
+  const std::int64_t r = step_;
+  const LocalIslands* islands = nullptr;
+  const WorldSnapshot* after = nullptr;
+  bool mid_step = false;
+  if (partial_step_ && partial_step_->step == r) {
+    islands = &partial_step_->islands;
+    after = &partial_step_->state;
+    mid_step = !partial_step_->integrated;
+  } else if (old_run_) {
+    auto i = old_run_->islands.find(r);
+    auto a = old_run_->kept.find(r + 1);
+    if (i == old_run_->islands.end() || a == old_run_->kept.end()) return;
+    islands = &i->second;
+    after = &a->second;
+  } else {
+    return;
+  }
+  const WorldSnapshot* before = nullptr;
+  if (auto it = old_run_ ? old_run_->kept.find(r) : kept_states_.end(); old_run_ && it != old_run_->kept.end()) {
+    before = &it->second;
+  } else if (auto own = kept_states_.find(r); own != kept_states_.end() && r == restored_to_) {
+    before = &own->second;  // the state restored: the old run's
+  }
+  if (!before) return;
+  world_->set_replay(StepReplay{before, after, islands, mid_step, safety_.verify_replay});
 }
 
 void PartitionedWorld::Process::drop_old_run() {
@@ -469,6 +528,7 @@ void PartitionedWorld::Process::trim_below(std::int64_t gvt) {
     recycle(std::move(it->second));
   used_.erase(used_.begin(), used_.lower_bound(UsedKey{keep, 0, kNoWorld}));
   sent_log_.erase(sent_log_.begin(), sent_log_.lower_bound(keep));
+  island_log_.erase(island_log_.begin(), island_log_.lower_bound(keep));
   merge_steps_.erase(merge_steps_.begin(), merge_steps_.lower_bound(keep));
   std::erase_if(lost_bets_, [keep](const Key& k) { return std::get<1>(k) < keep; });
   if (validator_) {

@@ -71,7 +71,9 @@ TEST(Speculation, EveryAnticipationMatchesOneTerritory) {
 
 
 // Seeds of the fuzz test: 50 (6 under ThreadSanitizer); the environment
-// variable SODA_SPEC_FUZZ_SEEDS asks for more in a soak run.
+// variable SODA_SPEC_FUZZ_SEEDS asks for more in a soak run (and
+// SODA_SPEC_FIRST starts at a later seed, SODA_SPEC_VERIFY verifies replays
+// on every seed: for chasing one seed).
 int fuzz_seeds() {
 #if defined(__SANITIZE_THREAD__)
   int seeds = 6;
@@ -86,11 +88,14 @@ int fuzz_seeds() {
 // before every delivery, with anticipation 1, 8 or 64, Rollback and
 // Propagate or discard and recompute, eager or cautious bets, a state kept
 // every step or every 8, a thread per world or a pool of two: always the
-// one-territory hash.
+// one-territory hash. Every other seed solves the islands re-runs replay
+// anyway and checks that the old run's result is bit for bit what solving
+// gives (verify_replay throws otherwise).
 TEST(Speculation, FuzzedThreadsAndDeliveryNeverChangeTheResult) {
-  std::uint64_t bets = 0, rollbacks = 0, rejoined = 0;
+  std::uint64_t bets = 0, rollbacks = 0, rejoined = 0, replayed = 0;
   const int seeds = fuzz_seeds();
-  for (int seed = 1; seed <= seeds; ++seed) {
+  const int first = std::getenv("SODA_SPEC_FIRST") ? std::atoi(std::getenv("SODA_SPEC_FIRST")) : 1;
+  for (int seed = first; seed <= seeds; ++seed) {
     const Case& c = cases()[static_cast<std::size_t>(seed) % cases().size()];
     const Scene s = test::scene(c.scene, c.n);
     PartitionedOptions o;
@@ -101,10 +106,12 @@ TEST(Speculation, FuzzedThreadsAndDeliveryNeverChangeTheResult) {
     o.anticipation = std::vector<int>{1, 8, 64}[static_cast<std::size_t>(seed / 2) % 3];
     o.rollback = seed % 5 == 0 ? PartitionedOptions::Rollback::Recompute : PartitionedOptions::Rollback::Propagate;
     o.eager_bets = seed % 3 != 0;
-    o.checkpoint_every = seed % 4 == 1 ? 1 : 8;
+    o.checkpoint_every = seed % 4 == 1 || seed % 4 == 2 ? 1 : 8;
+    o.verify_replay = seed % 2 == 0 || std::getenv("SODA_SPEC_VERIFY");
     PartitionedWorld world(s, test::map_of(c, s), o);
     world.step(kSteps);
     const WorldMetrics t = totals(world);
+    replayed += t.bodies_replayed;
     bets += t.bets;
     rollbacks += t.rollbacks;
     rejoined += t.steps_rejoined;
@@ -112,11 +119,13 @@ TEST(Speculation, FuzzedThreadsAndDeliveryNeverChangeTheResult) {
         << "seed " << seed << ": " << c.scene << " K=" << c.territories << " anticipation " << o.anticipation << " "
         << schedule_name(o.schedule);
   }
-  std::printf("%d fuzzed speculative runs: %llu bets, %llu rollbacks, %llu steps rejoined, all equal to one "
-              "territory\n",
-              seeds, (unsigned long long)bets, (unsigned long long)rollbacks, (unsigned long long)rejoined);
+  std::printf("%d fuzzed speculative runs: %llu bets, %llu rollbacks, %llu steps rejoined, %llu bodies replayed, "
+              "all equal to one territory\n",
+              seeds, (unsigned long long)bets, (unsigned long long)rollbacks, (unsigned long long)rejoined,
+              (unsigned long long)replayed);
   EXPECT_GT(rollbacks, 0u);
   EXPECT_GT(rejoined, 0u);
+  EXPECT_GT(replayed, 0u);
 }
 
 // SyncTest on top of speculation: after every step every world is rolled
@@ -173,9 +182,10 @@ struct StripRun {
   std::int64_t lead7 = 0;
 };
 
-StripRun run_strip(const Scene& s, PartitionedOptions::Rollback mode, bool eager_bets) {
+StripRun run_strip(const Scene& s, PartitionedOptions::Rollback mode, bool eager_bets, bool verify_replay = false) {
   PartitionedOptions o;
   o.eager_bets = eager_bets;
+  o.verify_replay = verify_replay;
   o.schedule = Schedule::ThreadPerWorld;
   o.anticipation = 16;
   o.checkpoint_every = 1;  // a rollback re-runs only from the changed step
@@ -193,16 +203,16 @@ StripRun run_strip(const Scene& s, PartitionedOptions::Rollback mode, bool eager
 TEST(Speculation, StripWithSlowWorldZeroRunsAheadAndRollsBack) {
   const Scene s = test::scene("falling-cubes", 100);
   const std::uint64_t one = test::reference_hash(s, kSteps * 2);
-  const StripRun propagate = run_strip(s, PartitionedOptions::Rollback::Propagate, true);
+  const StripRun propagate = run_strip(s, PartitionedOptions::Rollback::Propagate, true, true);
   const StripRun recompute = run_strip(s, PartitionedOptions::Rollback::Recompute, true);
   const StripRun cautious = run_strip(s, PartitionedOptions::Rollback::Propagate, false);
   for (const StripRun* r : {&propagate, &recompute, &cautious})
     std::printf("strip: %llu bets, %llu lost, %llu rollbacks, %llu steps rolled back, %llu rejoined, %llu bodies "
-                "re-solved, world 7 lead max %lld\n",
+                "re-solved, %llu replayed, world 7 lead max %lld\n",
                 (unsigned long long)r->total.bets, (unsigned long long)r->total.bets_lost,
                 (unsigned long long)r->total.rollbacks, (unsigned long long)r->total.steps_rolled_back,
                 (unsigned long long)r->total.steps_rejoined, (unsigned long long)r->total.bodies_resolved,
-                (long long)r->lead7);
+                (unsigned long long)r->total.bodies_replayed, (long long)r->lead7);
   EXPECT_EQ(hash_hex(propagate.hash), hash_hex(one));
   EXPECT_EQ(hash_hex(recompute.hash), hash_hex(one));
   EXPECT_EQ(hash_hex(cautious.hash), hash_hex(one));
@@ -216,6 +226,11 @@ TEST(Speculation, StripWithSlowWorldZeroRunsAheadAndRollsBack) {
   // (a ghost that touched nothing changes nothing).
   EXPECT_GT(propagate.total.steps_rejoined, 0u);
   EXPECT_EQ(recompute.total.steps_rejoined, 0u);
+  // Re-run steps replay the islands that come out unchanged instead of
+  // solving them (the eager run checks each replay against a solve);
+  // discarding and recomputing solves everything again.
+  EXPECT_GT(propagate.total.bodies_replayed, 0u);
+  EXPECT_EQ(recompute.total.bodies_replayed, 0u);
   // Rollback CPU (restores and re-runs) is part of each world's CPU time.
   for (const StripRun* r : {&propagate, &recompute}) {
     EXPECT_GT(r->total.rollback_cpu_seconds, 0.0);

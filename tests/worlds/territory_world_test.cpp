@@ -1,12 +1,16 @@
 // The territory world alone: with one territory (no neighbours, no ghosts)
 // its staged step is the canonical world's step; bodies outside the
-// partitioned exactness contract are refused.
+// partitioned exactness contract are refused; a re-run that replays the
+// islands of an old run (set_replay) gives what solving them gives.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <memory>
 
 #include "soda/worlds/canonical_world.h"
 #include "soda/worlds/territory_world.h"
+#include "soda/worlds/world_snapshot.h"
 #include "worlds/world_test_util.h"
 
 namespace soda {
@@ -47,6 +51,101 @@ TEST(TerritoryWorld, OneTerritoryStepsAsTheCanonicalWorld) {
     EXPECT_EQ(alone.ghost_count(), 0u);
     EXPECT_EQ(alone.sleeping_count(), reference.sleeping_count());
   }
+}
+
+// Rollback and Propagate at the level of one world. An old run records, at
+// every step, its state at both ends and the islands it solved; a world
+// rebuilt from its state at step kFrom replays it.
+struct OldRun {
+  std::vector<WorldSnapshot> states;    // at kFrom, kFrom + 1, ...
+  std::vector<LocalIslands> islands;    // solved in step kFrom, kFrom + 1, ...
+  std::vector<BodySnapshot> statics;
+};
+constexpr int kFrom = 40, kSteps = 30;
+
+OldRun record(const Scene& s) {
+  OldRun old;
+  TerritoryWorld w(s, 0, TerritoryMap());
+  for (int i = 0; i < kFrom; ++i) step_alone(w);
+  old.statics = w.static_snapshots();
+  old.states.push_back(w.part_snapshot());
+  for (int i = 0; i < kSteps; ++i) {
+    step_alone(w);
+    old.islands.push_back(w.local_islands());
+    old.states.push_back(w.part_snapshot());
+  }
+  return old;
+}
+
+std::unique_ptr<TerritoryWorld> rebuilt(const OldRun& old) {
+  WorldSnapshot whole = old.states.front();
+  whole.bodies.insert(whole.bodies.end(), old.statics.begin(), old.statics.end());
+  std::sort(whole.bodies.begin(), whole.bodies.end(),
+            [](const BodySnapshot& a, const BodySnapshot& b) { return a.description.id < b.description.id; });
+  return std::make_unique<TerritoryWorld>(whole, 0, TerritoryMap());
+}
+
+// The old run replayed with one body pushed at step kFrom: only islands
+// holding bodies whose state departs from the old run's are solved, and
+// the result is that of a plain re-run (no replay) with the same push.
+TEST(TerritoryWorld, ReplayedIslandsGiveWhatSolvingGives) {
+  for (const char* name : {"cube-pile", "falling-cubes"}) {
+    const Scene s = test::scene(name, 200);
+    const OldRun old = record(s);
+    const BodyId pushed = old.states.front().bodies[old.states.front().bodies.size() / 2].description.id;
+    for (bool push : {false, true})
+      for (bool verify : {false, true}) {
+        auto replayed = rebuilt(old);
+        auto plain = rebuilt(old);
+        if (push) {
+          ASSERT_TRUE(replayed->apply_impulse(pushed, Vec3(0.0, 0.0, 5.0)));
+          ASSERT_TRUE(plain->apply_impulse(pushed, Vec3(0.0, 0.0, 5.0)));
+        }
+        std::size_t solved = 0, kept = 0, first_step_solved = 0;
+        for (int i = 0; i < kSteps; ++i) {
+          replayed->set_replay(StepReplay{&old.states[static_cast<std::size_t>(i)],
+                                          &old.states[static_cast<std::size_t>(i) + 1],
+                                          &old.islands[static_cast<std::size_t>(i)], false, verify});
+          step_alone(*replayed);
+          step_alone(*plain);
+          const std::size_t r = replayed->counters().bodies_replayed;
+          kept += r;
+          solved += replayed->owned_count() - r;
+          if (i == 0) first_step_solved = replayed->owned_count() - r;
+        }
+        std::printf("[ replay %s%s%s ] %zu bodies solved, %zu replayed (first step: %zu solved of %zu)\n", name,
+                    push ? ", pushed" : "", verify ? ", verified" : "", solved, kept, first_step_solved,
+                    replayed->owned_count());
+        EXPECT_EQ(hash_hex(hash_of(*replayed)), hash_hex(hash_of(*plain))) << name << " push " << push;
+        EXPECT_EQ(serialize(replayed->part_snapshot()), serialize(plain->part_snapshot())) << name;
+        if (!push) {
+          EXPECT_EQ(solved, 0u) << name << ": nothing changed, every island is replayed";
+        } else {
+          EXPECT_GT(first_step_solved, 0u) << name << ": the pushed body's island is solved";
+          EXPECT_LT(first_step_solved, replayed->owned_count()) << name << ": the others are replayed";
+        }
+      }
+  }
+}
+
+// A step interrupted after its islands were solved (a rollback in the
+// middle of a step): its solved_state replays in place of the solve.
+TEST(TerritoryWorld, MidStepReplayGivesWhatSolvingGives) {
+  const Scene s = test::scene("cube-pile", 200);
+  const OldRun old = record(s);
+  auto interrupted = rebuilt(old);
+  interrupted->predict();
+  interrupted->apply_ghosts({});
+  interrupted->collide();
+  interrupted->build_islands();
+  LocalIslands islands;
+  WorldSnapshot solved;
+  ASSERT_TRUE(interrupted->solved_state(islands, solved));
+  auto replayed = rebuilt(old);
+  replayed->set_replay(StepReplay{&old.states[0], &solved, &islands, true, false});
+  step_alone(*replayed);
+  EXPECT_EQ(replayed->counters().bodies_replayed, replayed->owned_count());
+  EXPECT_EQ(serialize(replayed->part_snapshot()), serialize(old.states[1]));
 }
 
 TEST(TerritoryWorld, RefusesBodiesOutsideTheExactnessContract) {

@@ -8,10 +8,12 @@
 //    runtime and solved here on copies (solve_border_island).
 #include <algorithm>
 #include <numeric>
+#include <stdexcept>
 #include <string>
 
 #include "canonical_dynamics_world.h"
 #include "soda/worlds/bullet_bodies.h"
+#include "soda/worlds/value_codec.h"
 #include "territory_world_parts.h"
 
 namespace soda {
@@ -169,7 +171,8 @@ std::vector<Fragment> TerritoryWorld::border_fragments(const std::vector<std::pa
   return fragments;
 }
 
-// As CanonicalDynamicsWorld's IslandStage, for whole islands of owned bodies.
+// As CanonicalDynamicsWorld's IslandStage, for whole islands of owned bodies
+// (islands a replayed step can take from the old run are not solved).
 void TerritoryWorld::solve_local(const std::vector<int>& components) {
   btConstraintSolver& solver = parts_->solver;
   btContactSolverInfo& info = parts_->world.getSolverInfo();
@@ -179,7 +182,16 @@ void TerritoryWorld::solve_local(const std::vector<int>& components) {
     btCollisionObject** bodies = &component_objects_[static_cast<std::size_t>(component_begin_[uk])];
     const int body_count = component_begin_[uk + 1] - component_begin_[uk];
     const int manifold_count = held_begin_[uk + 1] - held_begin_[uk];
-    for (int j = 0; j < body_count; ++j) bodies[j]->setCompanionId(-1);
+    for (int j = 0; j < body_count; ++j) {
+      bodies[j]->setCompanionId(-1);
+      local_islands_.ids.push_back(entry_of(bodies[j]).id());
+    }
+    local_islands_.begin.push_back(static_cast<std::uint32_t>(local_islands_.ids.size()));
+    if (replay_.islands && replay_island(bodies, body_count, uk)) {
+      ++counters_.islands_replayed;
+      counters_.bodies_replayed += static_cast<std::size_t>(body_count);
+      if (!replay_.verify) continue;
+    }
     if (!decide_island_sleeping(bodies, body_count)) continue;
     ++counters_.local_islands;
     if (body_count == 1 && manifold_count == 0) {
@@ -195,6 +207,118 @@ void TerritoryWorld::solve_local(const std::vector<int>& components) {
   if (!lone.empty())
     solver.solveGroup(lone.data(), static_cast<int>(lone.size()), nullptr, 0, nullptr, 0, info, nullptr,
                       &parts_->dispatcher);
+  if (replay_.mid_step) finish_replay();
+}
+
+// --- Rollback and Propagate: replayed islands -------------------------------
+
+void TerritoryWorld::set_replay(const StepReplay& replay) {
+  if (!replay.before || !replay.after || !replay.islands)
+    throw std::invalid_argument("TerritoryWorld::set_replay: before, after and islands are required");
+  replay_ = replay;
+  const LocalIslands& old = *replay.islands;
+  replay_index_.clear();
+  for (std::uint32_t i = 0; i < old.size(); ++i) replay_index_.emplace_back(old.ids[old.begin[i]], i);
+  std::sort(replay_index_.begin(), replay_index_.end());
+}
+
+// predict(), before anything moves: which owned bodies are clean. A pair
+// whose contact state differs from the old run's, or that has contact
+// state in one run only, makes both its bodies dirty.
+void TerritoryWorld::mark_clean() {
+  const WorldSnapshot& before = *replay_.before;
+  auto b = before.bodies.begin();
+  for (Entry* e : owned_) {
+    while (b != before.bodies.end() && b->description.id < e->id()) ++b;
+    e->clean = b != before.bodies.end() && b->description.id == e->id() &&
+               same_bits(read_dynamic_state(*e->body), b->state);
+  }
+  auto dirty = [&](const ManifoldState& m) {
+    for (BodyId id : {m.id0, m.id1})
+      if (auto it = entries_.find(id); it != entries_.end()) it->second->clean = false;
+  };
+  const std::vector<ManifoldState> now = kept_contact_state();
+  auto key = [](const ManifoldState& m) { return std::make_pair(m.id0, m.id1); };
+  auto x = now.begin();
+  auto y = before.manifolds.begin();
+  while (x != now.end() || y != before.manifolds.end()) {
+    if (y == before.manifolds.end() || (x != now.end() && key(*x) < key(*y))) {
+      dirty(*x++);
+    } else if (x == now.end() || key(*y) < key(*x)) {
+      dirty(*y++);
+    } else {
+      if (!same_bits(*x, *y)) dirty(*x);
+      ++x, ++y;
+    }
+  }
+}
+
+// True if the old run solved an island of exactly these bodies, all clean,
+// and its result for every body and manifold of the island is in `after`;
+// then they are queued for finish_replay.
+bool TerritoryWorld::replay_island(btCollisionObject** bodies, int body_count, std::size_t component) {
+  for (int j = 0; j < body_count; ++j)
+    if (!entry_of(bodies[j]).clean) return false;
+  const BodyId first = entry_of(bodies[0]).id();
+  auto it = std::lower_bound(replay_index_.begin(), replay_index_.end(), std::make_pair(first, std::uint32_t{0}));
+  if (it == replay_index_.end() || it->first != first) return false;
+  const LocalIslands& old = *replay_.islands;
+  const std::uint32_t begin = old.begin[it->second];
+  if (old.begin[it->second + 1] - begin != static_cast<std::uint32_t>(body_count)) return false;
+  for (int j = 0; j < body_count; ++j)
+    if (old.ids[begin + static_cast<std::uint32_t>(j)] != entry_of(bodies[j]).id()) return false;
+
+  const WorldSnapshot& after = *replay_.after;
+  const std::size_t bodies_mark = replayed_bodies_.size(), manifolds_mark = replayed_manifolds_.size();
+  auto give_up = [&] {
+    replayed_bodies_.resize(bodies_mark);
+    replayed_manifolds_.resize(manifolds_mark);
+    return false;
+  };
+  for (int j = 0; j < body_count; ++j) {
+    const BodyId id = entry_of(bodies[j]).id();
+    auto b = std::lower_bound(after.bodies.begin(), after.bodies.end(), id,
+                              [](const BodySnapshot& s, BodyId x) { return s.description.id < x; });
+    if (b == after.bodies.end() || b->description.id != id) return give_up();  // it left the world
+    replayed_bodies_.emplace_back(bodies[j], &b->state);
+  }
+  for (int j = held_begin_[component]; j < held_begin_[component + 1]; ++j) {
+    const Held& h = held_[static_cast<std::size_t>(j)];
+    auto m = std::lower_bound(after.manifolds.begin(), after.manifolds.end(), std::make_pair(h.id0, h.id1),
+                              [](const ManifoldState& s, const std::pair<BodyId, BodyId>& x) {
+                                return std::make_pair(s.id0, s.id1) < x;
+                              });
+    if (m == after.manifolds.end() || m->id0 != h.id0 || m->id1 != h.id1) return give_up();
+    replayed_manifolds_.emplace_back(h.manifold, &*m);
+  }
+  return true;
+}
+
+// End of integrate() (after solve_local for a mid-step replay): replayed
+// islands take the old run's result (verify: the result just computed must
+// be it).
+void TerritoryWorld::finish_replay() {
+  auto mismatch = [&](const std::string& what) {
+    throw std::logic_error("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) +
+                           ": a replayed island's " + what + " differs from the old run's");
+  };
+  for (const auto& [object, state] : replayed_bodies_) {
+    btRigidBody& rb = *btRigidBody::upcast(object);
+    if (!replay_.verify) {
+      write_dynamic_state(rb, *state);
+    } else if (!same_bits(read_dynamic_state(rb), *state)) {
+      mismatch("body " + std::to_string(entry_of(object).id()));
+    }
+  }
+  for (const auto& [manifold, state] : replayed_manifolds_) {
+    if (!replay_.verify) {
+      write_manifold_points(*state, *manifold);
+    } else if (!same_bits(read_manifold_state(*manifold), *state)) {
+      mismatch("manifold " + std::to_string(state->id0) + "-" + std::to_string(state->id1));
+    }
+  }
+  replayed_bodies_.clear();
+  replayed_manifolds_.clear();
 }
 
 IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragment*>& island) {

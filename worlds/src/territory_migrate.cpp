@@ -49,6 +49,10 @@ void TerritoryWorld::integrate() {
     }
     body.clearForces();
   }
+  if (replay_.before) {
+    if (!replay_.mid_step) finish_replay();
+    replay_ = StepReplay{};
+  }
 }
 
 void TerritoryWorld::export_manifolds_involving(const std::vector<const Entry*>& leaving,

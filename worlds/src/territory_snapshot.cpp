@@ -51,7 +51,19 @@ WorldSnapshot TerritoryWorld::part_snapshot() const {
 
 // Reuses `out`'s storage (speculation keeps one per step: no allocation
 // once the kept states recycle).
-void TerritoryWorld::part_snapshot(WorldSnapshot& out) const {
+void TerritoryWorld::part_snapshot(WorldSnapshot& out) const { snapshot_into(out, true); }
+
+// Between collide() and finish_islands() the kept store still holds the
+// values of the step's start, some of them seeded into pairs held here
+// since: the live manifolds alone are the state as solved.
+bool TerritoryWorld::solved_state(LocalIslands& islands, WorldSnapshot& out) const {
+  if (replay_.before && !replay_.mid_step && !replayed_bodies_.empty()) return false;
+  islands = local_islands_;
+  snapshot_into(out, false);
+  return true;
+}
+
+void TerritoryWorld::snapshot_into(WorldSnapshot& out, bool with_kept) const {
   out.settings = settings_;
   out.steps_done = steps_done_ / settings_.substeps;
   // By id: owned_ is sorted but for migrants absorbed since (a short tail).
@@ -77,7 +89,8 @@ void TerritoryWorld::part_snapshot(WorldSnapshot& out) const {
     const btPersistentManifold* m = d.getManifoldByIndexInternal(i);
     if (m->getNumContacts() > 0) read_manifold_state(*m, next());
   }
-  for (const auto& [pair, state] : kept_) next() = state;
+  if (with_kept)
+    for (const auto& [pair, state] : kept_) next() = state;
   out.manifolds.resize(n);
   std::sort(out.manifolds.begin(), out.manifolds.end(), [](const ManifoldState& a, const ManifoldState& b) {
     return std::make_pair(a.id0, a.id1) < std::make_pair(b.id0, b.id1);

@@ -177,6 +177,8 @@ const std::vector<WorldId>& TerritoryWorld::neighbours() const { return map_.nei
 void TerritoryWorld::predict() {
   counters_ = TerritoryCounters{};
   sort_lists();
+  local_islands_.clear();
+  if (replay_.before) mark_clean();
   const btScalar h = btScalar(settings_.dt / settings_.substeps);
   outgoing_.clear();
   attachments_.clear();

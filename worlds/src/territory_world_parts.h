@@ -30,6 +30,7 @@ struct TerritoryWorld::Entry {
   std::int64_t seed_step = -1;     // step at which seeds_ held a pair with this body
   btVector3 halo_min, halo_max;    // owned: the halo computed by predict
   std::int64_t halo_owned_step = -1;  // owned: step at which predict found every cell of the halo owned here
+  bool clean = false;              // owned, in a replayed step: state and contacts at its start as the old run's
 
   BodyId id() const { return description.id; }
 };

@@ -11,18 +11,38 @@ static_assert(std::endian::native == std::endian::little, "value bytes are writt
 
 namespace {
 
-template <class Io, class P>
-void visit_point(Io& io, P& p) {
-  io(p.local_point_a), io(p.local_point_b), io(p.position_world_on_b), io(p.position_world_on_a);
-  io(p.normal_world_on_b), io(p.distance), io(p.combined_friction), io(p.combined_rolling_friction);
-  io(p.combined_spinning_friction), io(p.combined_restitution), io(p.part_id0), io(p.part_id1);
-  io(p.index0), io(p.index1), io(p.contact_point_flags), io(p.applied_impulse), io(p.prev_rhs);
-  io(p.applied_impulse_lateral1), io(p.applied_impulse_lateral2), io(p.contact_motion1);
-  io(p.contact_motion2), io(p.contact_cfm), io(p.combined_contact_stiffness1), io(p.contact_erp);
-  io(p.combined_contact_damping1), io(p.friction_cfm), io(p.lifetime), io(p.lateral_friction_dir1);
-  io(p.lateral_friction_dir2);
+// Every encoded field of one or more points, in encoding order: io(field)
+// to write or read one, io(field_a, field_b) to compare two.
+template <class Io, class... P>
+void visit_point(Io& io, P&... p) {
+  io(p.local_point_a...), io(p.local_point_b...), io(p.position_world_on_b...), io(p.position_world_on_a...);
+  io(p.normal_world_on_b...), io(p.distance...), io(p.combined_friction...), io(p.combined_rolling_friction...);
+  io(p.combined_spinning_friction...), io(p.combined_restitution...), io(p.part_id0...), io(p.part_id1...);
+  io(p.index0...), io(p.index1...), io(p.contact_point_flags...), io(p.applied_impulse...), io(p.prev_rhs...);
+  io(p.applied_impulse_lateral1...), io(p.applied_impulse_lateral2...), io(p.contact_motion1...);
+  io(p.contact_motion2...), io(p.contact_cfm...), io(p.combined_contact_stiffness1...), io(p.contact_erp...);
+  io(p.combined_contact_damping1...), io(p.friction_cfm...), io(p.lifetime...), io(p.lateral_friction_dir1...);
+  io(p.lateral_friction_dir2...);
 }
 
+// Every field of one or more raw states, in encoding order.
+template <class Io, class... S>
+void visit_state(Io& io, S&... s) {
+  io(s.basis...), io(s.origin...), io(s.interpolation_basis...), io(s.interpolation_origin...);
+  io(s.linear_velocity...), io(s.angular_velocity...);
+  io(s.interpolation_linear_velocity...), io(s.interpolation_angular_velocity...);
+  io(s.activation_state...), io(s.deactivation_time...), io(s.hit_fraction...);
+}
+
+// Compares field by field (the structs have padding, which memcmp of the
+// whole would read).
+struct SameBits {
+  bool equal = true;
+  template <class T>
+  void operator()(const T& a, const T& b) {
+    equal = equal && std::memcmp(&a, &b, sizeof(T)) == 0;
+  }
+};
 
 }  // namespace
 
@@ -78,11 +98,8 @@ void write_body(ByteWriter& w, const BodySnapshot& b) {
   w.put(d.orientation.w()), w.put(d.orientation.x()), w.put(d.orientation.y()), w.put(d.orientation.z());
   w.vec3(d.linear_velocity);
   w.vec3(d.angular_velocity);
-  const BodyDynamicState& s = b.state;
-  w.put(s.basis), w.put(s.origin), w.put(s.interpolation_basis), w.put(s.interpolation_origin);
-  w.put(s.linear_velocity), w.put(s.angular_velocity);
-  w.put(s.interpolation_linear_velocity), w.put(s.interpolation_angular_velocity);
-  w.put(s.activation_state), w.put(s.deactivation_time), w.put(s.hit_fraction);
+  auto io = [&w](const auto& field) { w.put(field); };
+  visit_state(io, b.state);
 }
 
 BodySnapshot read_body(ByteReader& r) {
@@ -138,6 +155,19 @@ ManifoldState read_manifold(ByteReader& r) {
   auto io = [&r](auto& field) { r.get(field); };
   for (ContactPointState& p : m.points) visit_point(io, p);
   return m;
+}
+
+bool same_bits(const BodyDynamicState& a, const BodyDynamicState& b) {
+  SameBits same;
+  visit_state(same, a, b);
+  return same.equal;
+}
+
+bool same_bits(const ManifoldState& a, const ManifoldState& b) {
+  if (a.id0 != b.id0 || a.id1 != b.id1 || a.points.size() != b.points.size()) return false;
+  SameBits same;
+  for (std::size_t i = 0; i < a.points.size() && same.equal; ++i) visit_point(same, a.points[i], b.points[i]);
+  return same.equal;
 }
 
 }  // namespace soda

@@ -122,6 +122,11 @@ struct PartitionedOptions {
   /// rollbacks eager, 8 not; docs/rollback.md). On: as many bets and
   /// rollbacks as possible (tests of the rollback machinery use it).
   bool eager_bets = false;
+  /// Speculation, a check for tests: islands a re-run replays (takes from
+  /// the run it repeats instead of solving: docs/rollback.md) are solved
+  /// anyway and their result compared with the replayed one, bit for bit; a
+  /// difference throws std::logic_error. Costs what replaying saves.
+  bool verify_replay = false;
 };
 
 /// Thrown when the validation mode finds a broken invariant; the message names
@@ -173,7 +178,8 @@ struct WorldMetrics {
   std::uint64_t rollbacks = 0;               // times this world restored an earlier step
   std::uint64_t steps_rolled_back = 0;       // internal steps discarded by them, summed
   std::uint64_t steps_rejoined = 0;          // ... of which taken back unchanged, not re-run (re-run rejoined)
-  std::uint64_t bodies_resolved = 0;         // owned bodies x internal steps re-run after rollbacks
+  std::uint64_t bodies_resolved = 0;         // bodies solved in steps re-run after rollbacks (owned x steps, less replayed)
+  std::uint64_t bodies_replayed = 0;         // bodies of re-run steps whose islands were replayed from the old run
   double rollback_cpu_seconds = 0;           // thread CPU time of restores and re-run steps
   std::int64_t lead_max = 0;                 // most internal steps ahead of the commit horizon
   double lead_mean = 0;                      // mean of lead over finished internal steps

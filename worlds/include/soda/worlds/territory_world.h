@@ -83,6 +83,37 @@ struct TerritoryCounters {
   std::size_t border_island_bodies = 0;   // their bodies, summed
   std::size_t migrations_out = 0;
   std::size_t migrations_in = 0;
+  std::size_t islands_replayed = 0;       // islands a replayed step did not solve (set_replay)
+  std::size_t bodies_replayed = 0;        // their bodies
+};
+
+/// The islands a world solved in place in one step (those of build_islands
+/// and those no neighbour glued, lone bodies and sleeping islands included),
+/// each as its bodies' ids, ascending: island i is ids[begin[i], begin[i+1]).
+struct LocalIslands {
+  std::vector<BodyId> ids;
+  std::vector<std::uint32_t> begin{0};
+  std::size_t size() const { return begin.size() - 1; }
+  void clear() {
+    ids.clear();
+    begin.assign(1, 0);
+  }
+};
+
+/// Rollback and Propagate (docs/rollback.md): what the run a re-run repeats
+/// did at one step. The pointers must stay valid until integrate() returns.
+struct StepReplay {
+  const WorldSnapshot* before = nullptr;  // that run's part_snapshot() at the step's start
+  const WorldSnapshot* after = nullptr;   // and at its end (see mid_step)
+  const LocalIslands* islands = nullptr;  // the islands it solved in place in the step
+  /// `after` is a solved_state() taken in the middle of the step, after its
+  /// islands were solved and before integrate() (a step a rollback
+  /// interrupted): replayed islands take their state in it in place of
+  /// solving, and integrate() moves them on.
+  bool mid_step = false;
+  /// Solve the replayed islands anyway and throw std::logic_error if their
+  /// result is not `after`'s bit for bit (a check for tests).
+  bool verify = false;
 };
 
 class TerritoryWorld {
@@ -166,6 +197,21 @@ class TerritoryWorld {
   /// migrate, receiving half: one batch from every neighbour. Ends the step.
   void absorb_migrants(const std::vector<std::pair<WorldId, MigrantBatch>>& batches);
 
+  /// Rollback and Propagate, for the next step only (call before predict()):
+  /// an island this world solves in place is *replayed* — not solved — if
+  /// every body in it is clean (its raw state and every manifold with
+  /// points it is in, at the step's start, equal `before`'s bit for bit;
+  /// inputs applied before predict() count) and `islands` holds an island
+  /// of exactly these bodies. An island's step being a pure function of its
+  /// contents, its result is then the old run's: at the end of integrate()
+  /// (or in place of the solve: StepReplay::mid_step) its bodies and
+  /// manifolds take their states in `after`. Islands that
+  /// hold a ghost or were glued by a neighbour are always solved; so is one
+  /// with a body or manifold `after` lacks (a body that left the world).
+  void set_replay(const StepReplay& replay);
+  /// The islands solved (or replayed) in place in the last step.
+  const LocalIslands& local_islands() const { return local_islands_; }
+
   // --- readout -------------------------------------------------------------
 
   const std::vector<WorldId>& neighbours() const;
@@ -195,6 +241,13 @@ class TerritoryWorld {
   WorldSnapshot part_snapshot() const;
   /// The same into `out`, reusing its storage.
   void part_snapshot(WorldSnapshot& out) const;
+  /// In the middle of a step, after its islands were solved and before
+  /// integrate(): the islands solved in place so far, the owned bodies (as
+  /// part_snapshot) and the manifolds with points this world holds, as
+  /// solved — what StepReplay::mid_step replays. False (nothing written) if
+  /// the step replays islands from an old run's end-of-step states, which
+  /// integrate() has not written yet.
+  bool solved_state(LocalIslands& islands, WorldSnapshot& out) const;
   /// Every static body (description + raw state), by id.
   std::vector<BodySnapshot> static_snapshots() const;
 
@@ -250,6 +303,10 @@ class TerritoryWorld {
   BodyRecord record_of(const Entry& e) const;
   void update_aabbs();
   void solve_local(const std::vector<int>& components);
+  void snapshot_into(WorldSnapshot& out, bool with_kept) const;
+  void mark_clean();
+  bool replay_island(btCollisionObject** bodies, int body_count, std::size_t component);
+  void finish_replay();
   void export_manifolds_involving(const std::vector<const Entry*>& leaving,
                                   std::map<BodyId, MigrantBatch*>* payload_by_key);
 
@@ -294,6 +351,13 @@ class TerritoryWorld {
   std::vector<Component> components_;          // pending components only
   std::map<WorldId, GlueBatch> glue_out_;
   std::map<PairKey, void*> held_by_key_;  // btPersistentManifold* of held manifolds in border fragments
+  // Rollback and Propagate (set_replay): the step's replay, the old run's
+  // islands by smallest id, and what integrate() writes back.
+  StepReplay replay_;
+  std::vector<std::pair<BodyId, std::uint32_t>> replay_index_;
+  std::vector<std::pair<btCollisionObject*, const BodyDynamicState*>> replayed_bodies_;
+  std::vector<std::pair<btPersistentManifold*, const ManifoldState*>> replayed_manifolds_;
+  LocalIslands local_islands_;
   // Copies for border island solves, by id (shape + body), reused.
   std::unordered_map<BodyId, std::unique_ptr<Copy>> copies_;
 };

@@ -100,4 +100,9 @@ void write_manifold(ByteWriter& w, const ManifoldState& manifold);
 /// Checks id0 < id1 and 1..4 points.
 ManifoldState read_manifold(ByteReader& r);
 
+/// True if the two encode to the same bytes: every field bit for bit (NaNs
+/// by their bits, -0 differs from 0).
+bool same_bits(const BodyDynamicState& a, const BodyDynamicState& b);
+bool same_bits(const ManifoldState& a, const ManifoldState& b);
+
 }  // namespace soda
