@@ -22,6 +22,7 @@ nlohmann::json speculation_json(const WorldMetrics& m) {
           {"steps_rolled_back", m.steps_rolled_back},
           {"steps_rejoined", m.steps_rejoined},
           {"bodies_resolved", m.bodies_resolved},
+          {"bodies_replayed", m.bodies_replayed},
           {"bodies_resolved_per_rollback", bodies_resolved_per_rollback(m)},
           {"bodies_resolved_per_lost_bet", bodies_resolved_per_lost_bet(m)},
           {"rollback_cpu_seconds", m.rollback_cpu_seconds},

@@ -27,13 +27,13 @@ void print_worlds(const SpeculationRun& run) {
     std::fprintf(stderr,
                  "  %-13s world %d: cpu %.3f s, blocked %.3f s, lead max %lld mean %.1f, %llu bets (%llu lost), "
                  "%llu rollbacks, %llu steps rolled back (%llu rejoined), %llu bodies re-solved (%.1f per rollback), "
-                 "rollback cpu %.3f s\n",
+                 "%llu replayed, rollback cpu %.3f s\n",
                  run.name.c_str(), m.world, m.cpu_seconds, m.blocked_seconds, static_cast<long long>(m.lead_max),
                  m.lead_mean, static_cast<unsigned long long>(m.bets), static_cast<unsigned long long>(m.bets_lost),
                  static_cast<unsigned long long>(m.rollbacks), static_cast<unsigned long long>(m.steps_rolled_back),
                  static_cast<unsigned long long>(m.steps_rejoined),
                  static_cast<unsigned long long>(m.bodies_resolved),
-                 bodies_resolved_per_rollback(m),
+                 bodies_resolved_per_rollback(m), static_cast<unsigned long long>(m.bodies_replayed),
                  m.rollback_cpu_seconds);
 }
 

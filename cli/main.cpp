@@ -138,12 +138,14 @@ void print_summary(const soda::RunResult& r) {
   if (r.territories > 1 && r.anticipation > 0) {
     const soda::WorldMetrics sp = soda::total_metrics(r.world_metrics);
     std::printf("  speculation (anticipation %d, %s): %llu bets, %llu lost, %llu rollbacks, %llu steps rolled "
-                "back (%llu rejoined), %llu bodies re-solved, %.3f s rollback CPU, lead max %lld mean %.2f steps\n",
+                "back (%llu rejoined), %llu bodies re-solved (%llu replayed), %.3f s rollback CPU, lead max %lld mean "
+                "%.2f steps\n",
                 r.anticipation, soda::rollback_name(r.rollback), static_cast<unsigned long long>(sp.bets),
                 static_cast<unsigned long long>(sp.bets_lost), static_cast<unsigned long long>(sp.rollbacks),
                 static_cast<unsigned long long>(sp.steps_rolled_back),
                 static_cast<unsigned long long>(sp.steps_rejoined),
-                static_cast<unsigned long long>(sp.bodies_resolved), sp.rollback_cpu_seconds,
+                static_cast<unsigned long long>(sp.bodies_resolved),
+                static_cast<unsigned long long>(sp.bodies_replayed), sp.rollback_cpu_seconds,
                 static_cast<long long>(sp.lead_max), sp.lead_mean);
   }
   if (r.sync_rollbacks)
