@@ -97,8 +97,9 @@ void add_run_options(CLI::App& cmd, Options& o) {
       ->check(CLI::IsMember({"propagate", "recompute"}))
       ->capture_default_str();
   cmd.add_option("--checkpoint-every", o.config.checkpoint_every,
-                 "Speculation: internal steps between the states a world keeps to roll back to (1: every step; "
-                 "a rollback restores the one at or before the step and re-runs the rest)")
+                 "Speculation: internal steps between the states a world keeps to roll back to (1: every step, "
+                 "and re-run steps replay the islands that come out unchanged; a rollback restores the one at "
+                 "or before the step and re-runs the rest)")
       ->check(CLI::Range(1, 1 << 20))
       ->capture_default_str();
   cmd.add_flag("--eager-bets", o.config.eager_bets,

@@ -172,10 +172,10 @@ TEST(Speculation, HorizonReachesTheTargetAndStatesAreFreed) {
 
 // A 1x8 strip whose world 0 is slowed down: the far end runs ahead of the
 // commit horizon, bets are lost and repaired, and the result equals one
-// territory. Rollback and Propagate re-solves fewer bodies per lost bet than
-// discarding and recomputing every world, and its re-runs rejoin the runs
-// they left. Eager bets, for the most rollbacks; cautious ones (the
-// default) roll back less.
+// territory. Rollback and Propagate re-solves at most a fifth of the bodies
+// per lost bet that discarding and recomputing every world does, its re-runs
+// replay unchanged islands and rejoin the runs they left. Eager bets, for
+// the most rollbacks; cautious ones (the default) roll back less.
 struct StripRun {
   std::uint64_t hash = 0;
   WorldMetrics total;
@@ -237,9 +237,16 @@ TEST(Speculation, StripWithSlowWorldZeroRunsAheadAndRollsBack) {
     EXPECT_LE(r->total.rollback_cpu_seconds, r->total.cpu_seconds);
   }
   ASSERT_GT(recompute.total.bets_lost, 0u);
-  // Bodies re-solved per lost bet: fewer than discarding and recomputing.
-  EXPECT_LT(static_cast<double>(propagate.total.bodies_resolved) / static_cast<double>(propagate.total.bets_lost),
-            static_cast<double>(recompute.total.bodies_resolved) / static_cast<double>(recompute.total.bets_lost));
+  // Bodies re-solved per lost bet: at most 20 % of discarding and
+  // recomputing's (the target; measured 1.6 %, 5 % before islands
+  // were replayed, 13 % before re-runs rejoined).
+  const double propagate_per_bet =
+      static_cast<double>(propagate.total.bodies_resolved) / static_cast<double>(propagate.total.bets_lost);
+  const double recompute_per_bet =
+      static_cast<double>(recompute.total.bodies_resolved) / static_cast<double>(recompute.total.bets_lost);
+  std::printf("strip: bodies re-solved per lost bet, propagate / recompute: %.3f\n",
+              propagate_per_bet / recompute_per_bet);
+  EXPECT_LE(propagate_per_bet, 0.2 * recompute_per_bet);
 }
 
 }  // namespace

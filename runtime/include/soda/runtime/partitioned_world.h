@@ -108,11 +108,14 @@ struct PartitionedOptions {
   };
   Rollback rollback = Rollback::Propagate;
   /// Speculation: a world keeps its state every `checkpoint_every` internal
-  /// steps (copying the contact state every step costs ~40 % of a step on
-  /// alternating-load); a rollback restores the checkpoint at or before the
-  /// step and re-runs the rest. 1: every step, so a rollback re-runs only
-  /// what changed and stays local more often (a re-run over a step with
-  /// merged islands is a rollback of every world). >= 1.
+  /// steps; a rollback restores the checkpoint at or before the step and
+  /// re-runs the rest. 1: every step, so a rollback re-runs only what
+  /// changed and stays local more often (a re-run over a step with merged
+  /// islands is a rollback of every world), and re-run steps replay the
+  /// islands that come out unchanged instead of solving them (with a larger
+  /// value only the step a rollback interrupted is replayed;
+  /// docs/rollback.md). A state every step costs about 12 % of per-world
+  /// CPU on alternating-load. >= 1.
   int checkpoint_every = 8;
   /// Speculation: also bet on a neighbour whose newest ghosts to arrive were
   /// not empty. Off (the default), a world waits for such a neighbour's
