@@ -66,6 +66,20 @@ void print_summary(const nlohmann::json& j, const SpeculationBenchResult& r) {
     std::fprintf(stderr, "  bodies re-solved, propagate / recompute: %.3f in all, %.3f per lost bet\n",
                  ratio.get<double>(), per_bet.is_null() ? 0.0 : per_bet.get<double>());
   }
+  const nlohmann::json& all = j["all_repeats"];
+  if (!all["bodies_resolved_propagate_over_recompute"].is_null()) {
+    const nlohmann::json& per_bet = all["bodies_resolved_per_lost_bet_propagate_over_recompute"];
+    std::fprintf(stderr,
+                 "  over all %d repeats: %.3f in all, %.3f per lost bet (propagate %llu bodies for %llu lost bets, "
+                 "%llu replayed; recompute %llu for %llu)\n",
+                 j["repeat"].get<int>(), all["bodies_resolved_propagate_over_recompute"].get<double>(),
+                 per_bet.is_null() ? 0.0 : per_bet.get<double>(),
+                 all["propagate"]["bodies_resolved"].get<unsigned long long>(),
+                 all["propagate"]["bets_lost"].get<unsigned long long>(),
+                 all["propagate"]["bodies_replayed"].get<unsigned long long>(),
+                 all["recompute"]["bodies_resolved"].get<unsigned long long>(),
+                 all["recompute"]["bets_lost"].get<unsigned long long>());
+  }
   for (const nlohmann::json& run : j["runs"])
     if (run.contains("time_saved_vs_lockstep_seconds") && run["anticipation"].get<int>() > 0)
       std::fprintf(stderr, "  %s: time saved against lockstep %.3f s, rollback CPU %.1f %% of its CPU\n",

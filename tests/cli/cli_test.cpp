@@ -309,8 +309,10 @@ TEST_F(CliSpeculationBench, WritesDocumentedJson) {
                             "territories", "partition", "anticipation", "baseline_wall_seconds", "runs",
                             "speedup_propagate_vs_lockstep", "speedup_recompute_vs_lockstep", "bound",
                             "modelled_speedup", "lockstep_load_by_window", "bodies_resolved_propagate_over_recompute",
-                            "one_territory_state_hash", "state_hashes_equal"})
+                            "all_repeats", "one_territory_state_hash", "state_hashes_equal"})
     EXPECT_TRUE(j.contains(field)) << field << " missing";
+  for (const char* field : {"bets_lost", "rollbacks", "bodies_resolved", "bodies_replayed"})
+    EXPECT_TRUE(j["all_repeats"]["propagate"].contains(field)) << field << " missing";
   EXPECT_EQ(j["scene"], "alternating-load");
   EXPECT_TRUE(j["state_hashes_equal"].get<bool>());
   ASSERT_EQ(j["runs"].size(), 5u);
@@ -327,6 +329,7 @@ TEST_F(CliSpeculationBench, WritesDocumentedJson) {
     if (i >= 2) {
       EXPECT_EQ(run["worlds"].size(), 2u);
       EXPECT_TRUE(run["speculation"].contains("bodies_resolved_per_rollback"));
+      EXPECT_TRUE(run["speculation"].contains("bodies_replayed"));
       EXPECT_TRUE(run["worlds"][0].contains("lead_max"));
     }
   }

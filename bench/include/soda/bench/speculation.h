@@ -39,6 +39,7 @@ struct SpeculationRun {
   RunResult best;                // the fastest repeat
   std::vector<double> walls;     // every repeat, seconds
   std::vector<std::uint64_t> hashes;  // every repeat's state hash
+  WorldMetrics totals_all;       // speculation counters summed over worlds and every repeat
 };
 
 struct SpeculationBenchResult {
