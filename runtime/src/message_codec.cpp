@@ -272,6 +272,18 @@ std::vector<std::uint8_t> encode_message(const Message& m) {
   return std::move(w.bytes);
 }
 
+std::uint64_t message_digest(const Message& m) {
+  thread_local ByteWriter w;
+  w.bytes.clear();
+  write_header(w, kMagic, kVersion);
+  w.put(static_cast<std::uint8_t>(m.kind()));
+  w.put(m.from), w.put(m.to), w.put(m.step);
+  std::visit([](const auto& payload) { write_payload(w, payload); }, m.payload);
+  std::uint64_t h = 1469598103934665603ull;
+  for (std::uint8_t b : w.bytes) h = (h ^ b) * 1099511628211ull;
+  return h;
+}
+
 Message decode_message(const std::vector<std::uint8_t>& bytes) {
   ByteReader r(bytes, "decode_message", raise_message_error);
   read_header(r, kMagic, kVersion, "message");

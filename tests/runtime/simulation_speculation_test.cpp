@@ -71,10 +71,11 @@ TEST_P(SpeculativeSimulation, FramesAndHashEqualOneTerritory) {
   reader.join();
   const WorldMetrics t = test::total(sim.metrics());
   std::printf("[ falling-cubes 100 grid:8x1x1 %s anticipation 8, %s ] %llu bets, %llu lost, %llu rollbacks, %llu of "
-              "%llu steps rolled back rejoined, lead max %lld\n",
+              "%llu steps rolled back rejoined, %llu bodies re-solved, %llu replayed, lead max %lld\n",
               kPrecisionName, name_of(GetParam()).c_str(), (unsigned long long)t.bets,
               (unsigned long long)t.bets_lost, (unsigned long long)t.rollbacks,
-              (unsigned long long)t.steps_rejoined, (unsigned long long)t.steps_rolled_back, (long long)t.lead_max);
+              (unsigned long long)t.steps_rejoined, (unsigned long long)t.steps_rolled_back,
+              (unsigned long long)t.bodies_resolved, (unsigned long long)t.bodies_replayed, (long long)t.lead_max);
   EXPECT_GT(t.bets, 0u);
   EXPECT_GT(t.steps_rejoined, 0u);  // re-runs rejoined, their steps' entries republished
   EXPECT_EQ(bad_frames.load(), 0);

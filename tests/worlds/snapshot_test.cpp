@@ -5,6 +5,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <functional>
+#include <string>
+#include <utility>
 
 #include <btBulletDynamicsCommon.h>
 
@@ -109,6 +112,36 @@ TEST(Snapshot, BytesRoundTripExactly) {
   const std::vector<std::uint8_t> bytes = serialize(snap);
   EXPECT_EQ(serialize(deserialize_snapshot(bytes)), bytes);
   EXPECT_EQ(contact_hash(deserialize_snapshot(bytes).manifolds), contact_hash(snap.manifolds));
+}
+
+// same_bits compares without encoding (re-runs compare states every step):
+// it must say what comparing the bytes says, for a change in any part.
+TEST(Snapshot, SameBitsAgreesWithTheBytes) {
+  const Scene s = test::scene("cube-pile", 100);
+  CanonicalWorld a(s);
+  test::run(a, 100);
+  const WorldSnapshot snap = a.snapshot();
+  ASSERT_FALSE(snap.manifolds.empty());
+  auto next_ulp = [](btScalar& x) { x = std::nextafter(x, btScalar(1e30)); };
+  std::vector<std::pair<const char*, std::function<void(WorldSnapshot&)>>> changes = {
+      {"nothing", [](WorldSnapshot&) {}},
+      {"steps_done", [](WorldSnapshot& w) { ++w.steps_done; }},
+      {"settings.dt", [](WorldSnapshot& w) { w.settings.dt *= 2; }},
+      {"a body's origin", [&](WorldSnapshot& w) { next_ulp(w.bodies[5].state.origin[1]); }},
+      {"a body's activation state", [](WorldSnapshot& w) { w.bodies[7].state.activation_state ^= 3; }},
+      {"a body's friction", [](WorldSnapshot& w) { w.bodies[3].description.friction += 0.25; }},
+      {"a body's hull", [](WorldSnapshot& w) { w.bodies[2].description.shape.points.push_back(Vec3::Ones()); }},
+      {"a contact's impulse", [&](WorldSnapshot& w) { next_ulp(w.manifolds.back().points.front().applied_impulse); }},
+      {"a contact's lifetime", [](WorldSnapshot& w) { ++w.manifolds.front().points.back().lifetime; }},
+      {"a manifold's points", [](WorldSnapshot& w) { w.manifolds.front().points.pop_back(); }},
+      {"a body less", [](WorldSnapshot& w) { w.bodies.pop_back(); }},
+  };
+  for (const auto& [what, change] : changes) {
+    WorldSnapshot other = snap;
+    change(other);
+    EXPECT_EQ(same_bits(snap, other), serialize(snap) == serialize(other)) << what;
+    EXPECT_EQ(same_bits(snap, other), std::string(what) == "nothing") << what;
+  }
 }
 
 TEST(Snapshot, MalformedBytesThrow) {

@@ -25,6 +25,21 @@ constexpr std::uint32_t kVersion = 1;
 
 }  // namespace
 
+bool same_bits(const WorldSnapshot& a, const WorldSnapshot& b) {
+  const SceneSettings &x = a.settings, &y = b.settings;
+  auto eq = [](const auto& u, const auto& v) { return std::memcmp(&u, &v, sizeof u) == 0; };
+  if (!eq(x.dt, y.dt) || x.substeps != y.substeps || x.iterations != y.iterations || !eq(x.gravity.x(), y.gravity.x()) ||
+      !eq(x.gravity.y(), y.gravity.y()) || !eq(x.gravity.z(), y.gravity.z()) || x.steps != y.steps ||
+      a.steps_done != b.steps_done || a.bodies.size() != b.bodies.size() || a.manifolds.size() != b.manifolds.size())
+    return false;
+  for (std::size_t i = 0; i < a.bodies.size(); ++i)
+    if (!same_bits(a.bodies[i].state, b.bodies[i].state) || !same_bits(a.bodies[i].description, b.bodies[i].description))
+      return false;
+  for (std::size_t i = 0; i < a.manifolds.size(); ++i)
+    if (!same_bits(a.manifolds[i], b.manifolds[i])) return false;
+  return true;
+}
+
 std::vector<std::uint8_t> serialize(const WorldSnapshot& s) {
   ByteWriter w;
   write_header(w, kMagic, kVersion);

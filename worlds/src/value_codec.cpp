@@ -163,6 +163,23 @@ bool same_bits(const BodyDynamicState& a, const BodyDynamicState& b) {
   return same.equal;
 }
 
+bool same_bits(const Body& a, const Body& b) {
+  SameBits same;
+  auto vec = [&](const Vec3& x, const Vec3& y) { same(x.x(), y.x()), same(x.y(), y.y()), same(x.z(), y.z()); };
+  same(a.id, b.id), same(a.is_static, b.is_static), same(a.shape.kind, b.shape.kind);
+  vec(a.shape.half_extents, b.shape.half_extents);
+  same(a.shape.radius, b.shape.radius), same(a.shape.height, b.shape.height);
+  if (a.shape.points.size() != b.shape.points.size()) return false;
+  for (std::size_t i = 0; i < a.shape.points.size(); ++i) vec(a.shape.points[i], b.shape.points[i]);
+  same(a.mass, b.mass), same(a.friction, b.friction), same(a.restitution, b.restitution);
+  vec(a.position, b.position);
+  same(a.orientation.w(), b.orientation.w()), same(a.orientation.x(), b.orientation.x());
+  same(a.orientation.y(), b.orientation.y()), same(a.orientation.z(), b.orientation.z());
+  vec(a.linear_velocity, b.linear_velocity);
+  vec(a.angular_velocity, b.angular_velocity);
+  return same.equal;
+}
+
 bool same_bits(const ManifoldState& a, const ManifoldState& b) {
   if (a.id0 != b.id0 || a.id1 != b.id1 || a.points.size() != b.points.size()) return false;
   SameBits same;

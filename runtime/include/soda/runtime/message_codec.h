@@ -24,6 +24,12 @@ class MessageFormatError : public std::runtime_error {
 /// Bit-exact encoding: decode_message(encode_message(m)) == m, field for field.
 std::vector<std::uint8_t> encode_message(const Message& message);
 
+/// 64-bit FNV-1a of the message's encoding with the epoch left out: equal
+/// for two messages whose encodings differ at most in the epoch (a message
+/// re-sent unchanged after a rollback). Encodes into a per-thread buffer:
+/// no copy of the payload, no allocation once the buffer has grown.
+std::uint64_t message_digest(const Message& message);
+
 /// Inverse of encode_message. Never undefined behaviour on bad input: throws
 /// MessageFormatError (truncation, bad magic/version/precision/kind, counts
 /// larger than the data, ids out of range, unsorted lists, trailing bytes).

@@ -104,5 +104,7 @@ ManifoldState read_manifold(ByteReader& r);
 /// by their bits, -0 differs from 0).
 bool same_bits(const BodyDynamicState& a, const BodyDynamicState& b);
 bool same_bits(const ManifoldState& a, const ManifoldState& b);
+/// A body description, as write_body encodes it.
+bool same_bits(const Body& a, const Body& b);
 
 }  // namespace soda

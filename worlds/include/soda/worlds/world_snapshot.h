@@ -96,6 +96,11 @@ class SnapshotFormatError : public std::runtime_error {
 /// size, then every field). Round trip is bit-exact.
 std::vector<std::uint8_t> serialize(const WorldSnapshot& snapshot);
 
+/// True if serialize(a) == serialize(b), without encoding either: settings,
+/// steps done, every body (description and raw state) and every manifold,
+/// bit for bit.
+bool same_bits(const WorldSnapshot& a, const WorldSnapshot& b);
+
 /// Inverse of serialize. Never undefined behaviour on bad input: throws
 /// SnapshotFormatError with the reason and byte offset.
 WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes);
