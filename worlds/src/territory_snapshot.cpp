@@ -40,7 +40,12 @@ TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, Territ
       throw PartitionError("TerritoryWorld: two contact states for pair " + std::to_string(m.id0) + "-" +
                            std::to_string(m.id1) + " in a snapshot");
   }
-  init_interior();
+  if (share_pools_of && share_pools_of->id_ == id_ && share_pools_of->map_ == map_) {
+    interior_ = share_pools_of->interior_;  // a rollback's rebuild: same territory, same cells
+    sort_lists();
+  } else {
+    init_interior();
+  }
 }
 
 WorldSnapshot TerritoryWorld::part_snapshot() const {

@@ -139,7 +139,8 @@ class TerritoryWorld {
   /// `share_pools_of`: a world this one replaces (a rollback). The two then
   /// share Bullet's collision configuration, whose manifold and algorithm
   /// pools cost about 1 ms to build (a rollback of every world rebuilt 8 of
-  /// them at a time); results do not depend on it. Both must then be used by
+  /// them at a time), and, for the same id and map, its interior cells;
+  /// results do not depend on it. Both must then be used by
   /// one thread at a time between them; the shared pools live as long as
   /// either world.
   TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map, std::int64_t internal_steps_done = -1,
