@@ -539,9 +539,7 @@ void PartitionedWorld::Process::end_step() {
     if (!safety_.recompute) {
       // Replaying a re-run (arm_replay) needs the islands of every step a
       // rollback may restore.
-      LocalIslands& log = island_log_[step_ - 1];
-      log.ids.assign(world_->local_islands().ids.begin(), world_->local_islands().ids.end());
-      log.begin.assign(world_->local_islands().begin.begin(), world_->local_islands().begin.end());
+      island_log_[step_ - 1] = world_->local_islands();
     }
     if (step_ % checkpoint_every_ == 0) {
       WorldSnapshot snapshot;

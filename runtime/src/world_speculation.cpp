@@ -41,8 +41,6 @@ const bool kTrace = std::getenv("SODA_SPEC_TRACE") != nullptr;
     if (kTrace) std::fprintf(stderr, __VA_ARGS__); \
   } while (0)
 
-std::uint64_t digest_of(const Message& m) { return message_digest(m); }  // epoch left out
-
 // The raw states of a part snapshot's bodies (what owned_states() gives for
 // the world the snapshot was taken of).
 std::vector<BodyState> body_states_of(const WorldSnapshot& part) {
@@ -121,7 +119,7 @@ void PartitionedWorld::Process::record_used(const Key& key, const Message& m) {
   if (bets_in_inbox_.erase(key)) {
     u.bet = true;
     u.confirmed = false;
-    u.digest = digest_of(m);
+    u.digest = message_digest(m);
     ++unconfirmed_[step];
   } else {
     u.message = m;  // its digest is taken only if its sender voids it
@@ -138,7 +136,7 @@ bool PartitionedWorld::Process::compare_with_used(Message& m) {
   if (u.confirmed)
     throw std::logic_error("world " + std::to_string(world_->id()) + " got " + describe(m) +
                            " again, without a rollback notice");
-  if (digest_of(m) == u.digest) {
+  if (message_digest(m) == u.digest) {
     u.confirmed = true;
     u.bet = false;  // met
     u.message = std::move(m);
@@ -379,7 +377,7 @@ void PartitionedWorld::Process::try_rejoin() {
     if (in == inbox_.end()) continue;
     ++matched;
     const Used& u = it->second;
-    if (digest_of(in->second) != (u.message ? digest_of(*u.message) : u.digest)) {
+    if (message_digest(in->second) != (u.message ? message_digest(*u.message) : u.digest)) {
       drop_old_run();  // a message of the old run's steps changed: re-run them
       return;
     }
@@ -502,7 +500,7 @@ void PartitionedWorld::Process::recycle(WorldSnapshot&& state) {
 // kept as a digest, unconfirmed, until the re-send is compared with it.
 void PartitionedWorld::Process::await_resend(std::int64_t step, Used& u) {
   u.confirmed = false;
-  u.digest = digest_of(*u.message);
+  u.digest = message_digest(*u.message);
   u.message.reset();
   ++unconfirmed_[step];
 }

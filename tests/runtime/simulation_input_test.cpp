@@ -72,24 +72,13 @@ TEST_P(LateSpawn, InATerritoryThatIsAheadMatchesOneTerritory) {
   };
   Simulation sim(s, map, config);
   sim.start(sim.time_of(kSteps));
+  const Body cube = new_cube(added, at);
   // Wait until world 7 has passed the commit horizon. (Without speculation
   // a world finishes step t only with every neighbour's messages of t, so
   // the lead along the strip stays about a step.)
-  std::int64_t step = -1;
-  std::int64_t lead = 0;
-  for (int attempt = 0; attempt < 2000 && step < 0; ++attempt) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-    const std::int64_t gvt = sim.commit_horizon_step();
-    lead = sim.published_steps()[7] - gvt;
-    if (lead < 1 || gvt < 10) continue;
-    try {
-      sim.add_body(sim.time_of(gvt), new_cube(added, at));
-      step = gvt;
-    } catch (const std::invalid_argument& e) {
-      // The horizon moved past gvt meanwhile: try again.
-      ASSERT_NE(std::string(e.what()).find("older than the commit horizon"), std::string::npos) << e.what();
-    }
-  }
+  const test::Spawned spawned = test::add_at_horizon(
+      sim, cube, [&] { return sim.published_steps()[7]; }, 1, 2000, std::chrono::milliseconds(2));
+  const std::int64_t step = spawned.step;
   ASSERT_GE(step, 0) << "world 7 never got ahead of the horizon";
   EXPECT_EQ(sim.rollbacks(), 1u);
   // Too old now: a clear error.
@@ -99,23 +88,10 @@ TEST_P(LateSpawn, InATerritoryThatIsAheadMatchesOneTerritory) {
   } catch (const std::invalid_argument& e) {
     std::printf("refused: %s\n", e.what());
   }
-  try {
-    sim.set_velocity(sim.time_of(1), first_dynamic(s), Vec3(1, 0, 0));
-    ADD_FAILURE() << "an input at step 1 was accepted";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("older than the commit horizon"), std::string::npos) << e.what();
-  }
-  EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
-  const std::uint64_t late = sim.state_hash();
-
-  Simulation one(s, SimulationConfig{.threads = 1});
-  one.add_body(one.time_of(step), new_cube(added, at));
-  EXPECT_TRUE(one.advance_to(one.time_of(kSteps)));
-  std::printf("late spawn at step %lld (threads %d; world 7 ahead of the horizon by %lld): 8 territories %s, one %s\n",
-              static_cast<long long>(step), GetParam(), static_cast<long long>(lead), hash_hex(late).c_str(),
-              hash_hex(one.state_hash()).c_str());
-  EXPECT_EQ(hash_hex(late), hash_hex(one.state_hash()));
-  EXPECT_EQ(sim.body_count(), s.bodies.size() + 1);
+  test::expect_late_spawn_exact(sim, s, cube, step, kSteps,
+                                "late spawn at step " + std::to_string(step) + " (threads " +
+                                    std::to_string(GetParam()) + "; world 7 ahead of the horizon by " +
+                                    std::to_string(spawned.lead) + ")");
 }
 
 INSTANTIATE_TEST_SUITE_P(SimulationInput, LateSpawn, ::testing::Values(0, 3, 1));

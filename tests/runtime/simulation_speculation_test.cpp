@@ -108,39 +108,16 @@ TEST_P(SpeculativeSimulation, LateSpawnInATerritoryThatIsAheadMatchesOneTerritor
   config.after_step = slow.hook();
   Simulation sim(s, map, config);
   sim.start(sim.time_of(kSteps));
-  std::int64_t step = -1, lead = 0;
-  for (int attempt = 0; attempt < 4000 && step < 0; ++attempt) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    const std::int64_t gvt = sim.commit_horizon_step();
-    lead = slow.newest[static_cast<std::size_t>(target)].load() - gvt;
-    if (lead < 2 || gvt < 10) continue;
-    try {
-      sim.add_body(sim.time_of(gvt), cube);
-      step = gvt;
-    } catch (const std::invalid_argument& e) {
-      ASSERT_NE(std::string(e.what()).find("older than the commit horizon"), std::string::npos) << e.what();
-    }
-  }
+  const test::Spawned spawned = test::add_at_horizon(
+      sim, cube, [&] { return slow.newest[static_cast<std::size_t>(target)].load(); }, 2, 4000,
+      std::chrono::milliseconds(1));
+  const std::int64_t step = spawned.step;
   ASSERT_GE(step, 0) << "world " << target << " never got 2 steps ahead of the horizon";
   EXPECT_EQ(sim.rollbacks(), 1u);
-  try {
-    sim.set_velocity(sim.time_of(1), test::first_dynamic(s), Vec3(1, 0, 0));
-    ADD_FAILURE() << "an input at step 1 was accepted";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("older than the commit horizon"), std::string::npos) << e.what();
-  }
-  EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
-  const std::uint64_t late = sim.state_hash();
-
-  Simulation one(s, SimulationConfig{.threads = 1});
-  one.add_body(one.time_of(step), cube);
-  EXPECT_TRUE(one.advance_to(one.time_of(kSteps)));
-  std::printf("speculative late spawn at step %lld (%s; world %d %lld steps ahead of the horizon): 8 territories %s, "
-              "one %s\n",
-              static_cast<long long>(step), name_of(GetParam()).c_str(), target, static_cast<long long>(lead),
-              hash_hex(late).c_str(), hash_hex(one.state_hash()).c_str());
-  EXPECT_EQ(hash_hex(late), hash_hex(one.state_hash()));
-  EXPECT_EQ(sim.body_count(), s.bodies.size() + 1);
+  test::expect_late_spawn_exact(sim, s, cube, step, kSteps,
+                                "speculative late spawn at step " + std::to_string(step) + " (" +
+                                    name_of(GetParam()) + "; world " + std::to_string(target) + " " +
+                                    std::to_string(spawned.lead) + " steps ahead of the horizon)");
 }
 
 INSTANTIATE_TEST_SUITE_P(SimulationSpeculation, SpeculativeSimulation, ::testing::Values(0, 3, 1));

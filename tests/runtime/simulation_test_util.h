@@ -5,11 +5,16 @@
 
 #include <gtest/gtest.h>
 
-#include <cstdint>
 #include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
 #include <cstring>
+#include <functional>
 #include <optional>
+#include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "runtime/partitioned_test_util.h"
@@ -98,6 +103,57 @@ inline std::optional<Vec3> far_spawn_point(const Scene& s) {
   }
   if (!far) return std::nullopt;
   return Vec3(far->position.x(), top + 2.0, far->position.z());
+}
+
+/// Late spawn: polls (every `pause`, at most `attempts` times) until the
+/// world whose newest step `newest()` gives is `min_lead` or more steps past
+/// the commit horizon (and the horizon past step 10), then adds `body` at
+/// the horizon's step. If the horizon moved past it meanwhile the error must
+/// say so, and it tries again.
+struct Spawned {
+  std::int64_t step = -1;  // the step the body was added at; -1: never
+  std::int64_t lead = 0;   // the world's lead over the horizon then
+};
+inline Spawned add_at_horizon(Simulation& sim, const Body& body, const std::function<std::int64_t()>& newest,
+                                std::int64_t min_lead, int attempts, std::chrono::milliseconds pause) {
+  Spawned out;
+  for (int attempt = 0; attempt < attempts && out.step < 0; ++attempt) {
+    std::this_thread::sleep_for(pause);
+    const std::int64_t gvt = sim.commit_horizon_step();
+    out.lead = newest() - gvt;
+    if (out.lead < min_lead || gvt < 10) continue;
+    try {
+      sim.add_body(sim.time_of(gvt), body);
+      out.step = gvt;
+    } catch (const std::invalid_argument& e) {
+      const bool too_old = std::string(e.what()).find("older than the commit horizon") != std::string::npos;
+      EXPECT_TRUE(too_old) << e.what();
+      if (!too_old) return out;  // any other error ends the test's attempt
+    }
+  }
+  return out;
+}
+
+/// The end of a late-spawn test: an input at step 1 is refused as older
+/// than the commit horizon; the run ends at `steps` with one body more, and
+/// its hash is that of a one-territory run with `body` added at `step`
+/// from the start (both printed after `what`).
+inline void expect_late_spawn_exact(Simulation& sim, const Scene& s, const Body& body, std::int64_t step, int steps,
+                                    const std::string& what) {
+  try {
+    sim.set_velocity(sim.time_of(1), first_dynamic(s), Vec3(1, 0, 0));
+    ADD_FAILURE() << "an input at step 1 was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("older than the commit horizon"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(sim.advance_to(sim.time_of(steps)));
+  const std::uint64_t late = sim.state_hash();
+  Simulation one(s, SimulationConfig{.threads = 1});
+  one.add_body(one.time_of(step), body);
+  EXPECT_TRUE(one.advance_to(one.time_of(steps)));
+  std::printf("%s: 8 territories %s, one %s\n", what.c_str(), hash_hex(late).c_str(), hash_hex(one.state_hash()).c_str());
+  EXPECT_EQ(hash_hex(late), hash_hex(one.state_hash()));
+  EXPECT_EQ(sim.body_count(), s.bodies.size() + 1);
 }
 
 }  // namespace soda::test
