@@ -9,6 +9,7 @@
 #include "run_control.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/scene_reader.h"
+#include "transport_bytes.h"
 
 namespace soda {
 
@@ -92,6 +93,8 @@ void PartitionedWorld::Process::check_watchdog() {
 }
 
 void PartitionedWorld::Process::deliver(Message m) {
+  StageClock::Scope stage(clock_, Stage::Receive);
+  clock_.count(Stage::Receive, 1);
   if (m.to != world_->id())
     throw std::logic_error("world " + std::to_string(world_->id()) + " got " + describe(m));
   const Control* control = std::get_if<Control>(&m.payload);
@@ -134,18 +137,23 @@ void PartitionedWorld::Process::deliver(Message m) {
 }
 
 PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
+  StageClock::Scope idle(clock_, Stage::Idle);  // what no stage below takes
   // A pending rollback first: the mailbox may already hold messages of the
   // re-run steps from neighbours that rewound before this world.
   if (speculating()) catch_up();
   if (phase_ == Phase::Predict && output_.rewind && output_.control)
-    if (std::shared_ptr<const WorldSnapshot> state = output_.control->take_rewind(world_->id()))
+    if (std::shared_ptr<const WorldSnapshot> state = output_.control->take_rewind(world_->id())) {
+      StageClock::Scope rollback(clock_, Stage::Rollback);
       output_.rewind(*state);
+    }
   Advance result;
-  while (std::optional<Message> m = transport_.try_receive(world_->id())) {
-    deliver(std::move(*m));
-    result.progressed = result.progressed || speculating();  // it may have confirmed a bet
+  {
+    StageClock::Scope receive(clock_, Stage::Receive);
+    while (std::optional<Message> m = transport_.try_receive(world_->id())) {
+      deliver(std::move(*m));
+      result.progressed = result.progressed || speculating();  // it may have confirmed a bet
+    }
   }
-  std::int64_t cpu0 = thread_cpu_ns();
   for (;;) {
     if (phase_ == Phase::Predict && !may_start()) {
       // Speculating, the world is done only once no step of it can change:
@@ -156,21 +164,42 @@ PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
     const std::int64_t before = step_;
     if (!run_phase()) break;
     result.progressed = true;
-    if (step_ != before) {  // a step ended: its CPU time is complete
-      const std::int64_t now = thread_cpu_ns();
-      step_cpu_ns_ += now - cpu0;
-      cpu_ns_ += step_cpu_ns_;
-      step_cpu_max_ns_ = std::max(step_cpu_max_ns_, step_cpu_ns_);
-      step_cpu_history_ns_.push_back(step_cpu_ns_);
-      if (step_ <= rerun_until_) rollback_cpu_ns_ += step_cpu_ns_ - restore_ns_in_step_;  // restores: counted
-      step_cpu_ns_ = 0;
-      restore_ns_in_step_ = 0;
-      cpu0 = now;
-    }
+    if (step_ != before) step_costs_done();
   }
-  step_cpu_ns_ += thread_cpu_ns() - cpu0;
   report_committed();
   return result;
+}
+
+// A step ended (or a rejoin took steps back): its CPU time is complete and
+// the costs so far become the metrics (read by other threads: metrics()).
+void PartitionedWorld::Process::step_costs_done() {
+  clock_.publish();
+  const StageClock::Totals& t = clock_.published();
+  const std::int64_t step_ns = t.cpu_ns_sum - step_start_cpu_ns_;
+  const std::int64_t rollback_ns = t.cpu_ns[static_cast<std::size_t>(Stage::Rollback)];
+  step_cpu_max_ns_ = std::max(step_cpu_max_ns_, step_ns);
+  step_cpu_history_ns_.push_back(step_ns);
+  if (step_ <= rerun_until_) rerun_cpu_ns_ += step_ns - (rollback_ns - step_start_rollback_ns_);  // restores: counted
+  step_start_cpu_ns_ = t.cpu_ns_sum;
+  step_start_rollback_ns_ = rollback_ns;
+}
+
+// The stage a world waiting in phase_ waits for.
+Stage PartitionedWorld::Process::waiting_stage() const {
+  switch (phase_) {
+    case Phase::Predict: return Stage::Idle;
+    case Phase::AwaitGhosts: return Stage::ExchangeGhosts;
+    case Phase::AwaitGlue: return Stage::Glue;
+    case Phase::Merging: return Stage::Merge;
+    case Phase::AwaitMigrants: return Stage::Migrate;
+    case Phase::Publish: return Stage::Publish;
+  }
+  return Stage::Idle;
+}
+
+void PartitionedWorld::Process::add_blocked_ns(std::int64_t ns) {
+  blocked_ns_ += ns;
+  clock_.add_wait(waiting_stage(), ns);
 }
 
 bool PartitionedWorld::Process::have_all(MessageKind kind, const std::vector<WorldId>& from) const {
@@ -205,84 +234,151 @@ void PartitionedWorld::Process::send(WorldId to, Message message) {
     }
   }
   ++sums_.messages_sent;
+  const std::uint64_t bytes0 = thread_bytes_sent();
   transport_.send(to, std::move(message));
+  clock_.sent(thread_bytes_sent() - bytes0);
 }
 
+// One case per place the step can wait; each reads as the stages it runs,
+// in order, one call each (their TerritoryWorld calls: territory_world.h).
 bool PartitionedWorld::Process::run_phase() {
   if (safety_.fuzz) fuzz_pause(*safety_.fuzz);
   switch (phase_) {
-    case Phase::Predict: {
-      if (output_.inputs && step_ % substeps_ == 0) apply_inputs();
-      if (old_run_ || partial_step_) arm_replay();
-      world_->predict();
-      for (WorldId n : neighbours_) send(n, Message{.payload = world_->ghost_batch_for(n)});
+    case Phase::Predict:  // waits for: nothing (inputs of the boundary are at hand)
+      predict();
+      send_ghosts();
       phase_ = Phase::AwaitGhosts;
       return true;
-    }
-    case Phase::AwaitGhosts: {
-      if (!have_all(MessageKind::Ghosts, neighbours_) && !(speculating() && place_bets(MessageKind::Ghosts)))
-        return false;
-      world_->apply_ghosts(take_all<GhostBatch>(MessageKind::Ghosts, neighbours_));
-      world_->collide();
-      world_->build_islands();
-      for (WorldId n : neighbours_)
-        if (world_->received_ghosts_from(n)) send(n, Message{.payload = world_->glue_batch_for(n)});
+    case Phase::AwaitGhosts:  // waits for: Ghosts(t) of every neighbour (or bets on them)
+      if (!have_or_bet(MessageKind::Ghosts)) return false;
+      exchange_ghosts();
+      collide();
+      build_islands();
+      send_glue();
       phase_ = Phase::AwaitGlue;
       return true;
-    }
-    case Phase::AwaitGlue: {
-      std::vector<WorldId> from;
-      for (WorldId n : neighbours_)
-        if (world_->sends_ghosts_to(n)) from.push_back(n);
-      if (!have_all(MessageKind::Glue, from)) return false;
-      merger_.start(world_->id(), world_->border_fragments(take_all<GlueBatch>(MessageKind::Glue, from)),
-                    solve_everywhere_);
-      flush_merger();
+    case Phase::AwaitGlue:  // waits for: Glue(t) of every neighbour it sent ghosts to
+      if (!have_all(MessageKind::Glue, glue_senders())) return false;
+      glue();
       phase_ = Phase::Merging;
       return true;
-    }
-    case Phase::Merging: {
-      bool progressed = false;
-      auto it = fragments_.find(step_);
-      if (it != fragments_.end()) {
-        std::vector<Message> batch = std::move(it->second);
-        fragments_.erase(it);
-        for (Message& m : batch) {
-          ++sums_.relay_messages_received;
-          if (speculating()) merge_steps_.insert(step_);
-          if (m.kind() == MessageKind::Results) {
-            for (IslandResult& r : std::get<ResultBatch>(m.payload).results) take_result(std::move(r));
-          } else if (m.kind() == MessageKind::Gather) {
-            GatherBatch& g = std::get<GatherBatch>(m.payload);
-            take_gather(g.island, std::move(g.fragments));
-          } else if (!merger_.done()) {
-            merger_.receive(m.from, std::get<FragmentBatch>(std::move(m.payload)).fragments);
-          }
-          flush_merger();
-        }
-        progressed = true;
-      }
+    case Phase::Merging: {  // waits for: Fragments, Gather, Results(t) until its islands are solved
+      const bool progressed = merge();  // solves the islands it is the root of
       if (!merger_.done() || !islands_.empty()) return progressed;
-      if (!early_gathers_.empty())
-        throw std::logic_error("world " + std::to_string(world_->id()) + ": data for an island it is not in");
-      sums_.fragments_relayed += merger_.fragments_relayed();
-      world_->finish_islands();
-      world_->integrate();
-      check_watchdog();
-      for (auto& [n, batch] : world_->migrate()) send(n, Message{.payload = std::move(batch)});
+      integrate();
+      send_migrants();
       phase_ = Phase::AwaitMigrants;
       return true;
     }
-    case Phase::AwaitMigrants: {
-      if (!have_all(MessageKind::Migrants, neighbours_) && !(speculating() && place_bets(MessageKind::Migrants)))
-        return false;
-      world_->absorb_migrants(take_all<MigrantBatch>(MessageKind::Migrants, neighbours_));
-      end_step();
+    case Phase::AwaitMigrants:  // waits for: Migrants(t) of every neighbour (or bets on them)
+      if (!have_or_bet(MessageKind::Migrants)) return false;
+      migrate();  // ends the step
       return true;
-    }
-    case Phase::Publish: return try_publish();
+    case Phase::Publish:  // waits for: room in the transform buffer
+      return publish();
   }
   return false;
+}
+
+bool PartitionedWorld::Process::have_or_bet(MessageKind kind) {
+  return have_all(kind, neighbours_) || (speculating() && place_bets(kind));
+}
+
+std::vector<WorldId> PartitionedWorld::Process::glue_senders() const {
+  std::vector<WorldId> from;
+  for (WorldId n : neighbours_)
+    if (world_->sends_ghosts_to(n)) from.push_back(n);
+  return from;
+}
+
+void PartitionedWorld::Process::predict() {
+  StageClock::Scope stage(clock_, Stage::Predict);
+  if (output_.inputs && step_ % substeps_ == 0) apply_inputs();
+  if (old_run_ || partial_step_) arm_replay();
+  world_->predict();
+}
+
+void PartitionedWorld::Process::send_ghosts() {
+  StageClock::Scope stage(clock_, Stage::ExchangeGhosts);
+  for (WorldId n : neighbours_) send(n, Message{.payload = world_->ghost_batch_for(n)});
+}
+
+void PartitionedWorld::Process::exchange_ghosts() {
+  StageClock::Scope stage(clock_, Stage::ExchangeGhosts);
+  world_->apply_ghosts(take_all<GhostBatch>(MessageKind::Ghosts, neighbours_));
+}
+
+void PartitionedWorld::Process::collide() {
+  StageClock::Scope stage(clock_, Stage::Collide);
+  world_->collide();
+}
+
+void PartitionedWorld::Process::build_islands() {
+  StageClock::Scope stage(clock_, Stage::BuildIslands);
+  world_->build_islands();
+}
+
+void PartitionedWorld::Process::send_glue() {
+  StageClock::Scope stage(clock_, Stage::Glue);
+  for (WorldId n : neighbours_)
+    if (world_->received_ghosts_from(n)) send(n, Message{.payload = world_->glue_batch_for(n)});
+}
+
+void PartitionedWorld::Process::glue() {
+  StageClock::Scope stage(clock_, Stage::Glue);
+  merger_.start(world_->id(), world_->border_fragments(take_all<GlueBatch>(MessageKind::Glue, glue_senders())),
+                solve_everywhere_);
+  StageClock::Scope merge(clock_, Stage::Merge);
+  flush_merger();
+}
+
+// The merge messages of this step at hand, in order of arrival.
+bool PartitionedWorld::Process::merge() {
+  StageClock::Scope stage(clock_, Stage::Merge);
+  auto it = fragments_.find(step_);
+  if (it == fragments_.end()) return false;
+  std::vector<Message> batch = std::move(it->second);
+  fragments_.erase(it);
+  for (Message& m : batch) {
+    ++sums_.relay_messages_received;
+    if (speculating()) merge_steps_.insert(step_);
+    if (m.kind() == MessageKind::Results) {
+      for (IslandResult& r : std::get<ResultBatch>(m.payload).results) take_result(std::move(r));
+    } else if (m.kind() == MessageKind::Gather) {
+      GatherBatch& g = std::get<GatherBatch>(m.payload);
+      take_gather(g.island, std::move(g.fragments));
+    } else if (!merger_.done()) {
+      merger_.receive(m.from, std::get<FragmentBatch>(std::move(m.payload)).fragments);
+    }
+    flush_merger();
+  }
+  return true;
+}
+
+void PartitionedWorld::Process::integrate() {
+  StageClock::Scope stage(clock_, Stage::Integrate);
+  if (!early_gathers_.empty())
+    throw std::logic_error("world " + std::to_string(world_->id()) + ": data for an island it is not in");
+  sums_.fragments_relayed += merger_.fragments_relayed();
+  world_->finish_islands();
+  world_->integrate();
+  check_watchdog();
+}
+
+void PartitionedWorld::Process::send_migrants() {
+  StageClock::Scope stage(clock_, Stage::Migrate);
+  for (auto& [n, batch] : world_->migrate()) send(n, Message{.payload = std::move(batch)});
+}
+
+void PartitionedWorld::Process::migrate() {
+  StageClock::Scope stage(clock_, Stage::Migrate);
+  world_->absorb_migrants(take_all<MigrantBatch>(MessageKind::Migrants, neighbours_));
+  end_step();
+}
+
+bool PartitionedWorld::Process::publish() {
+  StageClock::Scope stage(clock_, Stage::Publish);
+  return try_publish();
 }
 
 bool PartitionedWorld::Process::may_start() {
@@ -335,6 +431,7 @@ TransformEntry<btScalar> PartitionedWorld::Process::entry_of(std::int64_t scene_
 }
 
 void PartitionedWorld::Process::publish_blocking() {
+  StageClock::Scope stage(clock_, Stage::Publish);
   while (!backlog_.empty()) {
     if (!room_wait_since_ns_) room_wait_since_ns_ = wall_ns();
     const std::int64_t scene_step = backlog_.front().step;
@@ -361,7 +458,10 @@ void PartitionedWorld::Process::published(bool kept) {
 }
 
 void PartitionedWorld::Process::entry_published(std::int64_t scene_step, bool kept) {
-  if (room_wait_since_ns_) room_blocked_ns_ += wall_ns() - room_wait_since_ns_;
+  if (room_wait_since_ns_) {
+    room_blocked_ns_ += wall_ns() - room_wait_since_ns_;
+    clock_.add_wait(Stage::Publish, wall_ns() - room_wait_since_ns_);
+  }
   room_wait_since_ns_ = 0;
   next_publish_ = scene_step + 1;
   if (!kept) {
@@ -369,6 +469,7 @@ void PartitionedWorld::Process::entry_published(std::int64_t scene_step, bool ke
     return;
   }
   ++entries_published_;
+  clock_.count(Stage::Publish, 1);
   if (speculating()) {
     last_published_ = scene_step;
     report_committed();
@@ -423,9 +524,11 @@ void PartitionedWorld::Process::close_island(const std::vector<const Fragment*>&
     }
   }
   ++sums_.merged_islands;
+  clock_.count(Stage::Merge, 1);
   sums_.merged_island_worlds_sum += adjacent.size();
   sums_.merged_island_worlds_max = std::max<std::uint64_t>(sums_.merged_island_worlds_max, adjacent.size());
   if (solve_everywhere_) {
+    StageClock::Scope solve(clock_, Stage::Solve);
     world_->apply_island_result(world_->solve_border_island(island));
     return;
   }
@@ -486,7 +589,12 @@ void PartitionedWorld::Process::gathered(BodyId island) {
   });
   std::vector<const Fragment*> fragments;
   for (const Fragment& f : is.data) fragments.push_back(&f);
-  take_result(world_->solve_border_island(fragments));
+  IslandResult result;
+  {
+    StageClock::Scope solve(clock_, Stage::Solve);
+    result = world_->solve_border_island(fragments);
+  }
+  take_result(std::move(result));
 }
 
 // A solved island: keep this world's part and pass it down the tree. (It
@@ -519,6 +627,14 @@ void PartitionedWorld::Process::end_step() {
   sums_.border_fragments += c.border_fragments;
   sums_.merged_island_bodies += c.border_island_bodies;
   sums_.islands_solved += c.border_islands;
+  clock_.count(Stage::Predict, c.owned_bodies);
+  clock_.count(Stage::ExchangeGhosts, c.ghosts_received);
+  clock_.count(Stage::Collide, c.held_manifolds);
+  clock_.count(Stage::BuildIslands, c.local_islands);
+  clock_.count(Stage::Glue, c.border_fragments);
+  clock_.count(Stage::Solve, c.border_islands);
+  clock_.count(Stage::Integrate, world_->owned_count());
+  clock_.count(Stage::Migrate, c.migrations_in + c.migrations_out);
   ++step_;
   phase_ = Phase::Predict;
   if (validator_) {
@@ -531,6 +647,7 @@ void PartitionedWorld::Process::end_step() {
     }
   }
   if (speculating()) {
+    StageClock::Scope checkpoint(clock_, Stage::Checkpoint);
     if (partial_step_ && partial_step_->step < step_) partial_step_.reset();
     if (step_ <= rerun_until_) {
       bodies_resolved_ += world_->owned_count() - std::min(world_->owned_count(), c.bodies_replayed);
@@ -549,6 +666,7 @@ void PartitionedWorld::Process::end_step() {
       }
       world_->part_snapshot(snapshot);
       kept_states_.insert_or_assign(step_, std::move(snapshot));
+      clock_.count(Stage::Checkpoint, 1);
     }
     kept_max_ = std::max(kept_max_, kept_states_.size());
     report_mark();
@@ -560,6 +678,7 @@ void PartitionedWorld::Process::end_step() {
   }
   if (step_ % substeps_ != 0) return;
   if (!speculating()) {
+    StageClock::Scope checkpoint(clock_, Stage::Checkpoint);
     if (safety_.keep_states) kept_states_.emplace(step_, world_->part_snapshot());
     if (safety_.horizon) safety_.horizon->report(world_->id(), step_);
     if (safety_.keep_states)
@@ -608,8 +727,19 @@ WorldMetrics PartitionedWorld::Process::metrics() const {
   m.steps = step_;
   // Finished steps only: a world parked at its limit may still be in
   // advance() (writing step_cpu_ns_) while a Simulation reads its metrics.
-  m.cpu_seconds = static_cast<double>(cpu_ns_) * 1e-9;
-  m.cpu_step_mean_ms = step_ ? static_cast<double>(cpu_ns_) * 1e-6 / static_cast<double>(step_) : 0.0;
+  const StageClock::Totals& t = clock_.published();
+  m.cpu_seconds = static_cast<double>(t.cpu_ns_sum) * 1e-9;
+  m.thread_cpu_seconds = static_cast<double>(t.thread_cpu_ns) * 1e-9;
+  m.cpu_step_mean_ms = step_ ? static_cast<double>(t.cpu_ns_sum) * 1e-6 / static_cast<double>(step_) : 0.0;
+  const std::array<std::int64_t, kStageCount>& waits = clock_.waits();
+  for (std::size_t i = 0; i < kStageCount; ++i) {
+    StageCost& c = m.stages[i];
+    c.cpu_seconds = static_cast<double>(t.cpu_ns[i]) * 1e-9;
+    c.wait_seconds = static_cast<double>(waits[i]) * 1e-9;
+    c.items = t.items[i];
+    c.messages = t.messages[i];
+    c.bytes = t.bytes[i];
+  }
   m.cpu_step_max_ms = static_cast<double>(step_cpu_max_ns_) * 1e-6;
   m.cpu_step_ms.reserve(step_cpu_history_ns_.size());
   for (std::int64_t ns : step_cpu_history_ns_) m.cpu_step_ms.push_back(static_cast<double>(ns) * 1e-6);
@@ -626,7 +756,8 @@ WorldMetrics PartitionedWorld::Process::metrics() const {
   m.steps_rejoined = steps_rejoined_;
   m.bodies_resolved = bodies_resolved_;
   m.bodies_replayed = bodies_replayed_;
-  m.rollback_cpu_seconds = static_cast<double>(rollback_cpu_ns_) * 1e-9;
+  m.rollback_cpu_seconds =
+      static_cast<double>(t.cpu_ns[static_cast<std::size_t>(Stage::Rollback)] + rerun_cpu_ns_) * 1e-9;
   m.lead = lead_;
   double sum = 0;
   for (std::int32_t l : lead_) {

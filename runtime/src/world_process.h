@@ -60,6 +60,7 @@
 #include "input_queue.h"
 #include "island_merge.h"
 #include "rollback_board.h"
+#include "stage_clock.h"
 #include "soda/rollback/transform_buffer.h"
 #include "soda/runtime/partitioned_world.h"
 #include "soda/runtime/transport.h"
@@ -156,7 +157,9 @@ class PartitionedWorld::Process {
   /// What the world waits for, for deadlock reports.
   std::string waiting_for() const;
 
-  void add_blocked_ns(std::int64_t ns) { blocked_ns_ += ns; }
+  /// Wall time the world's thread waited for it (a blocking receive, a
+  /// park): counted in the stage the world waits in.
+  void add_blocked_ns(std::int64_t ns);
   /// Pool scheduling: when the world parked (set before parking).
   std::int64_t parked_at_ns = 0;
 
@@ -235,6 +238,22 @@ class PartitionedWorld::Process {
   std::int64_t rerun_until_ = 0;                            // steps below it are re-runs
 
   bool run_phase();
+  // The stages (soda/runtime/stage.h), each in its StageClock scope.
+  void predict();
+  void send_ghosts();
+  void exchange_ghosts();
+  void collide();
+  void build_islands();
+  void send_glue();
+  void glue();
+  bool merge();
+  void integrate();
+  void send_migrants();
+  void migrate();
+  bool publish();
+  bool have_or_bet(MessageKind kind);
+  std::vector<WorldId> glue_senders() const;
+  void step_costs_done();
   bool have_all(MessageKind kind, const std::vector<WorldId>& from) const;
   template <class Batch>
   std::vector<std::pair<WorldId, Batch>> take_all(MessageKind kind, const std::vector<WorldId>& from);
@@ -298,14 +317,15 @@ class PartitionedWorld::Process {
   std::int64_t room_blocked_ns_ = 0;
   std::uint64_t entries_published_ = 0;
   std::uint64_t entries_dropped_ = 0;
-  std::int64_t cpu_ns_ = 0;
-  std::int64_t step_cpu_ns_ = 0;  // current step so far
+  StageClock clock_;                   // per-stage costs; its published() totals are the metrics
+  std::int64_t step_start_cpu_ns_ = 0;  // clock_ total at the last step's end
+  std::int64_t step_start_rollback_ns_ = 0;  // ... its rollback stage's
   std::int64_t step_cpu_max_ns_ = 0;
+  Stage waiting_stage() const;
   std::vector<std::int64_t> step_cpu_history_ns_;  // CPU time of every finished internal step
   std::uint64_t bets_ = 0, bets_lost_ = 0, rollbacks_ = 0, steps_rolled_back_ = 0, bodies_resolved_ = 0;
   std::uint64_t bodies_replayed_ = 0;
-  std::int64_t rollback_cpu_ns_ = 0;    // restores and re-run steps
-  std::int64_t restore_ns_in_step_ = 0;  // restores counted in step_cpu_ns_ so far
+  std::int64_t rerun_cpu_ns_ = 0;       // re-run steps, their restores excepted
   std::vector<std::int32_t> lead_;
   std::size_t kept_max_ = 0;
 };

@@ -30,6 +30,7 @@
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/message_codec.h"
 #include "soda/worlds/world_snapshot.h"
+#include "transport_bytes.h"
 #include "world_process.h"
 
 namespace soda {
@@ -253,7 +254,8 @@ void PartitionedWorld::Process::catch_up() {
 // rollback of its own; what the run had done past `step` is kept for
 // try_rejoin.
 void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_step, bool keep_old_run) {
-  const std::int64_t cpu0 = thread_cpu_ns();
+  StageClock::Scope stage(clock_, Stage::Rollback);
+  clock_.count(Stage::Rollback, 1);
   const std::string who = "world " + std::to_string(world_->id());
   if (step > step_) throw std::logic_error(who + ": rollback to step " + std::to_string(step) + " ahead of its clock");
   auto kept = kept_states_.find(step);
@@ -331,12 +333,6 @@ void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_
     }
   }
   report_mark();
-  // Restores run outside advance()'s CPU window (on delivery, or before the
-  // stages): count them in the step in progress too, not only here.
-  const std::int64_t ns = thread_cpu_ns() - cpu0;
-  rollback_cpu_ns_ += ns;
-  step_cpu_ns_ += ns;
-  restore_ns_in_step_ += ns;
 }
 
 // After a re-run step: if the state equals the old run's at this step, past
@@ -347,6 +343,7 @@ void PartitionedWorld::Process::restore(std::int64_t step, std::int64_t changed_
 // states and reports, its sent messages (re-sent: the rollback's Notice
 // voided them), and the world rebuilt at its newest kept state.
 void PartitionedWorld::Process::try_rejoin() {
+  StageClock::Scope stage(clock_, Stage::Rollback);
   OldRun& old = *old_run_;
   const std::int64_t s = step_;
   const std::int64_t j = old.kept.rbegin()->first;
@@ -421,7 +418,9 @@ void PartitionedWorld::Process::try_rejoin() {
       Message again = m;
       again.epoch = seen_epoch_;
       ++sums_.messages_sent;
+      const std::uint64_t bytes0 = thread_bytes_sent();
       transport_.send(again.to, std::move(again));
+      clock_.sent(thread_bytes_sent() - bytes0);
     }
     sent_log_.insert_or_assign(it->first, std::move(it->second));
   }
