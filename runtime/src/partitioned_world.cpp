@@ -13,8 +13,8 @@
 
 #include <spdlog/spdlog.h>
 
-#include "commit_horizon.h"
-#include "rollback_board.h"
+#include "soda/rollback/commit_horizon.h"
+#include "soda/rollback/rollback_board.h"
 #include "soda/worlds/world_snapshot.h"
 
 #include "soda/loadbalance/thread_clock.h"

@@ -8,7 +8,7 @@
 
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/transport.h"
-#include "commit_horizon.h"
+#include "soda/rollback/commit_horizon.h"
 #include "soda/scene/validate.h"
 #include "thread_pinning.h"
 
