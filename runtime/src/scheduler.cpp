@@ -9,10 +9,6 @@
 #include "soda/runtime/transport.h"
 #include "thread_pinning.h"
 
-#include <cstdlib>
-#include <oneapi/tbb/task_arena.h>
-#include <oneapi/tbb/task_group.h>
-
 namespace soda {
 
 // The pool's shared state, under `mutex`. A world is in `ready`, running on
@@ -44,42 +40,8 @@ Scheduler::~Scheduler() {
     if (t.joinable()) t.join();
 }
 
-// EXPERIMENT (removed after measuring): the pool as a tbb::task_arena.
-static void run_pool_tbb(Scheduler& self, const std::vector<WorldTask*>& tasks, Transport& transport, int threads,
-                         const std::function<void(WorldId, std::exception_ptr)>& fail) {
-  tbb::task_arena arena(threads);
-  tbb::task_group group;
-  std::vector<std::int64_t> parked_at(tasks.size(), 0);
-  std::function<void(WorldId)> run_world = [&](WorldId w) {
-    WorldTask& task = *tasks[static_cast<std::size_t>(w)];
-    try {
-      if (parked_at[w]) task.add_blocked_ns(wall_ns() - parked_at[w]);
-      parked_at[w] = 0;
-      for (;;) {
-        const WorldTask::Advance a = task.advance();
-        if (a.done) return;
-        if (a.progressed) continue;
-        parked_at[w] = wall_ns();
-        if (transport.park(w)) return;
-        parked_at[w] = 0;
-      }
-    } catch (...) {
-      fail(w, std::current_exception());
-    }
-  };
-  transport.set_wake_hook([&](WorldId w) { group.run([&, w] { run_world(w); }); });
-  arena.execute([&] {
-    for (WorldId w = 0; w < static_cast<WorldId>(tasks.size()); ++w) group.run([&, w] { run_world(w); });
-    group.wait();
-  });
-  transport.set_wake_hook([](WorldId) {});
-  (void)self;
-}
-
 void Scheduler::run() {
-  if (options_.schedule == Schedule::Pool && std::getenv("SODA_POOL_TBB")) {
-    run_pool_tbb(*this, tasks_, transport_, options_.threads, [this](WorldId w, std::exception_ptr e) { fail(w, e); });
-  } else if (options_.schedule == Schedule::Sequential) {
+  if (options_.schedule == Schedule::Sequential) {
     run_sequential();
   } else {
     launch();
