@@ -1,27 +1,15 @@
-// PartitionedWorld: construction, readout and the three schedules. The step
-// itself is the world process (world_process.h); a schedule only decides
-// which thread advances which world when.
+// PartitionedWorld: construction, readout, heals and SyncTest. The step
+// itself is the world process (world_process.h); which thread advances which
+// world when is the scheduler's (scheduler.h).
 #include "soda/runtime/partitioned_world.h"
 
 #include <algorithm>
 #include <cstring>
-#include <condition_variable>
-#include <deque>
-#include <exception>
-#include <mutex>
-#include <thread>
 
 #include <spdlog/spdlog.h>
 
-#include "soda/rollback/commit_horizon.h"
-#include "soda/rollback/rollback_board.h"
+#include "partitioned_internals.h"
 #include "soda/worlds/world_snapshot.h"
-
-#include "soda/loadbalance/thread_clock.h"
-#include "soda/runtime/transport.h"
-#include "thread_pinning.h"
-#include "validator.h"
-#include "world_process.h"
 
 namespace soda {
 
@@ -105,40 +93,43 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
     throw std::invalid_argument("PartitionedWorld: the pool schedule needs threads >= 1");
   if (substeps_ < 1) throw std::invalid_argument("PartitionedWorld: substeps must be >= 1");
   const int k = map.world_count();
-  graph_ = std::make_unique<WorldGraph>(map);
-  transport_ = options_.serialise ? make_serialising_transport(k) : make_in_memory_transport(k);
-  if (options_.fuzz_seed) transport_ = make_fuzzing_transport(std::move(transport_), options_.fuzz_seed);
-  validator_ = options_.validate ? std::make_unique<Validator>(scene, k) : nullptr;
   if (options_.watchdog.heal_substeps < 1 || options_.watchdog.max_heals < 0)
     throw std::invalid_argument("PartitionedWorld: watchdog heal_substeps must be >= 1 and max_heals >= 0");
   if (!fault_fired_) fault_fired_ = std::make_shared<std::atomic<bool>>(false);
-  carried_.resize(processes_.size());
-  for (std::size_t w = 0; w < processes_.size(); ++w) {
-    const WorldMetrics m = processes_[w]->metrics();
-    add_counts(carried_[w], m);
-    carried_[w].cpu_step_ms.insert(carried_[w].cpu_step_ms.end(), m.cpu_step_ms.begin(), m.cpu_step_ms.end());
+  if (in_) {
+    carried_.resize(in_->processes.size());
+    for (std::size_t w = 0; w < in_->processes.size(); ++w) {
+      const WorldMetrics m = in_->processes[w]->metrics();
+      add_counts(carried_[w], m);
+      carried_[w].cpu_step_ms.insert(carried_[w].cpu_step_ms.end(), m.cpu_step_ms.begin(), m.cpu_step_ms.end());
+    }
   }
-  processes_.clear();
-  worlds_.clear();
-  for (WorldId w = 0; w < k; ++w) worlds_.push_back(make_world(w));
+  in_.reset();
+  in_ = std::make_unique<Internals>();
+  Internals& in = *in_;
+  in.graph = std::make_unique<WorldGraph>(map);
+  in.transport = options_.serialise ? make_serialising_transport(k) : make_in_memory_transport(k);
+  if (options_.fuzz_seed) in.transport = make_fuzzing_transport(std::move(in.transport), options_.fuzz_seed);
+  in.validator = options_.validate ? std::make_unique<Validator>(scene, k) : nullptr;
+  for (WorldId w = 0; w < k; ++w) in.worlds.push_back(make_world(w));
   const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
-  horizon_ = std::make_unique<SharedMemoryHorizon>(k, steps_done_ * substeps_);
+  in.horizon = std::make_unique<SharedMemoryHorizon>(k, steps_done_ * substeps_);
   // Speculation: a world waiting for the horizon, or told to roll back
   // with every world, is woken by a message to itself.
-  auto wake = [t = transport_.get()](WorldId w) {
+  auto wake = [t = in.transport.get()](WorldId w) {
     Message m;
     m.from = w;
     m.to = w;
     m.payload = Control{Control::Type::Wake};
     t->send(w, std::move(m));
   };
-  horizon_->set_wake_hook(wake);
+  in.horizon->set_wake_hook(wake);
   if (options_.fuzz_seed && !fuzz_) fuzz_ = std::make_shared<FuzzRandom>(options_.fuzz_seed ^ 0x5A5A5A5A5A5A5A5Aull);
   Process::Safety safety;
   safety.watchdog = &options_.watchdog;
   safety.fault = options_.inject_fault;
   safety.fault_fired = fault_fired_.get();
-  safety.horizon = horizon_.get();
+  safety.horizon = in.horizon.get();
   safety.keep_states = heal;
   safety.fuzz = fuzz_.get();
   safety.anticipation = options_.anticipation * substeps_;
@@ -147,83 +138,36 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   safety.recompute = options_.rollback == PartitionedOptions::Rollback::Recompute;
   safety.eager_bets = options_.eager_bets;
   safety.verify_replay = options_.verify_replay;
-  board_ = std::make_unique<RollbackBoard>(k, *horizon_, wake);
-  safety.board = board_.get();
+  in.board = std::make_unique<RollbackBoard>(k, *in.horizon, wake);
+  safety.board = in.board.get();
   if (options_.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");
   if (options_.anticipation > 0 && options_.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument(
         "PartitionedWorld: speculation (anticipation > 0) and the watchdog's Heal cannot be combined yet");
-  auto statics = std::make_shared<const std::vector<BodySnapshot>>(worlds_.front()->static_snapshots());
+  auto statics = std::make_shared<const std::vector<BodySnapshot>>(in.worlds.front()->static_snapshots());
   for (WorldId w = 0; w < k; ++w) {
     if (safety.anticipation > 0)
-      safety.rebuild = [this, w, map, statics](const WorldSnapshot& part, std::int64_t internal_step) -> TerritoryWorld& {
+      safety.rebuild = [slots = &in.worlds, w, map, statics](const WorldSnapshot& part,
+                                                             std::int64_t internal_step) -> TerritoryWorld& {
         WorldSnapshot whole = part;
         whole.bodies.insert(whole.bodies.end(), statics->begin(), statics->end());
         std::sort(whole.bodies.begin(), whole.bodies.end(), [](const BodySnapshot& a, const BodySnapshot& b) {
           return a.description.id < b.description.id;
         });
-        auto& slot = worlds_[static_cast<std::size_t>(w)];
+        auto& slot = (*slots)[static_cast<std::size_t>(w)];
         slot = std::make_unique<TerritoryWorld>(whole, w, map, internal_step, slot.get());
         return *slot;
       };
-    processes_.push_back(std::make_unique<Process>(*worlds_[static_cast<std::size_t>(w)], *transport_, *graph_,
-                                                   validator_.get(), w == 0 ? options_.progress : nullptr,
-                                                   substeps_, options_.solve_everywhere, safety));
+    in.add_process(std::make_unique<Process>(*in.worlds[static_cast<std::size_t>(w)], *in.transport, *in.graph,
+                                             in.validator.get(), w == 0 ? options_.progress : nullptr, substeps_,
+                                             options_.solve_everywhere, safety));
   }
 }
 
 WorldSnapshot PartitionedWorld::snapshot() const {
   std::vector<WorldSnapshot> parts;
-  for (const auto& w : worlds_) parts.push_back(w->part_snapshot());
-  return assemble(steps_done_, std::move(parts));
-}
-
-std::optional<WorldSnapshot> PartitionedWorld::kept_snapshot(std::int64_t scene_step) const {
-  for (const auto& p : processes_)
-    if (!p->kept_state(scene_step)) return std::nullopt;
-  std::vector<WorldSnapshot> parts;
-  for (const auto& p : processes_) parts.push_back(*p->kept_state(scene_step));
-  WorldSnapshot whole = assemble(scene_step, std::move(parts));
-  whole.settings.substeps = base_substeps_;  // the boundary may have been kept by a re-simulation
-  return whole;
-}
-
-// One part per world, all at one boundary, plus the statics -> the whole
-// scene's state: bodies by id (one owner each); a pair's contact state may
-// be held by one world and kept by its key body's owner, and the copies
-// must be identical.
-WorldSnapshot PartitionedWorld::assemble(std::int64_t scene_step, std::vector<WorldSnapshot> parts) const {
-  WorldSnapshot s;
-  s.settings = parts.front().settings;
-  s.steps_done = scene_step;
-  s.bodies = worlds_.front()->static_snapshots();
-  std::vector<ManifoldState> manifolds;
-  for (WorldSnapshot& part : parts) {
-    s.bodies.insert(s.bodies.end(), std::make_move_iterator(part.bodies.begin()),
-                    std::make_move_iterator(part.bodies.end()));
-    manifolds.insert(manifolds.end(), std::make_move_iterator(part.manifolds.begin()),
-                     std::make_move_iterator(part.manifolds.end()));
-  }
-  std::sort(s.bodies.begin(), s.bodies.end(), [](const BodySnapshot& a, const BodySnapshot& b) {
-    return a.description.id < b.description.id;
-  });
-  for (std::size_t i = 1; i < s.bodies.size(); ++i)
-    if (s.bodies[i].description.id == s.bodies[i - 1].description.id)
-      throw std::logic_error("PartitionedWorld::snapshot: body " + std::to_string(s.bodies[i].description.id) +
-                             " is owned by two worlds");
-  std::stable_sort(manifolds.begin(), manifolds.end(), [](const ManifoldState& a, const ManifoldState& b) {
-    return std::make_pair(a.id0, a.id1) < std::make_pair(b.id0, b.id1);
-  });
-  for (ManifoldState& m : manifolds) {
-    if (!s.manifolds.empty() && s.manifolds.back().id0 == m.id0 && s.manifolds.back().id1 == m.id1) {
-      if (contact_hash({s.manifolds.back()}) != contact_hash({m}))
-        throw std::logic_error("PartitionedWorld::snapshot: two worlds hold different contact states for pair " +
-                               std::to_string(m.id0) + "-" + std::to_string(m.id1));
-      continue;
-    }
-    s.manifolds.push_back(std::move(m));
-  }
-  return s;
+  for (const auto& w : in_->worlds) parts.push_back(w->part_snapshot());
+  return in_->assemble(steps_done_, std::move(parts));
 }
 
 PartitionedWorld::~PartitionedWorld() = default;
@@ -293,12 +237,12 @@ void PartitionedWorld::sync_test_step() {
 
 void PartitionedWorld::run_to(std::int64_t scene_step) {
   const std::int64_t target = scene_step * substeps_;
-  for (auto& p : processes_) p->set_target(target);
-  switch (options_.schedule) {
-    case Schedule::Sequential: run_sequential(target); break;
-    case Schedule::ThreadPerWorld: run_thread_per_world(target); break;
-    case Schedule::Pool: run_pool(target); break;
-  }
+  for (auto& p : in_->processes) p->set_target(target);
+  Scheduler::Options o;
+  o.schedule = options_.schedule;
+  o.threads = options_.threads;
+  o.pin = options_.pin;
+  Scheduler(std::move(o), in_->task_list(), *in_->transport, nullptr).run();
   steps_done_ = scene_step;
 }
 
@@ -306,8 +250,8 @@ void PartitionedWorld::run_to(std::int64_t scene_step) {
 // world still keeps, before the bad step, is where they start again.
 void PartitionedWorld::restore_before(const WatchdogError& error) {
   std::int64_t r = error.step() - 1;
-  std::optional<WorldSnapshot> whole = kept_snapshot(r);
-  while (!whole && r > 0) whole = kept_snapshot(--r);
+  std::optional<WorldSnapshot> whole = in_->kept_snapshot(r, base_substeps_);
+  while (!whole && r > 0) whole = in_->kept_snapshot(--r, base_substeps_);
   if (!whole)
     throw WatchdogError(error.step(), error.world(), error.findings(), options_.watchdog.limits,
                         "self-heal found no step every world keeps");
@@ -333,150 +277,15 @@ void PartitionedWorld::resimulate_with_substeps() {
 }
 
 void PartitionedWorld::restore(WorldSnapshot state) {
-  const TerritoryMap map = worlds_.front()->map();  // a copy: build() replaces the worlds
+  const TerritoryMap map = in_->worlds.front()->map();  // a copy: build() replaces the worlds
   substeps_ = state.settings.substeps;
   steps_done_ = state.steps_done;
   build(scene_of(state), map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
 }
 
-// Round-robin in world order: deterministic, single-threaded.
-void PartitionedWorld::run_sequential(std::int64_t) {
-  for (;;) {
-    bool all_done = true, progressed = false;
-    for (auto& p : processes_) {
-      const Process::Advance a = p->advance();
-      progressed = progressed || a.progressed;
-      all_done = all_done && a.done;
-    }
-    if (all_done) return;
-    if (!progressed) {
-      std::string why = "PartitionedWorld: deadlock:";
-      for (auto& p : processes_) why += " [" + p->waiting_for() + "]";
-      throw std::logic_error(why);
-    }
-  }
-}
-
-namespace {
-
-// First error of any worker; closes the transport so that every other
-// worker stops.
-class ErrorSlot {
- public:
-  void set(std::exception_ptr e, Transport& transport) {
-    {
-      std::lock_guard lock(mutex_);
-      if (!error_) error_ = e;
-    }
-    transport.close();
-  }
-  void rethrow() {
-    if (error_) std::rethrow_exception(error_);
-  }
-
- private:
-  std::mutex mutex_;
-  std::exception_ptr error_;
-};
-
-}  // namespace
-
-// One thread per world; a world with nothing to do blocks on its mailbox.
-void PartitionedWorld::run_thread_per_world(std::int64_t) {
-  ErrorSlot error;
-  if (options_.pin) prepare_thread_pinning();
-  std::vector<std::thread> threads;
-  for (std::size_t w = 0; w < processes_.size(); ++w)
-    threads.emplace_back([this, w, &error] {
-      if (options_.pin) pin_current_thread(static_cast<int>(w), "world " + std::to_string(w));
-      Process& p = *processes_[w];
-      try {
-        for (;;) {
-          const Process::Advance a = p.advance();
-          if (a.done) return;
-          if (a.progressed) continue;
-          const std::int64_t t0 = wall_ns();
-          Message m = transport_->receive(static_cast<WorldId>(w));
-          p.add_blocked_ns(wall_ns() - t0);
-          p.deliver(std::move(m));
-        }
-      } catch (const TransportClosed&) {
-        // Another world failed; its error is reported.
-      } catch (...) {
-        error.set(std::current_exception(), *transport_);
-      }
-    });
-  for (std::thread& t : threads) t.join();
-  error.rethrow();
-}
-
-// `threads` workers run worlds as tasks: a world runs until it must wait,
-// then parks; a message for a parked world puts it back in the ready queue.
-void PartitionedWorld::run_pool(std::int64_t) {
-  ErrorSlot error;
-  std::mutex mutex;
-  std::condition_variable cv;
-  std::deque<WorldId> ready;
-  std::size_t finished = 0;
-  bool stop = false;
-  for (std::size_t w = 0; w < processes_.size(); ++w) ready.push_back(static_cast<WorldId>(w));
-  transport_->set_wake_hook([&](WorldId w) {
-    {
-      std::lock_guard lock(mutex);
-      ready.push_back(w);
-    }
-    cv.notify_one();
-  });
-  auto worker = [&](int index) {
-    if (options_.pin) pin_current_thread(index, "pool worker " + std::to_string(index));
-    for (;;) {
-      WorldId w;
-      {
-        std::unique_lock lock(mutex);
-        cv.wait(lock, [&] { return stop || !ready.empty(); });
-        if (stop) return;
-        w = ready.front();
-        ready.pop_front();
-      }
-      Process& p = *processes_[static_cast<std::size_t>(w)];
-      try {
-        if (p.parked_at_ns) p.add_blocked_ns(wall_ns() - p.parked_at_ns);
-        p.parked_at_ns = 0;
-        for (;;) {
-          const Process::Advance a = p.advance();
-          if (a.done) {
-            std::lock_guard lock(mutex);
-            if (++finished == processes_.size()) {
-              stop = true;
-              cv.notify_all();
-            }
-            break;
-          }
-          if (a.progressed) continue;
-          p.parked_at_ns = wall_ns();
-          if (transport_->park(w)) break;  // from here on another worker may run it
-          p.parked_at_ns = 0;
-        }
-      } catch (...) {
-        error.set(std::current_exception(), *transport_);
-        std::lock_guard lock(mutex);
-        stop = true;
-        cv.notify_all();
-        return;
-      }
-    }
-  };
-  if (options_.pin) prepare_thread_pinning();
-  std::vector<std::thread> threads;
-  for (int i = 0; i < options_.threads; ++i) threads.emplace_back(worker, i);
-  for (std::thread& t : threads) t.join();
-  transport_->set_wake_hook([](WorldId) {});
-  error.rethrow();
-}
-
 std::vector<BodyState> PartitionedWorld::body_states() const {
-  std::vector<BodyState> out = worlds_.front()->static_states();
-  for (const auto& w : worlds_) {
+  std::vector<BodyState> out = in_->worlds.front()->static_states();
+  for (const auto& w : in_->worlds) {
     std::vector<BodyState> s = w->owned_states();
     out.insert(out.end(), s.begin(), s.end());
   }
@@ -488,26 +297,28 @@ std::uint64_t PartitionedWorld::state_hash() const { return soda::state_hash(bod
 
 std::size_t PartitionedWorld::sleeping_count() const {
   std::size_t n = 0;
-  for (const auto& w : worlds_) n += w->sleeping_count();
+  for (const auto& w : in_->worlds) n += w->sleeping_count();
   return n;
 }
 
 std::size_t PartitionedWorld::body_count() const {
-  std::size_t n = worlds_.front()->static_count();
-  for (const auto& w : worlds_) n += w->owned_count();
+  std::size_t n = in_->worlds.front()->static_count();
+  for (const auto& w : in_->worlds) n += w->owned_count();
   return n;
 }
 
-int PartitionedWorld::world_count() const { return static_cast<int>(worlds_.size()); }
+int PartitionedWorld::world_count() const { return static_cast<int>(in_->worlds.size()); }
 
-const TerritoryWorld& PartitionedWorld::world(WorldId id) const { return *worlds_.at(static_cast<std::size_t>(id)); }
+const TerritoryWorld& PartitionedWorld::world(WorldId id) const { return *in_->worlds.at(static_cast<std::size_t>(id)); }
+
+const WorldGraph& PartitionedWorld::graph() const { return *in_->graph; }
 
 // Work done by processes replaced at a restore (heal, SyncTest) counts too:
 // re-run steps cost what they cost.
 std::vector<WorldMetrics> PartitionedWorld::metrics() const {
   std::vector<WorldMetrics> out;
-  for (std::size_t w = 0; w < processes_.size(); ++w) {
-    WorldMetrics m = processes_[w]->metrics();
+  for (std::size_t w = 0; w < in_->processes.size(); ++w) {
+    WorldMetrics m = in_->processes[w]->metrics();
     if (w < carried_.size()) {
       const WorldMetrics& c = carried_[w];
       add_counts(m, c);
@@ -537,7 +348,7 @@ WorldMetrics total_metrics(const std::vector<WorldMetrics>& worlds) {
   return t;
 }
 
-std::uint64_t PartitionedWorld::messages_sent() const { return transport_->messages_sent(); }
-std::uint64_t PartitionedWorld::bytes_sent() const { return transport_->bytes_sent(); }
+std::uint64_t PartitionedWorld::messages_sent() const { return in_->transport->messages_sent(); }
+std::uint64_t PartitionedWorld::bytes_sent() const { return in_->transport->bytes_sent(); }
 
 }  // namespace soda

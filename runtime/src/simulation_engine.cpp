@@ -1,7 +1,5 @@
 #include "simulation_engine.h"
 
-#include <condition_variable>
-#include <deque>
 #include <stdexcept>
 
 #include <spdlog/spdlog.h>
@@ -13,15 +11,6 @@
 #include "thread_pinning.h"
 
 namespace soda {
-
-struct SimulationEngine::Pool {
-  std::mutex mutex;
-  std::condition_variable cv;
-  std::deque<WorldId> ready;
-  std::vector<WorldId> parked;  // at the limit or waiting for room
-  std::size_t finished = 0;
-  bool stop = false;
-};
 
 namespace {
 
@@ -70,7 +59,7 @@ SimulationEngine::SimulationEngine(const Scene& scene, TerritoryMap map, Simulat
                                           config_.buffer_capacity);
   for (WorldId w = 0; w < k; ++w) {
     TransformBuffer<btScalar>& buffer = *core->buffers[static_cast<std::size_t>(w)];
-    process(w).attach({&core->control, &buffer, scene.settings.dt, config_.after_step, &inputs_,
+    parts().process(w).attach({&core->control, &buffer, scene.settings.dt, config_.after_step, &inputs_,
                        [this, w](const WorldSnapshot& state) { rewind_world(w, state); }});
     // Step 0: the scene as given, published before any thread runs.
     TransformEntry<btScalar> entry;
@@ -128,10 +117,7 @@ void SimulationEngine::stop() {
     core->control.request_stop();
     for (auto& b : core->buffers) b->stop();
     core->control.wake();  // worlds parked for room see the stopped buffers
-    for (std::thread& t : threads_) t.join();
-    threads_.clear();
-    core->control.set_wake_hook({});
-    if (pool_) world->transport_->set_wake_hook([](WorldId) {});
+    if (scheduler_) scheduler_->join();
   }
   core->control.rethrow_if_failed();
 }
@@ -151,6 +137,8 @@ void SimulationEngine::wait_idle(const char* caller) const {
   core->control.wait_all_parked();
 }
 
+// The scheduler's error hook: the first error of any world, before the
+// scheduler closes the transport and stops its threads.
 void SimulationEngine::fail(WorldId w, std::exception_ptr error) {
   if (core->control.fail(w, error)) {
     try {
@@ -161,179 +149,20 @@ void SimulationEngine::fail(WorldId w, std::exception_ptr error) {
       spdlog::debug("world {} failed", w);
     }
   }
-  world->transport_->close();
   for (auto& b : core->buffers) b->stop();
-  if (pool_) {
-    std::lock_guard lock(pool_->mutex);
-    pool_->stop = true;
-    pool_->cv.notify_all();
-  }
 }
 
 void SimulationEngine::launch_locked() {
   launched_ = true;
   prepare_thread_pinning();  // also readies the logger for fail()
-  const int k = world->world_count();
-  switch (schedule) {
-    case Schedule::ThreadPerWorld:
-      for (WorldId w = 0; w < k; ++w) threads_.emplace_back([this, w] { run_world(w); });
-      break;
-    case Schedule::Sequential: threads_.emplace_back([this] { run_sequential(); }); break;
-    case Schedule::Pool: {
-      pool_ = std::make_shared<Pool>();
-      for (WorldId w = 0; w < k; ++w) pool_->ready.push_back(w);
-      std::shared_ptr<Pool> pool = pool_;
-      world->transport_->set_wake_hook([pool](WorldId w) {
-        {
-          std::lock_guard lock(pool->mutex);
-          pool->ready.push_back(w);
-        }
-        pool->cv.notify_one();
-      });
-      core->control.set_wake_hook([pool] {
-        {
-          std::lock_guard lock(pool->mutex);
-          pool->ready.insert(pool->ready.end(), pool->parked.begin(), pool->parked.end());
-          pool->parked.clear();
-        }
-        pool->cv.notify_all();
-      });
-      for (int i = 0; i < threads; ++i) threads_.emplace_back([this, i] { run_pool_worker(i); });
-      break;
-    }
-  }
-}
-
-// A thread per world: it blocks on whatever it waits for (limit, room in
-// its buffer, its mailbox); nobody else needs this thread meanwhile.
-void SimulationEngine::run_world(WorldId w) {
-  if (config_.pin) pin_current_thread(static_cast<int>(w), "world " + std::to_string(w));
-  PartitionedWorld::Process& p = process(w);
-  RunControl& control = core->control;
-  try {
-    for (;;) {
-      const PartitionedWorld::Process::Advance a = p.advance();
-      if (a.done) {
-        if (!control.wait_limit_above(p.steps_done())) return;
-        continue;
-      }
-      if (a.progressed) continue;
-      if (p.waiting_for_room()) {
-        p.publish_blocking();
-        continue;
-      }
-      const std::int64_t t0 = wall_ns();
-      Message m = world->transport_->receive(w);
-      p.add_blocked_ns(wall_ns() - t0);
-      p.deliver(std::move(m));
-    }
-  } catch (const TransportClosed&) {
-    // Another world failed; its error is reported.
-  } catch (...) {
-    fail(w, std::current_exception());
-  }
-}
-
-// One thread, worlds round-robin. A world waiting for room or parked at the
-// limit must not hold the others up: the thread goes on with them, and
-// sleeps only when none can go on, until a wake-up (a reader moved, the
-// limit rose, a stop).
-void SimulationEngine::run_sequential() {
-  if (config_.pin) pin_current_thread(0, "simulation thread");
-  RunControl& control = core->control;
-  const int k = world->world_count();
-  WorldId current = kNoWorld;
-  try {
-    for (;;) {
-      if (control.shut_down()) return;
-      const std::uint64_t seen = control.wake_epoch();
-      bool all_done = true, progressed = false, room = false;
-      for (WorldId w = 0; w < k; ++w) {
-        current = w;
-        const PartitionedWorld::Process::Advance a = process(w).advance();
-        progressed = progressed || a.progressed;
-        all_done = all_done && a.done;
-        room = room || process(w).waiting_for_room();
-      }
-      current = kNoWorld;
-      if (all_done && control.finished(process(0).steps_done())) return;
-      if (progressed) continue;
-      if (all_done || room) {
-        control.wait_wake(seen);
-        continue;
-      }
-      std::string why = "Simulation: deadlock:";
-      for (WorldId w = 0; w < k; ++w) why += " [" + process(w).waiting_for() + "]";
-      throw std::logic_error(why);
-    }
-  } catch (...) {
-    fail(current, std::current_exception());
-  }
-}
-
-// A worker runs a world until it must wait. Waiting for a message parks it
-// on the transport; waiting for room or for the limit parks it in
-// pool.parked, re-queued by the RunControl's wake hook. `seen` closes the
-// race with a wake-up between advance() and parking.
-void SimulationEngine::run_pool_worker(int index) {
-  if (config_.pin) pin_current_thread(index, "pool worker " + std::to_string(index));
-  Pool& pool = *pool_;
-  RunControl& control = core->control;
-  const std::size_t k = static_cast<std::size_t>(world->world_count());
-  for (;;) {
-    WorldId w;
-    std::uint64_t seen;
-    {
-      std::unique_lock lock(pool.mutex);
-      pool.cv.wait(lock, [&] { return pool.stop || !pool.ready.empty(); });
-      if (pool.stop) return;
-      w = pool.ready.front();
-      pool.ready.pop_front();
-      seen = control.wake_epoch();
-    }
-    PartitionedWorld::Process& p = process(w);
-    auto park = [&] {
-      std::lock_guard lock(pool.mutex);
-      if (control.wake_epoch() != seen) {
-        pool.ready.push_back(w);
-        pool.cv.notify_one();
-      } else {
-        pool.parked.push_back(w);
-      }
-    };
-    try {
-      if (p.parked_at_ns) p.add_blocked_ns(wall_ns() - p.parked_at_ns);
-      p.parked_at_ns = 0;
-      for (;;) {
-        const PartitionedWorld::Process::Advance a = p.advance();
-        if (a.done) {
-          if (control.finished(p.steps_done())) {
-            std::lock_guard lock(pool.mutex);
-            if (++pool.finished == k) {
-              pool.stop = true;
-              pool.cv.notify_all();
-            }
-          } else {
-            park();
-          }
-          break;
-        }
-        if (a.progressed) continue;
-        if (p.waiting_for_room()) {
-          park();
-          break;
-        }
-        p.parked_at_ns = wall_ns();
-        if (world->transport_->park(w)) break;  // from here on another worker may run it
-        p.parked_at_ns = 0;
-      }
-    } catch (const TransportClosed&) {
-      return;
-    } catch (...) {
-      fail(w, std::current_exception());
-      return;
-    }
-  }
+  Scheduler::Options o;
+  o.schedule = schedule;
+  o.threads = threads;
+  o.pin = config_.pin;
+  o.name = "Simulation";
+  scheduler_ = std::make_unique<Scheduler>(std::move(o), parts().task_list(), *parts().transport, &core->control,
+                                           [this](WorldId w, std::exception_ptr e) { fail(w, std::move(e)); });
+  scheduler_->launch();
 }
 
 // --- input -------------------------------------------------------------------
@@ -390,7 +219,7 @@ void SimulationEngine::input(UserInput in) {
   if (!config_.past_inputs)
     throw std::invalid_argument(what + ": a world has already passed that step (inputs at past steps need "
                                 "SimulationConfig::past_inputs)");
-  CommitHorizon& horizon = *world->horizon_;
+  CommitHorizon& horizon = *parts().horizon;
   if (!horizon.try_pin(in.step * substeps_))
     throw std::invalid_argument(what + ": older than the commit horizon (step " + std::to_string(horizon.gvt() / substeps_) +
                                 "); nothing before it can be changed any more");
@@ -406,7 +235,7 @@ void SimulationEngine::input(UserInput in) {
     // held. Queued first, so that every run of that step sees it.
     inputs_.add(in);
     record();
-    world->board_->post(in.step * substeps_, in.step * substeps_, kNoWorld);
+    parts().board->post(in.step * substeps_, in.step * substeps_, kNoWorld);
     ++rollbacks_;
     return;
   }
@@ -430,13 +259,13 @@ void SimulationEngine::input(UserInput in) {
 // finished merges are dropped from the mailboxes first, while nobody sends.
 void SimulationEngine::rollback_locked(std::int64_t scene_step) {
   const int k = world->world_count();
-  std::optional<WorldSnapshot> whole = world->kept_snapshot(scene_step);
+  std::optional<WorldSnapshot> whole = parts().kept_snapshot(scene_step, substeps_);
   if (!whole)
     throw std::logic_error("Simulation: some world no longer keeps step " + std::to_string(scene_step) +
                            " (commit horizon broken)");
   auto state = std::make_shared<const WorldSnapshot>(std::move(*whole));
   for (WorldId w = 0; w < k; ++w)
-    while (world->transport_->try_receive(w)) {
+    while (parts().transport->try_receive(w)) {
     }
   core->control.rewind(scene_step * substeps_, std::move(state));
 }
@@ -445,11 +274,11 @@ void SimulationEngine::rollback_locked(std::int64_t scene_step) {
 void SimulationEngine::rewind_world(WorldId w, const WorldSnapshot& state) {
   auto fresh = std::make_unique<TerritoryWorld>(state, w, world->world(w).map());
   core->buffers[static_cast<std::size_t>(w)]->invalidate_from(state.steps_done + 1);
-  process(w).rewind(*fresh, state.steps_done);
-  world->worlds_[static_cast<std::size_t>(w)] = std::move(fresh);
+  parts().process(w).rewind(*fresh, state.steps_done);
+  parts().worlds[static_cast<std::size_t>(w)] = std::move(fresh);
 }
 
-std::int64_t SimulationEngine::commit_horizon_step() const { return world->horizon_->gvt() / substeps_; }
+std::int64_t SimulationEngine::commit_horizon_step() const { return world->internals().horizon->gvt() / substeps_; }
 
 std::uint64_t SimulationEngine::rollbacks() const {
   std::lock_guard lock(lifecycle_);

@@ -1,15 +1,7 @@
 // Internal: what runs a Simulation — the PartitionedWorld's world processes
-// driven by long-lived threads under a RunControl, publishing to the
-// buffers of the SimulationCore. Three schedules, as PartitionedWorld's:
-//
-//   ThreadPerWorld  world i's thread: advance; parked at the limit -> wait
-//                   for the limit to rise; buffer full -> wait in publish;
-//                   missing a message -> block on its mailbox
-//   Pool            T workers; a world runs until it must wait, then parks:
-//                   on the transport (messages) or in `parked` (limit, room),
-//                   re-queued by the transport's or the RunControl's hook
-//   Sequential      one thread, worlds round-robin; when none can go on it
-//                   waits for a wake-up (limit, room), or reports a deadlock
+// on the long-lived threads of a Scheduler (scheduler.h: the three schedules)
+// gated by the RunControl, publishing to the buffers of the SimulationCore;
+// user inputs, and rollbacks for inputs at past steps.
 //
 // A world never waits for room in a way that holds a thread other worlds
 // need (docs/embedding.md, "Back-pressure").
@@ -19,13 +11,13 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <thread>
 #include <vector>
 
 #include "input_queue.h"
+#include "partitioned_internals.h"
+#include "scheduler.h"
 #include "simulation_core.h"
 #include "soda/runtime/simulation.h"
-#include "world_process.h"
 
 namespace soda {
 
@@ -52,13 +44,9 @@ class SimulationEngine {
   int threads = 1;
 
  private:
-  struct Pool;
   void launch_locked();
   void fail(WorldId world, std::exception_ptr error);
-  void run_world(WorldId w);
-  void run_sequential();
-  void run_pool_worker(int index);
-  PartitionedWorld::Process& process(WorldId w) { return *world->processes_[static_cast<std::size_t>(w)]; }
+  PartitionedWorld::Internals& parts() { return world->internals(); }
   void check_input_locked(const UserInput& input) const;
   void rollback_locked(std::int64_t scene_step);
   void rewind_world(WorldId w, const WorldSnapshot& state);
@@ -68,8 +56,7 @@ class SimulationEngine {
   mutable std::mutex lifecycle_;
   bool launched_ = false;
   bool stopped_ = false;
-  std::vector<std::thread> threads_;
-  std::shared_ptr<Pool> pool_;
+  std::unique_ptr<Scheduler> scheduler_;  // from the first start
   // Input (under lifecycle_).
   struct Life {
     bool is_static = false;

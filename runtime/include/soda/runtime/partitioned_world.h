@@ -206,8 +206,6 @@ struct WorldMetrics {
 WorldMetrics total_metrics(const std::vector<WorldMetrics>& worlds);
 
 class PartitionedWorld {
-  friend class SimulationEngine;  // runs the world processes in the background (simulation.h)
-
  public:
   /// One TerritoryWorld per world of `map`. Throws PartitionError (see
   /// territory_world.h) or std::invalid_argument for bad options.
@@ -243,7 +241,7 @@ class PartitionedWorld {
 
   int world_count() const;
   const TerritoryWorld& world(WorldId id) const;
-  const WorldGraph& graph() const { return *graph_; }
+  const WorldGraph& graph() const;
   std::vector<WorldMetrics> metrics() const;
   /// Messages and bytes through the transport so far.
   std::uint64_t messages_sent() const;
@@ -255,36 +253,29 @@ class PartitionedWorld {
   /// SyncTest rollbacks done (each checked bit-identical).
   std::uint64_t sync_rollbacks() const { return sync_rollbacks_; }
 
+  /// Runtime-internal, not for users: the worlds' processes, mailboxes and
+  /// shared speculation state, through which the runtime's own drivers (the
+  /// scheduler, a Simulation's engine) run them. An incomplete type outside
+  /// runtime/src (partitioned_internals.h). Replaced by a restore (heal,
+  /// SyncTest). Between steps only.
+  struct Internals;
+  Internals& internals() { return *in_; }
+
  private:
   class Process;
   void build(const Scene& scene, const TerritoryMap& map,
              const std::function<std::unique_ptr<TerritoryWorld>(WorldId)>& make_world);
-  WorldSnapshot assemble(std::int64_t scene_step, std::vector<WorldSnapshot> parts) const;
-  /// The whole scene's state at `scene_step` from the states every world
-  /// keeps (PartitionedOptions::keep_states), with the scene's substeps;
-  /// nullopt if some world no longer (or not yet) keeps it. Only while the
-  /// worlds are stopped or held.
-  std::optional<WorldSnapshot> kept_snapshot(std::int64_t scene_step) const;
   void restore(WorldSnapshot state);
   void run_to(std::int64_t scene_step);
   void sync_test_step();
   void restore_before(const WatchdogError& error);
   void resimulate_with_substeps();
-  void run_sequential(std::int64_t target);
-  void run_thread_per_world(std::int64_t target);
-  void run_pool(std::int64_t target);
 
   PartitionedOptions options_;
   int substeps_ = 1;       // of the worlds now (a heal re-simulates a step with more)
   int base_substeps_ = 1;  // the scene's
   std::int64_t steps_done_ = 0;
-  std::unique_ptr<WorldGraph> graph_;
-  std::unique_ptr<class Transport> transport_;
-  std::unique_ptr<class Validator> validator_;
-  std::vector<std::unique_ptr<TerritoryWorld>> worlds_;
-  std::vector<std::unique_ptr<Process>> processes_;
-  std::unique_ptr<class CommitHorizon> horizon_;
-  std::unique_ptr<class RollbackBoard> board_;  // speculation: rollbacks of every world
+  std::unique_ptr<Internals> in_;  // worlds, processes, transport, horizon, board
   std::shared_ptr<std::atomic<bool>> fault_fired_;
   std::shared_ptr<class FuzzRandom> fuzz_;
   int heal_attempts_ = 0;

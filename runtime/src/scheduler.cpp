@@ -1,0 +1,249 @@
+#include "scheduler.h"
+
+#include <condition_variable>
+#include <deque>
+#include <stdexcept>
+
+#include "run_control.h"
+#include "soda/loadbalance/thread_clock.h"
+#include "soda/runtime/transport.h"
+#include "thread_pinning.h"
+
+namespace soda {
+
+// The pool's shared state, under `mutex`. A world is in `ready`, running on
+// one worker, parked on the transport, or (gated) in `parked` — one at a time.
+struct Scheduler::Pool {
+  explicit Pool(std::size_t worlds) : parked_at(worlds, 0) {}
+  std::mutex mutex;
+  std::condition_variable cv;
+  std::deque<WorldId> ready;
+  std::vector<WorldId> parked;          // gated: at the limit or waiting for room
+  std::vector<std::int64_t> parked_at;  // per world: wall ns it parked on its mailbox; 0: not. Its runner's only.
+  std::size_t finished = 0;
+  bool stop = false;
+};
+
+Scheduler::Scheduler(Options options, std::vector<WorldTask*> tasks, Transport& transport, RunControl* control,
+                     ErrorHook on_error)
+    : options_(std::move(options)),
+      tasks_(std::move(tasks)),
+      transport_(transport),
+      control_(control),
+      on_error_(std::move(on_error)) {
+  if (options_.schedule == Schedule::Pool && options_.threads < 1)
+    throw std::invalid_argument("Scheduler: the pool schedule needs threads >= 1");
+}
+
+Scheduler::~Scheduler() {
+  for (std::thread& t : threads_)
+    if (t.joinable()) t.join();
+}
+
+void Scheduler::run() {
+  if (options_.schedule == Schedule::Sequential) {
+    run_sequential();
+  } else {
+    launch();
+    join();
+  }
+  if (std::exception_ptr e = error()) std::rethrow_exception(e);
+}
+
+void Scheduler::launch() {
+  if (options_.pin) prepare_thread_pinning();
+  const int k = static_cast<int>(tasks_.size());
+  switch (options_.schedule) {
+    case Schedule::Sequential:
+      threads_.emplace_back([this] {
+        if (options_.pin) pin_current_thread(0, "round-robin thread");
+        run_sequential();
+      });
+      break;
+    case Schedule::ThreadPerWorld:
+      for (WorldId w = 0; w < k; ++w) threads_.emplace_back([this, w] { run_world(w); });
+      break;
+    case Schedule::Pool: {
+      pool_ = std::make_shared<Pool>(tasks_.size());
+      for (WorldId w = 0; w < k; ++w) pool_->ready.push_back(w);
+      transport_.set_wake_hook([pool = pool_](WorldId w) {
+        {
+          std::lock_guard lock(pool->mutex);
+          pool->ready.push_back(w);
+        }
+        pool->cv.notify_one();
+      });
+      if (control_)
+        control_->set_wake_hook([pool = pool_] {
+          {
+            std::lock_guard lock(pool->mutex);
+            pool->ready.insert(pool->ready.end(), pool->parked.begin(), pool->parked.end());
+            pool->parked.clear();
+          }
+          pool->cv.notify_all();
+        });
+      for (int i = 0; i < options_.threads; ++i) threads_.emplace_back([this, i] { run_pool_worker(i); });
+      break;
+    }
+  }
+}
+
+void Scheduler::join() {
+  for (std::thread& t : threads_) t.join();
+  threads_.clear();
+  if (pool_) {
+    transport_.set_wake_hook([](WorldId) {});
+    if (control_) control_->set_wake_hook({});
+  }
+}
+
+std::exception_ptr Scheduler::error() const {
+  std::lock_guard lock(error_mutex_);
+  return error_;
+}
+
+// Invariant 3. Only the first error closes the transport, so a
+// TransportClosed seen by another world comes after it and is dropped here;
+// one with no error before it (nobody else closes the transport) is kept.
+void Scheduler::fail(WorldId world, std::exception_ptr error) {
+  {
+    std::lock_guard lock(error_mutex_);
+    if (error_) return;
+    error_ = error;
+  }
+  if (on_error_) on_error_(world, error);
+  transport_.close();
+  if (pool_) {
+    {
+      std::lock_guard lock(pool_->mutex);
+      pool_->stop = true;
+    }
+    pool_->cv.notify_all();
+  }
+}
+
+// Round-robin in world order: deterministic. Gated, a world waiting for room
+// or parked at the limit must not hold the others up: the thread goes on
+// with them and sleeps only when none can go on, until a wake-up (a reader
+// moved, the limit rose, a stop).
+void Scheduler::run_sequential() {
+  const int k = static_cast<int>(tasks_.size());
+  WorldId current = kNoWorld;
+  try {
+    for (;;) {
+      if (control_ && control_->shut_down()) return;
+      const std::uint64_t seen = control_ ? control_->wake_epoch() : 0;
+      bool all_done = true, progressed = false, room = false;
+      for (WorldId w = 0; w < k; ++w) {
+        current = w;
+        const WorldTask::Advance a = tasks_[static_cast<std::size_t>(w)]->advance();
+        progressed = progressed || a.progressed;
+        all_done = all_done && a.done;
+        room = room || tasks_[static_cast<std::size_t>(w)]->waiting_for_room();
+      }
+      current = kNoWorld;
+      if (all_done && (!control_ || control_->finished(tasks_.front()->steps_done()))) return;
+      if (progressed) continue;
+      if (control_ && (all_done || room)) {
+        control_->wait_wake(seen);
+        continue;
+      }
+      std::string why = options_.name + ": deadlock:";
+      for (WorldTask* t : tasks_) why += " [" + t->waiting_for() + "]";
+      throw std::logic_error(why);
+    }
+  } catch (...) {
+    fail(current, std::current_exception());
+  }
+}
+
+// A thread per world: it blocks on whatever it waits for (the limit, room in
+// its buffer, its mailbox); nobody else needs this thread meanwhile.
+void Scheduler::run_world(WorldId w) {
+  if (options_.pin) pin_current_thread(static_cast<int>(w), "world " + std::to_string(w));
+  WorldTask& task = *tasks_[static_cast<std::size_t>(w)];
+  try {
+    for (;;) {
+      const WorldTask::Advance a = task.advance();
+      if (a.done) {
+        if (!control_ || !control_->wait_limit_above(task.steps_done())) return;
+        continue;
+      }
+      if (a.progressed) continue;
+      if (task.waiting_for_room()) {
+        task.publish_blocking();
+        continue;
+      }
+      const std::int64_t t0 = wall_ns();
+      Message m = transport_.receive(w);
+      task.add_blocked_ns(wall_ns() - t0);
+      task.deliver(std::move(m));
+    }
+  } catch (...) {
+    fail(w, std::current_exception());
+  }
+}
+
+// A worker runs a world until it must wait. Waiting for a message parks it
+// on the transport; gated, waiting for room or for the limit parks it in
+// pool.parked, re-queued by the RunControl's wake hook. `seen` closes the
+// race with a wake-up between advance() and parking.
+void Scheduler::run_pool_worker(int index) {
+  if (options_.pin) pin_current_thread(index, "pool worker " + std::to_string(index));
+  Pool& pool = *pool_;
+  for (;;) {
+    WorldId w;
+    std::uint64_t seen = 0;
+    {
+      std::unique_lock lock(pool.mutex);
+      pool.cv.wait(lock, [&] { return pool.stop || !pool.ready.empty(); });
+      if (pool.stop) return;
+      w = pool.ready.front();
+      pool.ready.pop_front();
+      if (control_) seen = control_->wake_epoch();
+    }
+    WorldTask& task = *tasks_[static_cast<std::size_t>(w)];
+    std::int64_t& parked_at = pool.parked_at[static_cast<std::size_t>(w)];
+    auto park = [&] {
+      std::lock_guard lock(pool.mutex);
+      if (control_->wake_epoch() != seen) {
+        pool.ready.push_back(w);
+        pool.cv.notify_one();
+      } else {
+        pool.parked.push_back(w);
+      }
+    };
+    try {
+      if (parked_at) task.add_blocked_ns(wall_ns() - parked_at);
+      parked_at = 0;
+      for (;;) {
+        const WorldTask::Advance a = task.advance();
+        if (a.done) {
+          if (!control_ || control_->finished(task.steps_done())) {
+            std::lock_guard lock(pool.mutex);
+            if (++pool.finished == tasks_.size()) {
+              pool.stop = true;
+              pool.cv.notify_all();
+            }
+          } else {
+            park();
+          }
+          break;
+        }
+        if (a.progressed) continue;
+        if (task.waiting_for_room()) {
+          park();
+          break;
+        }
+        parked_at = wall_ns();
+        if (transport_.park(w)) break;  // from here on another worker may run it
+        parked_at = 0;
+      }
+    } catch (...) {
+      fail(w, std::current_exception());
+      return;
+    }
+  }
+}
+
+}  // namespace soda

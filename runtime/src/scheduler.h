@@ -1,0 +1,132 @@
+// Internal: the one scheduler of the world processes — which thread advances
+// which world when. PartitionedWorld::step runs it to a fixed target (threads
+// for the call); a Simulation's engine runs it gated by a RunControl
+// (long-lived threads, a step limit, wake-ups). Three schedules (Schedule):
+//
+//   Sequential      one thread, worlds round-robin in id order. When none
+//                   can go on it waits for a wake-up (gated: a world at the
+//                   limit or waiting for room), else reports a deadlock
+//                   naming what every world waits for.
+//   ThreadPerWorld  world i's thread: advance; done -> wait for the limit to
+//                   rise (gated) or end; buffer full -> wait in
+//                   publish_blocking; missing a message -> block on its
+//                   mailbox (Transport::receive).
+//   Pool            T workers share a ready queue. A world runs until it must
+//                   wait, then parks: on its mailbox (Transport::park; the
+//                   transport's wake hook re-queues it) or, gated, at the
+//                   limit or for room (the RunControl's wake hook re-queues
+//                   it). Workers are the runtime's own threads: a
+//                   tbb::task_arena measured no faster and is invisible to
+//                   ThreadSanitizer (docs/scheduler.md).
+//
+// Invariants:
+//  1. A world is advanced by one thread at a time: in the pool a world is
+//     either queued, running on one worker, or parked, never two of these.
+//  2. No world waits in a way that holds a thread other worlds need: the
+//     pool and the round-robin thread park a world instead of blocking.
+//  3. The first error of any world wins: it is kept (and passed to the
+//     error hook), the transport is closed and the pool stopped, so every
+//     thread ends by itself; later errors, and TransportClosed in the other
+//     worlds, are dropped.
+//  4. A thread ends by itself once its worlds are finished (ungated: done;
+//     gated: RunControl::finished) or the run is shut down.
+#pragma once
+
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "soda/runtime/messages.h"
+#include "soda/runtime/partitioned_world.h"
+
+namespace soda {
+
+class RunControl;
+class Transport;
+
+/// One world as the scheduler sees it (world_tasks.h adapts the world
+/// process). Called by one thread at a time (invariant 1).
+class WorldTask {
+ public:
+  struct Advance {
+    bool progressed = false;  // did something; call again
+    bool done = false;        // reached its target (or, gated, the limit)
+  };
+  virtual ~WorldTask() = default;
+  /// Runs as far as the messages at hand allow; never blocks.
+  virtual Advance advance() = 0;
+  /// A message taken from the world's mailbox by the scheduler.
+  virtual void deliver(Message message) = 0;
+  /// Gated: the world stopped because its transform buffer is full.
+  virtual bool waiting_for_room() const = 0;
+  /// Gated, a thread of the world's own: waits for room and publishes.
+  virtual void publish_blocking() = 0;
+  /// Internal steps done.
+  virtual std::int64_t steps_done() const = 0;
+  /// What the world waits for (deadlock reports).
+  virtual std::string waiting_for() const = 0;
+  /// Wall time (ns) the world spent blocked on or parked for its mailbox.
+  virtual void add_blocked_ns(std::int64_t ns) = 0;
+};
+
+class Scheduler {
+ public:
+  struct Options {
+    Schedule schedule = Schedule::Sequential;
+    int threads = 1;  // Pool: workers (>= 1)
+    /// Pin the scheduler's threads to cores (thread_pinning.h): world i's
+    /// thread, pool worker i, the round-robin thread as 0.
+    bool pin = false;
+    /// Names the driver in deadlock reports ("PartitionedWorld", "Simulation").
+    std::string name = "PartitionedWorld";
+  };
+  /// Called once, on the failing thread, with the first error and the world
+  /// it came from (kNoWorld if unknown), before the transport is closed.
+  using ErrorHook = std::function<void(WorldId, std::exception_ptr)>;
+
+  /// `tasks` (one per world, in world order), `transport` and `control`
+  /// (null: ungated, every world runs until done) outlive the scheduler.
+  Scheduler(Options options, std::vector<WorldTask*> tasks, Transport& transport, RunControl* control,
+            ErrorHook on_error = {});
+  /// Joins the threads (launch() without join()).
+  ~Scheduler();
+  Scheduler(const Scheduler&) = delete;
+  Scheduler& operator=(const Scheduler&) = delete;
+
+  /// Ungated: runs every world until done — Sequential on the caller's
+  /// thread, else on threads started and joined here — and rethrows the
+  /// first error once every thread has stopped. Once per scheduler.
+  void run();
+  /// Starts the threads and returns; they end by themselves (invariant 4).
+  /// Once per scheduler.
+  void launch();
+  /// Waits for the threads launch() started; removes the wake hooks. The
+  /// caller makes them end first (gated: freeze the limit or shut down).
+  void join();
+  /// The first error of any world, or null. After join().
+  std::exception_ptr error() const;
+
+ private:
+  struct Pool;
+  void fail(WorldId world, std::exception_ptr error);
+  void run_sequential();
+  void run_world(WorldId world);
+  void run_pool_worker(int index);
+
+  const Options options_;
+  const std::vector<WorldTask*> tasks_;
+  Transport& transport_;
+  RunControl* const control_;
+  const ErrorHook on_error_;
+  std::shared_ptr<Pool> pool_;  // shared with the wake hooks, which may run late
+  std::vector<std::thread> threads_;
+  mutable std::mutex error_mutex_;
+  std::exception_ptr error_;
+};
+
+}  // namespace soda
