@@ -102,8 +102,12 @@ void PartitionedWorld::Process::deliver(Message m) {
   if (speculating()) {
     if (m.epoch > seen_epoch_) catch_up();  // a rollback of every world its sender saw first
     if (control) {
-      safety_.horizon->unpin(control->pinned);  // pinned by its sender
+      // The sender's pin holds the horizon at the notice's step until this
+      // world's mark covers the uses the notice voids (take_notice reports
+      // it): released first, the horizon could pass the step meanwhile and
+      // a world trim the states a rollback to it needs.
       if (!safety_.board->voids(m.epoch, control->rolled_to, seen_epoch_)) take_notice(m.from, control->rolled_to);
+      safety_.horizon->unpin(control->pinned);  // pinned by its sender
       return;
     }
     if (safety_.board->voids(m.epoch, m.step, seen_epoch_)) return;

@@ -164,6 +164,9 @@ bool PartitionedWorld::Process::compare_with_used(Message& m) {
 void PartitionedWorld::Process::take_notice(WorldId from, std::int64_t step) {
   SPEC_TRACE("w%d at %lld: notice from %d: rolled back to %lld\n", world_->id(), (long long)step_, from,
              (long long)step);
+  // Fuzzing: other worlds run on while this one takes the notice in (the
+  // horizon must not move past the notice's step meanwhile: deliver()).
+  if (safety_.fuzz) fuzz_pause(*safety_.fuzz);
   for (auto it = inbox_.begin(); it != inbox_.end();) {
     const auto& [kind, s, f] = it->first;
     if (f == from && s >= step) {
@@ -241,6 +244,7 @@ void PartitionedWorld::Process::catch_up() {
       Used& u = it->second;  // used at a step this world had not passed: void, awaiting the re-send
       if (u.confirmed && u.message && void_message(*u.message)) await_resend(std::get<0>(it->first), u);
     }
+    report_mark();  // before the pin goes (as for a Notice: deliver)
     safety_.horizon->unpin(e.pinned);
   }
   report_mark();
