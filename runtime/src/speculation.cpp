@@ -69,8 +69,12 @@ Speculation::Speculation(Context c)
 bool Speculation::screen(Message& m) {
   if (m.epoch > seen_epoch_) catch_up();  // a rollback of every world its sender saw first
   if (const Control* control = std::get_if<Control>(&m.payload)) {
-    c_.safety.horizon->unpin(control->pinned);  // pinned by its sender
+    // The sender's pin holds the horizon at the notice's step until this
+    // world's mark covers the uses the notice voids (take_notice reports
+    // it): released first, the horizon could pass the step meanwhile and a
+    // world trim the states a rollback to it needs (docs/rollback.md).
     if (!c_.safety.board->voids(m.epoch, control->rolled_to, seen_epoch_)) take_notice(m.from, control->rolled_to);
+    c_.safety.horizon->unpin(control->pinned);  // pinned by its sender
     return true;
   }
   if (c_.safety.board->voids(m.epoch, m.step, seen_epoch_)) return true;
@@ -275,6 +279,9 @@ bool Speculation::compare_with_used(Message& m) {
 void Speculation::take_notice(WorldId from, std::int64_t step) {
   SPEC_TRACE("w%d at %lld: notice from %d: rolled back to %lld\n", me(), (long long)s_.step, from,
              (long long)step);
+  // Fuzzing: other worlds run on while this one takes the notice in (the
+  // horizon must not move past the notice's step meanwhile: screen()).
+  if (c_.safety.fuzz) fuzz_pause(*c_.safety.fuzz);
   for (auto it = s_.inbox.begin(); it != s_.inbox.end();) {
     const auto& [kind, s, f] = it->first;
     if (f == from && s >= step) {
@@ -352,6 +359,7 @@ void Speculation::catch_up() {
       Used& u = it->second;  // used at a step this world had not passed: void, awaiting the re-send
       if (u.confirmed && u.message && void_message(*u.message)) await_resend(std::get<0>(it->first), u);
     }
+    report_mark();  // before the pin goes (as for a Notice: screen)
     c_.safety.horizon->unpin(e.pinned);
   }
   report_mark();

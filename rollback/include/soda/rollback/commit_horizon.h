@@ -28,7 +28,11 @@ class CommitHorizon {
  public:
   virtual ~CommitHorizon() = default;
   /// World `world`'s low-water mark is now `step` (internal steps). It is
-  /// never lowered below gvt().
+  /// lowered below gvt() only to the kept checkpoint at or before a step
+  /// gvt() is held at (by a pin, or by the world's own mark), and reported
+  /// before that hold is released (worlds
+  /// trim their states to the checkpoint at or before the gvt() they read;
+  /// docs/rollback.md, "Commit horizon with speculation").
   virtual void report(WorldId world, std::int64_t step) = 0;
   /// The minimum over all worlds' low-water marks and the pins: no world
   /// will ever need to restore a step below it.
