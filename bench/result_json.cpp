@@ -22,6 +22,7 @@ nlohmann::json bench_set_json(const BenchSet& s) {
                       {"state_hash", hash_hex(s.run.state_hash)},
                       {"sleeping_bodies", s.run.sleeping_bodies},
                       {"baseline_wall_seconds", s.baseline.wall_seconds},
+                      {"baseline_cpu_seconds", s.baseline.cpu_seconds},
                       {"baseline_wall_seconds_all", s.baseline_walls},
                       {"baseline_state_hash", hash_hex(s.baseline.state_hash)},
                       {"baseline_sleeping_bodies", s.baseline.sleeping_bodies},
@@ -30,6 +31,7 @@ nlohmann::json bench_set_json(const BenchSet& s) {
     j["one_territory_wall_seconds"] = s.one_territory.wall_seconds;
     j["one_territory_wall_seconds_all"] = s.one_territory_walls;
     j["one_territory_state_hash"] = hash_hex(s.one_territory.state_hash);
+    j["one_territory_cpu_seconds"] = s.one_territory.cpu_seconds;
     j["one_territory_sleeping_bodies"] = s.one_territory.sleeping_bodies;
     j["state_hash_equals_one_territory"] = s.one_territory.state_hash == s.run.state_hash;
     j["speedup_vs_one_territory"] = s.speedup_vs_one_territory;
@@ -40,6 +42,7 @@ nlohmann::json bench_set_json(const BenchSet& s) {
 nlohmann::json honest_baseline_json(const BenchResult& b) {
   nlohmann::json j;
   j["baseline_sleeping_bodies"] = b.baseline.sleeping_bodies;
+  j["baseline_cpu_seconds"] = b.baseline.cpu_seconds;
   if (b.run.territories > 1) j["one_territory_sleeping_bodies"] = b.one_territory.sleeping_bodies;
   j["ratio_vs_baseline_note"] =
       "wall / stock wall, sleeping on in both (Bullet's default): includes the bodies the canonical world puts to "
