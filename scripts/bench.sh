@@ -10,9 +10,10 @@ scripts/build.sh Release build
 # territories as cores, sleeping on and again off, side by side in one
 # process; prints a table of the speed-ups, the bodies asleep and the hash
 # check (exit 1 if the K-territory hash differs from the one-territory hash).
-# falling-cubes n=4000, 600 steps, 1 repeat: about 59 s of CPU in all
-# (measured, 2-core machine), about 50 s of wall time when the machine is
-# otherwise idle. Override with N=, STEPS=, REPEAT=, TERRITORIES= in the
+# Size, measured: falling-cubes n=4000, 600 steps, 1 repeat, K=2 takes 47-59 s
+# of CPU in all (two runs; sleeping off is about twice sleeping on; the two
+# territories run in parallel), so about 40-50 s of wall time on 2 otherwise
+# idle cores; n=2000 leaves too little per world to show the threads' gain. Override with N=, STEPS=, REPEAT=, TERRITORIES= in the
 # environment; other options of `soda bench` as arguments (e.g. --partition rcb).
 n="${N:-4000}"
 steps="${STEPS:-600}"
