@@ -13,7 +13,7 @@ scripts/build.sh Release build
 # Size, measured: falling-cubes n=4000, 600 steps, 1 repeat, K=2 takes 47-59 s
 # of CPU in all (two runs; sleeping off is about twice sleeping on; the two
 # territories run in parallel), so about 40-50 s of wall time on 2 otherwise
-# idle cores; n=2000 leaves too little per world to show the threads' gain. Override with N=, STEPS=, REPEAT=, TERRITORIES= in the
+# idle cores. Override with N=, STEPS=, REPEAT=, TERRITORIES= in the
 # environment; other options of `soda bench` as arguments (e.g. --partition rcb).
 n="${N:-4000}"
 steps="${STEPS:-600}"
