@@ -8,23 +8,27 @@
 
 namespace soda {
 
-BenchResult bench_scene(const Scene& scene, const BenchConfig& config) {
-  if (config.repeat < 1) throw std::invalid_argument("--repeat must be >= 1");
-  RunConfig baseline_config = config.run;
+namespace {
+
+// One interleaved rotation of (baseline, one territory, run) with the
+// sleeping setting of `run_config`.
+BenchSet bench_set(const Scene& scene, const RunConfig& run_config, int repeat) {
+  RunConfig baseline_config = run_config;
   baseline_config.world = WorldKind::Stock;
   baseline_config.territories = 1;
   baseline_config.shuffle_seed = 0;
-  RunConfig one_config = config.run;
+  RunConfig one_config = run_config;
   one_config.territories = 1;
-  const bool partitioned = config.run.territories > 1;
-  BenchResult out;
+  const bool partitioned = run_config.territories > 1;
+  const char* sleeping = run_config.sleeping ? "sleeping on" : "sleeping off";
+  BenchSet out;
   auto keep_fastest = [](RunResult r, RunResult& best, std::vector<double>& walls) {
     walls.push_back(r.wall_seconds);
     if (walls.size() == 1 || r.wall_seconds < best.wall_seconds) best = std::move(r);
   };
-  for (int i = 0; i < config.repeat; ++i) {
+  for (int i = 0; i < repeat; ++i) {
     auto run_baseline = [&] { keep_fastest(run_scene(scene, baseline_config), out.baseline, out.baseline_walls); };
-    auto run_tested = [&] { keep_fastest(run_scene(scene, config.run), out.run, out.run_walls); };
+    auto run_tested = [&] { keep_fastest(run_scene(scene, run_config), out.run, out.run_walls); };
     auto run_one = [&] {
       if (partitioned) keep_fastest(run_scene(scene, one_config), out.one_territory, out.one_territory_walls);
     };
@@ -37,9 +41,9 @@ BenchResult bench_scene(const Scene& scene, const BenchConfig& config) {
       run_one();
       run_baseline();
     }
-    spdlog::info("repeat {}/{}: baseline {:.3f} s, {} {:.3f} s{}", i + 1, config.repeat, out.baseline_walls.back(),
-                 world_kind_name(config.run.world), out.run_walls.back(),
-                 partitioned ? fmt::format(" ({} territories; one territory {:.3f} s)", config.run.territories,
+    spdlog::info("{}, repeat {}/{}: baseline {:.3f} s, {} {:.3f} s{}", sleeping, i + 1, repeat,
+                 out.baseline_walls.back(), world_kind_name(run_config.world), out.run_walls.back(),
+                 partitioned ? fmt::format(" ({} territories; one territory {:.3f} s)", run_config.territories,
                                            out.one_territory_walls.back())
                              : std::string());
   }
@@ -47,6 +51,32 @@ BenchResult bench_scene(const Scene& scene, const BenchConfig& config) {
   if (partitioned && out.run.wall_seconds > 0)
     out.speedup_vs_one_territory = out.one_territory.wall_seconds / out.run.wall_seconds;
   return out;
+}
+
+bool hashes_agree(const BenchSet& s) {
+  return s.run.territories <= 1 || s.run.state_hash == s.one_territory.state_hash;
+}
+
+}  // namespace
+
+BenchResult bench_scene(const Scene& scene, const BenchConfig& config) {
+  if (config.repeat < 1) throw std::invalid_argument("--repeat must be >= 1");
+  RunConfig on = config.run;
+  on.sleeping = true;
+  BenchResult out;
+  static_cast<BenchSet&>(out) = bench_set(scene, on, config.repeat);
+  if (config.awake_pair) {
+    RunConfig off = config.run;
+    off.sleeping = false;
+    out.awake = bench_set(scene, off, config.repeat);
+    out.has_awake = true;
+  }
+  return out;
+}
+
+int bench_exit_code(const BenchResult& b) {
+  const bool exact = hashes_agree(b) && (!b.has_awake || hashes_agree(b.awake));
+  return exact ? 0 : 1;
 }
 
 double slowest_world_cpu_seconds(const std::vector<WorldMetrics>& worlds) {

@@ -13,6 +13,54 @@ nlohmann::json step_time_json(const StepTimeStats& s) {
   return {{"mean", s.mean_ms}, {"median", s.median_ms}, {"p95", s.p95_ms}, {"min", s.min_ms}, {"max", s.max_ms}};
 }
 
+// Honest baselines (issue 13, item 6): the bodies asleep in every run, the
+// runs with sleeping off, and what each ratio contains.
+nlohmann::json bench_set_json(const BenchSet& s) {
+  nlohmann::json j = {{"wall_seconds", s.run.wall_seconds},
+                      {"wall_seconds_all", s.run_walls},
+                      {"cpu_seconds", s.run.cpu_seconds},
+                      {"state_hash", hash_hex(s.run.state_hash)},
+                      {"sleeping_bodies", s.run.sleeping_bodies},
+                      {"baseline_wall_seconds", s.baseline.wall_seconds},
+                      {"baseline_cpu_seconds", s.baseline.cpu_seconds},
+                      {"baseline_wall_seconds_all", s.baseline_walls},
+                      {"baseline_state_hash", hash_hex(s.baseline.state_hash)},
+                      {"baseline_sleeping_bodies", s.baseline.sleeping_bodies},
+                      {"ratio_vs_baseline", s.ratio_vs_baseline}};
+  if (s.run.territories > 1) {
+    j["one_territory_wall_seconds"] = s.one_territory.wall_seconds;
+    j["one_territory_wall_seconds_all"] = s.one_territory_walls;
+    j["one_territory_state_hash"] = hash_hex(s.one_territory.state_hash);
+    j["one_territory_cpu_seconds"] = s.one_territory.cpu_seconds;
+    j["one_territory_sleeping_bodies"] = s.one_territory.sleeping_bodies;
+    j["state_hash_equals_one_territory"] = s.one_territory.state_hash == s.run.state_hash;
+    j["speedup_vs_one_territory"] = s.speedup_vs_one_territory;
+  }
+  return j;
+}
+
+nlohmann::json honest_baseline_json(const BenchResult& b) {
+  nlohmann::json j;
+  j["baseline_sleeping_bodies"] = b.baseline.sleeping_bodies;
+  j["baseline_cpu_seconds"] = b.baseline.cpu_seconds;
+  if (b.run.territories > 1) j["one_territory_sleeping_bodies"] = b.one_territory.sleeping_bodies;
+  j["ratio_vs_baseline_note"] =
+      "wall / stock wall, sleeping on in both (Bullet's default): includes the bodies the canonical world puts to "
+      "sleep sooner (its islands come from contacts, stock Bullet's from broadphase pairs); see sleeping_bodies "
+      "and baseline_sleeping_bodies";
+  if (b.has_awake) {
+    j["ratio_vs_baseline_awake"] = b.awake.ratio_vs_baseline;
+    j["ratio_vs_baseline_awake_note"] =
+        "wall / stock wall of a second pair of runs with sleeping off in every world: no body sleeps on either "
+        "side, the step's own cost";
+    if (b.run.territories > 1)
+      j["state_hash_equals_one_territory_awake"] = b.awake.one_territory.state_hash == b.awake.run.state_hash;
+    j["awake"] = bench_set_json(b.awake);
+  }
+  j["exit_code"] = bench_exit_code(b);
+  return j;
+}
+
 }  // namespace
 
 nlohmann::json stages_json(const WorldMetrics& m) {
@@ -152,6 +200,7 @@ nlohmann::json bench_json(const RunDescription& d, const BenchResult& b) {
         "projection: one-territory CPU seconds / sum over steps of the slowest world's CPU time "
         "(the thesis' measure); what the run would reach with one core per world";
   }
+  j.update(honest_baseline_json(b));
   return j;
 }
 

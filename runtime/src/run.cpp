@@ -9,6 +9,7 @@
 #include <string>
 #include <type_traits>
 
+#include <BulletDynamics/Dynamics/btRigidBody.h>
 #include <spdlog/spdlog.h>
 
 #include "soda/grid/partition.h"
@@ -18,6 +19,23 @@
 
 namespace soda {
 namespace {
+
+// RunConfig::sleeping = false. Bullet's process-wide "never sleep" switch,
+// read by btRigidBody::wantsSleeping in every world kind; the one Bullet
+// global SODA writes (docs/bullet-globals.md): set before the run's worlds
+// exist, restored after they are gone, never while a world steps.
+class SleepingSwitch {
+ public:
+  explicit SleepingSwitch(bool sleeping) : saved_(gDisableDeactivation) {
+    if (!sleeping) gDisableDeactivation = true;
+  }
+  ~SleepingSwitch() { gDisableDeactivation = saved_; }
+  SleepingSwitch(const SleepingSwitch&) = delete;
+  SleepingSwitch& operator=(const SleepingSwitch&) = delete;
+
+ private:
+  bool saved_;
+};
 
 // Steps `world` and measures it. W: StockWorld or CanonicalWorld (same
 // step / state_hash / sleeping_count surface).
@@ -62,8 +80,10 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
 }
 
 // K > 1: all steps in one call (the worlds run without a barrier between
-// steps); progress and step times come from world 0's thread.
-RunResult run_partitioned(const Scene& scene, const RunConfig& config) {
+// steps); progress and step times come from world 0's thread. Every world
+// inserts its bodies in the order of config.shuffle_seed.
+RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
+  const Scene scene = in_insertion_order(scene_in, config.shuffle_seed);
   if (config.world != WorldKind::Canonical)
     throw std::invalid_argument(config.territories > 1
                                     ? "--territories > 1 runs the canonical world only (not --world stock)"
@@ -185,6 +205,14 @@ std::vector<std::size_t> insertion_order(std::size_t body_count, std::uint64_t s
   return order;
 }
 
+Scene in_insertion_order(const Scene& scene, std::uint64_t shuffle_seed) {
+  Scene out = scene;
+  if (shuffle_seed == 0) return out;
+  const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), shuffle_seed);
+  for (std::size_t i = 0; i < order.size(); ++i) out.bodies[i] = scene.bodies[order[i]];
+  return out;
+}
+
 RunResult run_scene(const Scene& scene, const RunConfig& config) {
   if (config.steps < 0) throw std::invalid_argument("--steps must be >= 0");
   if (config.territories < 1) throw std::invalid_argument("--territories must be >= 1");
@@ -200,6 +228,7 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   if (config.anticipation > 0 && config.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument("--anticipation > 0 cannot be combined with --watchdog heal (speculation is not "
                                 "supported with self-heal): use --watchdog stop or off, or --anticipation 0");
+  const SleepingSwitch sleeping(config.sleeping);
   if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0)
     return run_partitioned(scene, config);
   const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), config.shuffle_seed);

@@ -124,8 +124,16 @@ TEST_F(CliTest, BenchWritesDocumentedJson) {
   const nlohmann::json j = nlohmann::json::parse(in);
   for (const char* field : {"scene", "params", "seed", "territories", "threads", "precision", "dt", "iterations",
                             "steps", "bodies", "state_hash", "wall_seconds", "step_ms", "baseline_wall_seconds",
-                            "ratio_vs_baseline"})
+                            "ratio_vs_baseline", "ratio_vs_baseline_note", "sleeping_bodies",
+                            "baseline_sleeping_bodies", "ratio_vs_baseline_awake", "ratio_vs_baseline_awake_note",
+                            "awake", "exit_code"})
     EXPECT_TRUE(j.contains(field)) << field << " missing in " << j.dump();
+  EXPECT_EQ(j["awake"]["sleeping_bodies"], 0);
+  EXPECT_EQ(j["awake"]["baseline_sleeping_bodies"], 0);
+  EXPECT_EQ(j["exit_code"], 0);
+  EXPECT_NEAR(j["ratio_vs_baseline_awake"].get<double>(),
+              j["awake"]["wall_seconds"].get<double>() / j["awake"]["baseline_wall_seconds"].get<double>(), 1e-9);
+  EXPECT_NE(o.output.find("sleeping off"), std::string::npos) << o.output;  // the table
   EXPECT_EQ(j["bodies"], 101);
   EXPECT_EQ(j["steps"], 20);
   EXPECT_EQ(j["state_hash"].get<std::string>().size(), 16u);
@@ -151,6 +159,34 @@ TEST_F(CliTest, ShuffleSeedDoesNotChangeTheCanonicalHash) {
     if (first.empty()) first = h;
     EXPECT_EQ(h, first) << "seed " << seed;
   }
+}
+
+// --shuffle-seed with several territories: every world inserts its bodies
+// shuffled; the hash stays the one-territory, scene-order hash.
+TEST_F(CliTest, ShuffleSeedWithTerritoriesKeepsTheHash) {
+  const Outcome one = run_cli("run --scene cube-pile --n 120 --steps 120");
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  for (const char* seed : {"5", "9"}) {
+    const Outcome o =
+        run_cli(std::string("run --scene cube-pile --n 120 --steps 120 --territories 2 --shuffle-seed ") + seed);
+    ASSERT_EQ(o.exit_code, 0) << o.output;
+    EXPECT_EQ(hash_of(o), hash_of(one)) << "seed " << seed << "\n" << o.output;
+  }
+}
+
+// The bench of K territories checks the hash in both sleeping settings and
+// exits 0 when they agree (the exit 1 on a mismatch: BenchExitCode tests).
+TEST_F(CliTest, BenchWithTerritoriesChecksTheHashSleepingOnAndOff) {
+  const std::string out = (dir_ / "out.json").string();
+  const Outcome o = run_cli("bench cube-pile --n 80 --steps 60 --repeat 1 --territories 2 --shuffle-seed 4 "
+                            "--log-level warn --json " + out);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  std::ifstream in(out);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["state_hash_equals_one_territory"], true);
+  EXPECT_EQ(j["state_hash_equals_one_territory_awake"], true);
+  EXPECT_EQ(j["awake"]["one_territory_sleeping_bodies"], 0);
+  EXPECT_NE(o.output.find("state hash, 2 territories vs 1: identical"), std::string::npos) << o.output;
 }
 
 TEST_F(CliTest, ExportedSceneRunsToTheSameHash) {

@@ -2,8 +2,8 @@
 // one per territory of a territory map, that talk only to their neighbours
 // through messages; the result is bit-identical to one CanonicalWorld on the
 // whole scene (same state_hash), for every K and every partition. Protocol:
-// docs/partitioned-step.md. No speculation yet: a world waits for its
-// neighbours' messages of step t before it goes on (never for anyone else).
+// docs/partitioned-step.md. A world waits for its neighbours' messages of
+// step t (never for anyone else), or bets on them (anticipation, docs/rollback.md).
 //
 //   soda::Scene scene = soda::make_scene("falling-cubes", {300, 1});
 //   soda::TerritoryMap map = soda::make_partition("kmeans", scene, 4, {});

@@ -38,7 +38,15 @@ struct RunConfig {
   bool serialise = false;            // K > 1: messages through bytes (as the tests do)
   bool validate = false;             // K > 1: check ownership and holders every step (slow)
   bool pin = false;                  // K > 1: pin world threads (pool workers) to cores
-  std::uint64_t shuffle_seed = 0;    // 0: insert bodies in scene order
+  /// 0: insert bodies in scene order; else every world (each territory's
+  /// too) inserts its bodies in the order insertion_order gives.
+  std::uint64_t shuffle_seed = 0;
+  /// false: no body ever falls asleep, in any world of the run (Bullet's own
+  /// switch, gDisableDeactivation, set for the length of the run and
+  /// restored after: process-wide, so no other world of this process may
+  /// step meanwhile; docs/bullet-globals.md). For benchmarks that compare
+  /// worlds whose islands, hence sleepers, differ (`ratio_vs_baseline_awake`).
+  bool sleeping = true;
   double progress_seconds = 1.0;     // progress line period (<= 0: none)
   /// Checked after every step (watchdog.h; not the stock world, the
   /// baseline). Heal runs every territory count, 1 included, through the
@@ -95,6 +103,10 @@ struct RunResult {
 /// Insertion order of the scene's bodies for a shuffle seed (0: scene order).
 /// Deterministic: a function of (body count, seed) only.
 std::vector<std::size_t> insertion_order(std::size_t body_count, std::uint64_t shuffle_seed);
+
+/// A copy of `scene` whose bodies are listed in insertion_order(bodies,
+/// shuffle_seed): what the territory worlds of a shuffled run are built from.
+Scene in_insertion_order(const Scene& scene, std::uint64_t shuffle_seed);
 
 /// Runs `scene` for config.steps steps. Throws std::invalid_argument with a
 /// clear message for an unsupported configuration (territories < 1,
