@@ -17,6 +17,7 @@
 #include "soda/bench/bench.h"
 #include "soda/bench/result_json.h"
 #include "soda/grid/partition.h"
+#include "soda/scene/input_file.h"
 #include "soda/scene/registry.h"
 #include "soda/scene/scene_json.h"
 #include "soda/scene/validate.h"
@@ -26,6 +27,18 @@ namespace {
 
 constexpr int kExitFailure = 1;
 constexpr int kExitBadInput = 2;
+// The envelope the worlds of this build need (docs/scene-format.md).
+constexpr soda::Precision kPrecision = soda::kDoublePrecision ? soda::Precision::Double : soda::Precision::Float;
+
+// Seeds are unsigned 64-bit integers: CLI11 would wrap "-1" to 2^64 - 1.
+const CLI::Validator kUnsigned(
+    [](std::string& text) -> std::string {
+      const std::size_t first = text.find_first_not_of(" \t");
+      if (first != std::string::npos && text[first] == '-')
+        return "must be >= 0 (an unsigned 64-bit integer), got " + text;
+      return "";
+    },
+    "UINT64");
 
 // Options shared by `run` and `bench`.
 struct Options {
@@ -39,6 +52,7 @@ struct Options {
   std::string watchdog = "stop";
   std::string rollback = "propagate";
   std::string json_path;
+  std::string inputs_path;  // run: an input file to replay (docs/inputs.md)
   int repeat = 3;
   bool no_awake = false;  // bench: skip the runs with sleeping off
 };
@@ -47,7 +61,7 @@ void add_scene_options(CLI::App& cmd, Options& o) {
   cmd.add_option("--scene", o.scene, "Registry scene name or a .json scene file")->capture_default_str();
   cmd.add_option("--n", o.params.n, "Scene size: cubes for falling-cubes and cube-pile (default 1000), see docs/scenes.md; 0: the scene's default")
       ->capture_default_str();
-  cmd.add_option("--seed", o.params.seed, "Seed of the scene generator")->capture_default_str();
+  cmd.add_option("--seed", o.params.seed, "Seed of the scene generator (>= 0)")->check(kUnsigned)->capture_default_str();
   cmd.add_flag("--random-scale", o.params.random_scale, "falling-cubes: edges uniform in [0.2, 1.3] m");
 }
 
@@ -72,6 +86,7 @@ void add_run_options(CLI::App& cmd, Options& o) {
   cmd.add_option("--shuffle-seed", o.config.shuffle_seed,
                  "Every world (each territory's too) inserts its bodies in an order shuffled by this seed (0: "
                  "scene order); the canonical world's results do not depend on it")
+        ->check(kUnsigned)
       ->capture_default_str();
   cmd.add_option("--world", o.world, "canonical | stock")->capture_default_str();
   cmd.add_option("--watchdog", o.watchdog,
@@ -115,7 +130,15 @@ soda::Scene resolve_scene(Options& o) {
   if (o.dt) scene.settings.dt = *o.dt;
   if (o.iterations) scene.settings.iterations = *o.iterations;
   if (o.steps) scene.settings.steps = *o.steps;
-  soda::validate_scene(scene, o.scene);  // overrides must be valid too
+  // Overrides must be valid too, and the scene must lie inside this build's
+  // precision envelope (a file or generator is checked against the widest).
+  std::string source = o.scene;
+  if (o.dt) {
+    char dt[32];
+    std::snprintf(dt, sizeof dt, "%.17g", *o.dt);
+    source += std::string(" with --dt ") + dt;
+  }
+  soda::validate_scene(scene, source, kPrecision);
   o.config.steps = scene.settings.steps;
   if (o.world == "canonical") o.config.world = soda::WorldKind::Canonical;
   else if (o.world == "stock") o.config.world = soda::WorldKind::Stock;
@@ -171,6 +194,10 @@ void print_summary(const soda::RunResult& r) {
 
 int cmd_run(Options& o) {
   const soda::Scene scene = resolve_scene(o);
+  if (!o.inputs_path.empty()) {
+    o.config.inputs = soda::load_input_file(o.inputs_path);
+    o.config.inputs_source = o.inputs_path;
+  }
   const soda::RunResult r = soda::run_scene(scene, o.config);
   print_summary(r);
   if (!o.json_path.empty())
@@ -261,6 +288,10 @@ int main(int argc, char** argv) {
   Options run_o, bench_o, export_o;
   CLI::App* run = app.add_subcommand("run", "Run a scene and report its state hash and timings");
   add_run_options(*run, run_o);
+  run->add_option("--inputs", run_o.inputs_path,
+                  "Replay user inputs (add/remove bodies, set velocities, impulses at scene steps) from this JSON "
+                  "file (docs/inputs.md): the same calls as the embedding API, the same hash for every territory "
+                  "count");
   CLI::App* bench = app.add_subcommand("bench", "Run a scene and a stock Bullet baseline side by side");
   bench->add_option("scene", bench_o.scene, "Registry scene name or .json file (same as --scene)");
   add_run_options(*bench, bench_o);

@@ -12,6 +12,7 @@
 #include <BulletDynamics/Dynamics/btRigidBody.h>
 #include <spdlog/spdlog.h>
 
+#include "run_inputs.h"
 #include "soda/grid/partition.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/worlds/canonical_world.h"
@@ -229,6 +230,7 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
     throw std::invalid_argument("--anticipation > 0 cannot be combined with --watchdog heal (speculation is not "
                                 "supported with self-heal): use --watchdog stop or off, or --anticipation 0");
   const SleepingSwitch sleeping(config.sleeping);
+  if (config.inputs) return run_with_inputs(scene, config);
   if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0)
     return run_partitioned(scene, config);
   const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), config.shuffle_seed);

@@ -32,6 +32,9 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
   o.rollback = c.rollback;
   o.checkpoint_every = c.checkpoint_every;
   o.eager_bets = c.eager_bets;
+  o.watchdog = c.watchdog;
+  if (c.watchdog.response == WatchdogResponse::Heal)
+    throw std::invalid_argument("SimulationConfig: watchdog heal is not supported by a Simulation (off or stop)");
   if (c.past_inputs && c.validate)
     throw std::invalid_argument("SimulationConfig: past_inputs with validate is not supported (the validator "
                                 "cannot follow a rollback yet)");
@@ -177,7 +180,7 @@ void SimulationEngine::check_input_locked(const UserInput& in) const {
     one.settings = settings_;
     one.bodies.push_back(in.body);
     try {
-      validate_scene(one, "added body");
+      validate_scene(one, "added body", kDoublePrecision ? Precision::Double : Precision::Float);
     } catch (const SceneError& e) {
       throw std::invalid_argument(what + ": " + e.what());
     }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <unordered_map>
 
@@ -95,14 +96,100 @@ void check_bullet_aabb(const std::string& where, const Body& b, double dt) {
   }
 }
 
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+// " (float build, step 0.0167 s)": which envelope a message speaks of.
+std::string in_envelope(const PrecisionEnvelope& e) {
+  return std::string(" (") + precision_name(e.precision) + " build, internal step " + num(e.step) +
+         " s; docs/scene-format.md, \"Precision envelope\")";
+}
+
+// The step: neither rounded away nor so long that gravity alone makes
+// Bullet disable a body in the first step.
+void check_step_envelope(const std::string& where, const SceneSettings& st, const PrecisionEnvelope& e) {
+  if (!(e.step >= e.min_step))
+    fail(where, "dt",
+         "a step (dt / substeps) of " + num(e.step) + " s is too short: at least " + num(e.min_step) +
+             " s, so that a body at " + num(kSlowestSpeed) + " m/s one metre from the origin still moves (x + v dt != x)" +
+             in_envelope(e));
+  if (!(e.step < e.max_finite)) fail(where, "dt", "the step overflows" + in_envelope(e));
+  for (int k = 0; k < 3; ++k)
+    if (!(std::abs(st.gravity[k]) < e.max_finite)) fail(where, "gravity", "overflows" + in_envelope(e));
+  const double fall = st.gravity.norm() * e.step * e.step;
+  if (!(fall * fall < kBulletMaxAabbLength2))
+    fail(where, "gravity",
+         "gravity alone moves a body " + num(fall) + " m in one step: Bullet disables a body whose one-step AABB "
+         "has length^2 >= 1e12 (shorten dt)" + in_envelope(e));
+}
+
+// Position, size, mass and spin of one body inside the envelope.
+void check_body_envelope(const std::string& where, const Body& b, const PrecisionEnvelope& e) {
+  const Vec3 h = b.aabb_half_extents();
+  const Vec3 local = b.shape.local_half_extents();
+  const double coordinate = b.position.cwiseAbs().maxCoeff();
+  for (int k = 0; k < 3; ++k)
+    if (!(std::abs(b.position[k]) + h[k] < e.max_finite))
+      fail(where, "position/shape", "the body reaches beyond the largest finite number" + in_envelope(e));
+  if (!b.is_static && coordinate > e.max_position)
+    fail(where, "position",
+         "coordinate " + num(coordinate) + " m is too far from the origin: at most " + num(e.max_position) +
+             " m, beyond which a body at " + num(kSlowestSpeed) + " m/s moves less than one ulp per step (x + v dt == x)" +
+             in_envelope(e));
+  const double smallest = local.minCoeff();
+  if (smallest < e.min_half_extent(coordinate))
+    fail(where, "shape",
+         "smallest half extent " + num(smallest) + " m is below " + num(kMinSizeInUlps) + " ulps of its position (" +
+             num(e.min_half_extent(coordinate)) + " m at " + num(coordinate) + " m from the origin)" + in_envelope(e));
+  if (b.is_static) return;
+  if (!(b.mass >= e.min_mass && b.mass <= e.max_mass))
+    fail(where, "mass",
+         num(b.mass) + " kg is outside [" + num(e.min_mass) + ", " + num(e.max_mass) +
+             "] kg: the mass, its inverse and their products must stay finite, non-zero numbers" + in_envelope(e));
+  const double inertia_lo = b.mass * smallest * smallest, inertia_hi = b.mass * local.squaredNorm();
+  if (!(inertia_lo >= e.min_mass && inertia_hi <= e.max_mass))
+    fail(where, "mass/shape",
+         "moment of inertia of the order of " + num(inertia_lo < e.min_mass ? inertia_lo : inertia_hi) +
+             " kg m^2 is outside [" + num(e.min_mass) + ", " + num(e.max_mass) + "]" + in_envelope(e));
+  const double spin = b.angular_velocity.norm();
+  if (spin > e.max_angular_speed)
+    fail(where, "angular_velocity",
+         num(spin) + " rad/s turns the body more than pi/4 per step, which Bullet silently clamps: at most " +
+             num(e.max_angular_speed) + " rad/s" + in_envelope(e));
+}
+
 }  // namespace
 
-void validate_scene(const Scene& scene, const std::string& source) {
+void validate_body(const Body& b, const std::string& where) {
+  check_shape(where, b.shape);
+  check_finite(where, "position", b.position);
+  check_finite(where, "linear_velocity", b.linear_velocity);
+  check_finite(where, "angular_velocity", b.angular_velocity);
+  check_finite(where, "friction", b.friction);
+  check_finite(where, "restitution", b.restitution);
+  if (b.friction < 0.0) fail(where, "friction", "must be >= 0");
+  if (b.restitution < 0.0) fail(where, "restitution", "must be >= 0");
+  const Eigen::Vector4d q = b.orientation.coeffs();
+  for (int k = 0; k < 4; ++k)
+    if (!std::isfinite(q[k])) fail(where, "orientation", "must be finite numbers");
+  if (!(q.norm() > 1e-6)) fail(where, "orientation", "must be a non-zero quaternion");
+  if (!b.is_static) {
+    check_finite(where, "mass", b.mass);
+    if (!(b.mass > 0.0)) fail(where, "mass", "must be > 0 for a dynamic body");
+  }
+}
+
+void validate_scene(const Scene& scene, const std::string& source, Precision precision) {
   const SceneSettings& st = scene.settings;
   const std::string settings = source + ": settings";
   check_positive(settings, "dt", st.dt);
   check_finite(settings, "gravity", st.gravity);
   if (st.substeps < 1) fail(settings, "substeps", "must be >= 1");
+  const PrecisionEnvelope envelope = PrecisionEnvelope::of(precision, st.dt, st.substeps);
+  check_step_envelope(settings, st, envelope);
   if (st.iterations < 1) fail(settings, "iterations", "must be >= 1");
   if (st.steps < 0) fail(settings, "steps", "must be >= 0");
 
@@ -115,23 +202,9 @@ void validate_scene(const Scene& scene, const std::string& source) {
     auto [it, inserted] = seen.emplace(b.id, i);
     if (!inserted)
       fail(where, "id", "duplicate id, also used by body #" + std::to_string(it->second));
-    check_shape(where, b.shape);
-    check_finite(where, "position", b.position);
-    check_finite(where, "linear_velocity", b.linear_velocity);
-    check_finite(where, "angular_velocity", b.angular_velocity);
-    check_finite(where, "friction", b.friction);
-    check_finite(where, "restitution", b.restitution);
-    if (b.friction < 0.0) fail(where, "friction", "must be >= 0");
-    if (b.restitution < 0.0) fail(where, "restitution", "must be >= 0");
-    const Eigen::Vector4d q = b.orientation.coeffs();
-    for (int k = 0; k < 4; ++k)
-      if (!std::isfinite(q[k])) fail(where, "orientation", "must be finite numbers");
-    if (!(q.norm() > 1e-6)) fail(where, "orientation", "must be a non-zero quaternion");
-    if (!b.is_static) {
-      check_finite(where, "mass", b.mass);
-      if (!(b.mass > 0.0)) fail(where, "mass", "must be > 0 for a dynamic body");
-      check_bullet_aabb(where, b, st.dt);
-    }
+    validate_body(b, where);
+    if (!b.is_static) check_bullet_aabb(where, b, st.dt);
+    check_body_envelope(where, b, envelope);
   }
 }
 

@@ -10,57 +10,11 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "cli/cli_test_util.h"
+
 namespace {
 
-struct Outcome {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-Outcome run_cli(const std::string& args) {
-  const std::string cmd = std::string(SODA_CLI_PATH) + " " + args + " 2>&1";
-  Outcome o;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return o;
-  char buf[4096];
-  std::size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) o.output.append(buf, n);
-  const int status = pclose(p);
-  o.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  return o;
-}
-
-class CliTest : public ::testing::Test {
- protected:
-  std::filesystem::path dir_;
-  void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("soda_cli_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(dir_);
-  }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-
-  std::string write(const std::string& name, const std::string& text) {
-    const auto path = (dir_ / name).string();
-    std::ofstream(path) << text;
-    return path;
-  }
-
-  // A scene file with one bad dynamic body.
-  std::string bad_scene(const std::string& body) {
-    return write("bad.json", R"({"format": "soda-scene", "version": 1, "bodies": [
-      {"id": 0, "type": "static", "shape": {"type": "box", "half_extents": [10, 0.5, 10]}, "position": [0, -0.5, 0]},
-      )" + body + "]}");
-  }
-
-  void expect_bad_input(const std::string& path, const std::string& needle) {
-    const Outcome o = run_cli("run --scene " + path + " --steps 1");
-    EXPECT_EQ(o.exit_code, 2) << o.output;
-    EXPECT_NE(o.output.find(path), std::string::npos) << o.output;
-    EXPECT_NE(o.output.find(needle), std::string::npos) << o.output;
-  }
-};
+using namespace soda_cli_test;
 
 TEST_F(CliTest, NanNumber) {
   expect_bad_input(bad_scene(R"({"id": 3, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 1},
@@ -141,11 +95,6 @@ TEST_F(CliTest, BenchWritesDocumentedJson) {
   EXPECT_NEAR(j["ratio_vs_baseline"].get<double>(),
               j["wall_seconds"].get<double>() / j["baseline_wall_seconds"].get<double>(), 1e-9);
   EXPECT_EQ(j["wall_seconds_all"].size(), 2u);
-}
-
-std::string hash_of(const Outcome& o) {
-  const auto at = o.output.find("state_hash ");
-  return at == std::string::npos ? "" : o.output.substr(at + 11, 16);
 }
 
 TEST_F(CliTest, ShuffleSeedDoesNotChangeTheCanonicalHash) {

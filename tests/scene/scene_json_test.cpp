@@ -2,6 +2,7 @@
 // name the source, the body and the field.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <string>
 
@@ -100,6 +101,52 @@ TEST(SceneErrors, InfiniteNumberIsRejected) {
           "position": [0, 1e999, 0]})"));
   EXPECT_NE(e.find("bad.json: body #1 (id 7): field 'position[1]'"), std::string::npos) << e;
   EXPECT_NE(e.find("finite"), std::string::npos) << e;
+}
+
+TEST(SceneErrors, NanHintOnlyWhereTheTextHasNanOrInfinity) {
+  const std::string hint = "JSON has no NaN or Infinity";
+  for (const char* token : {"NaN", "-Infinity", "Infinity", "nan", "inf", "-inf"}) {
+    const std::string e = error_of(scene_text(
+        std::string(R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5},
+          "position": [0, )") + token + "]}"));
+    EXPECT_NE(e.find(hint), std::string::npos) << token << ": " << e;
+  }
+  for (const std::string& text : {std::string(""), std::string("   "), std::string(R"({"format": )"),
+                                  std::string(R"({"format": "soda-scene",, "version": 1})"),
+                                  std::string(R"({"format": nul})"), std::string(R"({"format": 'x'})")}) {
+    const std::string e = error_of(text);
+    EXPECT_EQ(e.find(hint), std::string::npos) << "'" << text << "': " << e;
+    EXPECT_NE(e.find("not valid JSON"), std::string::npos) << e;
+  }
+}
+
+TEST(SceneErrors, DirectoryIsNotAScene) {
+  const std::string dir = std::filesystem::temp_directory_path().string();
+  try {
+    load_scene_file(dir);
+    FAIL() << "no error";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find(dir + ": is a directory"), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find("NaN"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SceneErrors, BodiesAreStreamedWhereverTheyAreInTheFile) {
+  // Exported files put "bodies" first (keys sorted); hand-written ones last.
+  const Scene a = parse_scene_json(R"({"bodies": [{"id": 1, "type": "dynamic", "mass": 2,
+      "shape": {"type": "sphere", "radius": 0.5}, "position": [0, 2, 0]}], "format": "soda-scene",
+      "settings": {"dt": 0.01}, "version": 1})", "first.json");
+  ASSERT_EQ(a.bodies.size(), 1u);
+  EXPECT_EQ(a.bodies[0].mass, 2.0);
+  EXPECT_EQ(a.settings.dt, 0.01);
+  const std::string twice = error_of(R"({"format": "soda-scene", "version": 1, "bodies": [], "bodies": []})");
+  EXPECT_NE(twice.find("field 'bodies': given twice"), std::string::npos) << twice;
+  const std::string not_array = error_of(R"({"format": "soda-scene", "version": 1, "bodies": {}})");
+  EXPECT_NE(not_array.find("field 'bodies': must be an array"), std::string::npos) << not_array;
+  const std::string top = error_of(R"([1, 2])");
+  EXPECT_NE(top.find("(top level)"), std::string::npos) << top;
+  const std::string body = error_of(R"({"format": "soda-scene", "version": 1, "bodies": [3]})");
+  EXPECT_NE(body.find("body #0: field '(body)': must be an object"), std::string::npos) << body;
 }
 
 TEST(SceneErrors, ZeroMassDynamicIsRejected) {

@@ -10,10 +10,12 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "soda/runtime/partitioned_world.h"
+#include "soda/runtime/user_input.h"
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
 
@@ -68,6 +70,13 @@ struct RunConfig {
   /// its steps (a slow world, as in the thesis' strip with world 0 slowed
   /// down). 0: none.
   double slow_world0_ms = 0;
+  /// User inputs to replay (`soda run --inputs FILE`, scene/input_file.h;
+  /// docs/inputs.md). Given, the run goes through a Simulation (any K, 1
+  /// included) and makes the embedding API's input calls with them in
+  /// order, so it ends on the hash the API gives, for every K. Not with the
+  /// stock world, watchdog heal, SyncTest or a shuffle seed.
+  std::optional<std::vector<UserInput>> inputs;
+  std::string inputs_source = "inputs";  // names the inputs in messages (the file)
 };
 
 /// Summary statistics of per-step times, in milliseconds.

@@ -89,6 +89,10 @@ struct SimulationConfig {
   PartitionedOptions::Rollback rollback = PartitionedOptions::Rollback::Propagate;
   int checkpoint_every = 8;
   bool eager_bets = false;
+  /// After every step each world checks its bodies and contacts
+  /// (watchdog.h): off or stop (a WatchdogError is the cause of the
+  /// SimulationError); heal is not supported by a Simulation.
+  WatchdogConfig watchdog = {};
 };
 
 /// A world failed. world(): the world whose thread threw (kNoWorld if no

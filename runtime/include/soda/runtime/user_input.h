@@ -10,22 +10,13 @@
 #include <cstdint>
 #include <string>
 
+#include "soda/scene/input_file.h"
 #include "soda/scene/scene.h"
 
 namespace soda {
 
-struct UserInput {
-  enum class Kind { AddBody, RemoveBody, SetVelocity, ApplyImpulse };
-  Kind kind = Kind::SetVelocity;
-  /// Applied at the boundary after scene step `step` (0: before the first
-  /// step), before step + 1 begins.
-  std::int64_t step = 0;
-  std::uint64_t sequence = 0;  // call order; ties at one step resolve by it
-  Body body;                   // AddBody: the new body (its id must be unused)
-  BodyId id = 0;               // RemoveBody, SetVelocity, ApplyImpulse
-  Vec3 linear = Vec3::Zero();  // SetVelocity: linear velocity; ApplyImpulse: impulse (N s) at the centre
-  Vec3 angular = Vec3::Zero(); // SetVelocity: angular velocity
-};
+// struct UserInput lives with the input file format (scene/input_file.h),
+// which `soda run --inputs` reads.
 
 /// "add body 12 at step 40", ...
 std::string describe(const UserInput& input);

@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "soda/scene/envelope.h"
 #include "soda/scene/scene.h"
 
 namespace soda {
@@ -21,9 +22,18 @@ class SceneError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The checks of one body that depend on nothing else (shape, finite
+/// numbers, friction, restitution, orientation, a dynamic body's mass > 0);
+/// `where` starts the message ("cubes.json: body #3 (id 17)").
+void validate_body(const Body& body, const std::string& where);
+
 /// Checks every invariant listed in scene.h and the settings (dt > 0, finite
-/// gravity, substeps >= 1, iterations >= 1). Throws SceneError on the first
-/// violation; `source` is put at the start of the message.
-void validate_scene(const Scene& scene, const std::string& source);
+/// gravity, substeps >= 1, iterations >= 1), and that the scene lies inside
+/// the precision envelope of `precision` (envelope.h: the step, every
+/// body's position, size, mass and spin). Throws SceneError on the first
+/// violation; `source` is put at the start of the message. The default,
+/// Double, is the widest envelope: what a file or generator may hold at all;
+/// a float build checks again with Precision::Float before it runs.
+void validate_scene(const Scene& scene, const std::string& source, Precision precision = Precision::Double);
 
 }  // namespace soda

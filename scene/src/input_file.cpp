@@ -1,0 +1,156 @@
+// The input file format (docs/inputs.md). Input files are small (a log of
+// user actions): they are read whole into a document, unlike scene files.
+#include "soda/scene/input_file.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "json_context.h"
+
+namespace soda {
+namespace {
+
+using detail::Context;
+using detail::json;
+
+constexpr const char* kFormat = "soda-inputs";
+constexpr int kVersion = 1;
+
+UserInput::Kind parse_kind(const Context& ctx, const std::string& name) {
+  for (UserInput::Kind k : {UserInput::Kind::AddBody, UserInput::Kind::RemoveBody, UserInput::Kind::SetVelocity,
+                            UserInput::Kind::ApplyImpulse})
+    if (name == input_kind_name(k)) return k;
+  ctx.fail("type", "unknown input '" + name + "' (known: add_body, remove_body, set_velocity, apply_impulse)");
+}
+
+BodyId parse_id(const Context& ctx, const json& j) {
+  const std::int64_t id = ctx.integer(j, "id", true, 0);
+  if (id < 0 || id > static_cast<std::int64_t>(kMaxBodyId)) ctx.fail("id", "must be in [0, 2^31)");
+  return static_cast<BodyId>(id);
+}
+
+Vec3 finite_vec3(const Context& ctx, const json& j, const char* field, bool required) {
+  const Vec3 v = ctx.vec3(j, field, required, Vec3::Zero());
+  if (!v.allFinite()) ctx.fail(field, "must be finite numbers");
+  return v;
+}
+
+UserInput parse_input(const std::string& source, std::size_t index, const json& j) {
+  Context ctx{source + ": input #" + std::to_string(index)};
+  if (!j.is_object()) ctx.fail("(input)", "must be an object");
+  UserInput in;
+  in.kind = parse_kind(ctx, ctx.string(j, "type", true, ""));
+  in.step = ctx.integer(j, "step", true, 0);
+  if (in.step < 0) ctx.fail("step", "must be >= 0 (0: before the first step)");
+  ctx.where += " (" + std::string(input_kind_name(in.kind)) + " at step " + std::to_string(in.step) + ")";
+  switch (in.kind) {
+    case UserInput::Kind::AddBody: {
+      ctx.only_known(j, {"type", "step", "body"});
+      in.body = detail::parse_body(ctx.where + ": body", *ctx.find(j, "body", true));
+      if (in.body.is_static) ctx.fail("body.type", "only dynamic bodies can be added to a running scene");
+      validate_body(in.body, ctx.where + ": body (id " + std::to_string(in.body.id) + ")");
+      break;
+    }
+    case UserInput::Kind::RemoveBody:
+      ctx.only_known(j, {"type", "step", "id"});
+      in.id = parse_id(ctx, j);
+      break;
+    case UserInput::Kind::SetVelocity:
+      ctx.only_known(j, {"type", "step", "id", "linear_velocity", "angular_velocity"});
+      in.id = parse_id(ctx, j);
+      in.linear = finite_vec3(ctx, j, "linear_velocity", true);
+      in.angular = finite_vec3(ctx, j, "angular_velocity", false);
+      break;
+    case UserInput::Kind::ApplyImpulse:
+      ctx.only_known(j, {"type", "step", "id", "impulse"});
+      in.id = parse_id(ctx, j);
+      in.linear = finite_vec3(ctx, j, "impulse", true);
+      break;
+  }
+  return in;
+}
+
+json vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+}  // namespace
+
+const char* input_kind_name(UserInput::Kind kind) {
+  switch (kind) {
+    case UserInput::Kind::AddBody: return "add_body";
+    case UserInput::Kind::RemoveBody: return "remove_body";
+    case UserInput::Kind::SetVelocity: return "set_velocity";
+    case UserInput::Kind::ApplyImpulse: return "apply_impulse";
+  }
+  return "unknown";
+}
+
+std::vector<UserInput> parse_inputs_json(const std::string& text, const std::string& source) {
+  json doc;
+  try {
+    doc = json::parse(text);
+  } catch (const json::parse_error& e) {
+    // The token the lexer stopped in: NaN, Infinity, ... get the hint.
+    std::size_t end = std::min<std::size_t>(e.byte, text.size()), begin = end;
+    while (begin > 0 && (std::isalpha(static_cast<unsigned char>(text[begin - 1])) || text[begin - 1] == '-' ||
+                         text[begin - 1] == '+'))
+      --begin;
+    while (end < text.size() && std::isalpha(static_cast<unsigned char>(text[end]))) ++end;
+    throw SceneError(source + ": at byte " + std::to_string(e.byte) + ": not valid JSON (" + e.what() + ")" +
+                     (detail::looks_non_finite(text.substr(begin, end - begin))
+                          ? "; numbers must be finite: JSON has no NaN or Infinity"
+                          : ""));
+  }
+  Context ctx{source};
+  if (!doc.is_object()) ctx.fail("(top level)", "must be an object");
+  ctx.only_known(doc, {"format", "version", "inputs"});
+  if (ctx.string(doc, "format", true, "") != kFormat) ctx.fail("format", std::string("must be \"") + kFormat + "\"");
+  if (ctx.integer(doc, "version", true, 0) != kVersion)
+    ctx.fail("version", "unsupported version (this build reads version " + std::to_string(kVersion) + ")");
+  const json* list = ctx.find(doc, "inputs", true);
+  if (!list->is_array()) ctx.fail("inputs", "must be an array");
+  std::vector<UserInput> inputs;
+  for (std::size_t i = 0; i < list->size(); ++i) {
+    inputs.push_back(parse_input(source, i, (*list)[i]));
+    inputs.back().sequence = i;  // the entry's index: names it in messages, orders one step's inputs
+  }
+  std::stable_sort(inputs.begin(), inputs.end(), [](const UserInput& a, const UserInput& b) { return a.step < b.step; });
+  return inputs;
+}
+
+std::vector<UserInput> load_input_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw SceneError(path + ": is a directory, not an input file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw SceneError(path + ": cannot open input file for reading");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw SceneError(path + ": read error");
+  return parse_inputs_json(text.str(), path);
+}
+
+std::string inputs_to_json(const std::vector<UserInput>& inputs) {
+  json list = json::array();
+  for (const UserInput& in : inputs) {
+    json e = {{"type", input_kind_name(in.kind)}, {"step", in.step}};
+    switch (in.kind) {
+      case UserInput::Kind::AddBody: e["body"] = detail::body_json(in.body); break;
+      case UserInput::Kind::RemoveBody: e["id"] = in.id; break;
+      case UserInput::Kind::SetVelocity:
+        e["id"] = in.id;
+        e["linear_velocity"] = vec_json(in.linear);
+        e["angular_velocity"] = vec_json(in.angular);
+        break;
+      case UserInput::Kind::ApplyImpulse:
+        e["id"] = in.id;
+        e["impulse"] = vec_json(in.linear);
+        break;
+    }
+    list.push_back(std::move(e));
+  }
+  return json{{"format", kFormat}, {"version", kVersion}, {"inputs", std::move(list)}}.dump(1) + "\n";
+}
+
+}  // namespace soda
