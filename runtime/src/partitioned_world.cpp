@@ -16,6 +16,7 @@
 #include "commit_horizon.h"
 #include "rollback_board.h"
 #include "soda/worlds/world_snapshot.h"
+#include "testing_hooks.h"
 
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/transport.h"
@@ -97,9 +98,10 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
     throw std::invalid_argument("PartitionedWorld: the pool schedule needs threads >= 1");
   if (substeps_ < 1) throw std::invalid_argument("PartitionedWorld: substeps must be >= 1");
   const int k = map.world_count();
+  const detail::TestingHooks& hooks = detail::testing_hooks_of(options_);
   graph_ = std::make_unique<WorldGraph>(map);
   transport_ = options_.serialise ? make_serialising_transport(k) : make_in_memory_transport(k);
-  if (options_.fuzz_seed) transport_ = make_fuzzing_transport(std::move(transport_), options_.fuzz_seed);
+  if (hooks.fuzz_seed) transport_ = make_fuzzing_transport(std::move(transport_), hooks.fuzz_seed);
   validator_ = options_.validate ? std::make_unique<Validator>(scene, k) : nullptr;
   if (options_.watchdog.heal_substeps < 1 || options_.watchdog.max_heals < 0)
     throw std::invalid_argument("PartitionedWorld: watchdog heal_substeps must be >= 1 and max_heals >= 0");
@@ -125,10 +127,10 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
     t->send(w, std::move(m));
   };
   horizon_->set_wake_hook(wake);
-  if (options_.fuzz_seed && !fuzz_) fuzz_ = std::make_shared<FuzzRandom>(options_.fuzz_seed ^ 0x5A5A5A5A5A5A5A5Aull);
+  if (hooks.fuzz_seed && !fuzz_) fuzz_ = std::make_shared<FuzzRandom>(hooks.fuzz_seed ^ 0x5A5A5A5A5A5A5A5Aull);
   Process::Safety safety;
   safety.watchdog = &options_.watchdog;
-  safety.fault = options_.inject_fault;
+  safety.fault = hooks.inject_fault;
   safety.fault_fired = fault_fired_.get();
   safety.horizon = horizon_.get();
   safety.keep_states = heal;
@@ -138,7 +140,7 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   safety.checkpoint_every = options_.checkpoint_every;
   safety.recompute = options_.rollback == PartitionedOptions::Rollback::Recompute;
   safety.eager_bets = options_.eager_bets;
-  safety.verify_replay = options_.verify_replay;
+  safety.verify_replay = hooks.verify_replay;
   board_ = std::make_unique<RollbackBoard>(k, *horizon_, wake);
   safety.board = board_.get();
   if (options_.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");
@@ -160,7 +162,7 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
       };
     processes_.push_back(std::make_unique<Process>(*worlds_[static_cast<std::size_t>(w)], *transport_, *graph_,
                                                    validator_.get(), w == 0 ? options_.progress : nullptr,
-                                                   substeps_, options_.solve_everywhere, safety));
+                                                   substeps_, hooks.solve_everywhere, safety));
   }
 }
 

@@ -63,6 +63,7 @@
 #include "soda/rollback/transform_buffer.h"
 #include "soda/runtime/partitioned_world.h"
 #include "soda/runtime/transport.h"
+#include "testing_hooks.h"
 #include "validator.h"
 
 namespace soda {
@@ -89,7 +90,7 @@ class PartitionedWorld::Process {
   /// PartitionedWorld; pointers outlive the process).
   struct Safety {
     const WatchdogConfig* watchdog = nullptr;
-    PartitionedOptions::InjectedFault fault = {};
+    detail::InjectedFault fault = {};
     std::atomic<bool>* fault_fired = nullptr;
     CommitHorizon* horizon = nullptr;  // reported at every scene step boundary
     bool keep_states = false;          // keep the world's state at every boundary >= GVT
