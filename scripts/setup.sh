@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   g++ cmake ninja-build pkg-config
   libbullet-dev          # Bullet 3.24, float and -float64 libraries
-  libeigen3-dev libtbb-dev libspdlog-dev
+  libeigen3-dev libspdlog-dev
   libcli11-dev nlohmann-json3-dev
   libgtest-dev
   python3-matplotlib     # bench/plot_accuracy.py (plots only; the C++ never needs it)

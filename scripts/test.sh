@@ -6,6 +6,19 @@ cd "$(dirname "$0")/.."
 scripts/setup.sh
 scripts/build.sh Release build
 (cd build && ctest --output-on-failure -j "$(nproc)" --timeout 900)
+# The installed package (docs/embedding.md, "Using SODA from CMake"): install
+# to a prefix inside build/, compile every public header alone against it
+# (tests/install/), then build and run the find_package(soda) consumer
+# (examples/consumer/: 2 territories == 1, float and double).
+prefix="$PWD/build/install-prefix"
+rm -rf "$prefix" build/install-check build/consumer
+cmake --install build --prefix "$prefix"
+cmake -S tests/install -B build/install-check -G Ninja -DCMAKE_PREFIX_PATH="$prefix"
+cmake --build build/install-check -j "$(nproc)"
+cmake -S examples/consumer -B build/consumer -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$prefix"
+cmake --build build/consumer -j "$(nproc)"
+build/consumer/consumer
+build/consumer/consumer_double
 # ThreadSanitizer cannot see inside Debian's (uninstrumented) Bullet; see
 # docs/bullet-globals.md for how its shared state is handled.
 cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSODA_SANITIZE=thread -DSODA_BUILD_DOUBLE=OFF

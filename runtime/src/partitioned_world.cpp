@@ -10,6 +10,7 @@
 
 #include "partitioned_internals.h"
 #include "soda/worlds/world_snapshot.h"
+#include "testing_hooks.h"
 
 namespace soda {
 
@@ -107,9 +108,10 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   in_.reset();
   in_ = std::make_unique<Internals>();
   Internals& in = *in_;
+  const detail::TestingHooks& hooks = detail::testing_hooks_of(options_);
   in.graph = std::make_unique<WorldGraph>(map);
   in.transport = options_.serialise ? make_serialising_transport(k) : make_in_memory_transport(k);
-  if (options_.fuzz_seed) in.transport = make_fuzzing_transport(std::move(in.transport), options_.fuzz_seed);
+  if (hooks.fuzz_seed) in.transport = make_fuzzing_transport(std::move(in.transport), hooks.fuzz_seed);
   in.validator = options_.validate ? std::make_unique<Validator>(scene, k) : nullptr;
   for (WorldId w = 0; w < k; ++w) in.worlds.push_back(make_world(w));
   const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
@@ -124,10 +126,10 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
     t->send(w, std::move(m));
   };
   in.horizon->set_wake_hook(wake);
-  if (options_.fuzz_seed && !fuzz_) fuzz_ = std::make_shared<FuzzRandom>(options_.fuzz_seed ^ 0x5A5A5A5A5A5A5A5Aull);
+  if (hooks.fuzz_seed && !fuzz_) fuzz_ = std::make_shared<FuzzRandom>(hooks.fuzz_seed ^ 0x5A5A5A5A5A5A5A5Aull);
   Process::Safety safety;
   safety.watchdog = &options_.watchdog;
-  safety.fault = options_.inject_fault;
+  safety.fault = hooks.inject_fault;
   safety.fault_fired = fault_fired_.get();
   safety.horizon = in.horizon.get();
   safety.keep_states = heal;
@@ -137,7 +139,7 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   safety.checkpoint_every = options_.checkpoint_every;
   safety.recompute = options_.rollback == PartitionedOptions::Rollback::Recompute;
   safety.eager_bets = options_.eager_bets;
-  safety.verify_replay = options_.verify_replay;
+  safety.verify_replay = hooks.verify_replay;
   in.board = std::make_unique<RollbackBoard>(k, *in.horizon, wake);
   safety.board = in.board.get();
   if (options_.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");
@@ -160,7 +162,7 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
       };
     in.add_process(std::make_unique<Process>(*in.worlds[static_cast<std::size_t>(w)], *in.transport, *in.graph,
                                              in.validator.get(), w == 0 ? options_.progress : nullptr, substeps_,
-                                             options_.solve_everywhere, safety));
+                                             hooks.solve_everywhere, safety));
   }
 }
 

@@ -15,6 +15,7 @@
 #include "soda/rollback/transform_buffer.h"
 #include "soda/runtime/partitioned_world.h"
 #include "soda/runtime/transport.h"
+#include "testing_hooks.h"
 
 namespace soda {
 
@@ -24,7 +25,7 @@ class RunControl;
 /// PartitionedWorld; pointers outlive the process).
 struct ProcessSafety {
   const WatchdogConfig* watchdog = nullptr;
-  PartitionedOptions::InjectedFault fault = {};
+  detail::InjectedFault fault = {};
   std::atomic<bool>* fault_fired = nullptr;
   CommitHorizon* horizon = nullptr;  // reported at every scene step boundary
   bool keep_states = false;          // keep the world's state at every boundary >= GVT

@@ -5,6 +5,7 @@
 // (ghosts, seeded manifolds, migrations, merged islands) and runs with the
 // validation mode on (one owner per body, one holder per contact state).
 #include "runtime/partitioned_test_util.h"
+#include "testing_hooks.h"  // runtime/src: the test-only knobs
 
 namespace soda {
 namespace {
@@ -98,7 +99,9 @@ TEST(Decomposition, TransportDoesNotMatter) {
 TEST(Decomposition, SolvingEverywhereMatchesSolvingAtTheRoot) {
   const Scene s = test::scene("cube-pile", 150);
   const TerritoryMap map = make_partition("rcb", s, 8, GridOptions{});
-  PartitionedWorld root(s, map), everywhere(s, map, PartitionedOptions{.solve_everywhere = true});
+  PartitionedOptions solve_everywhere;
+  detail::edit_testing_hooks(solve_everywhere).solve_everywhere = true;
+  PartitionedWorld root(s, map), everywhere(s, map, solve_everywhere);
   root.step(200);
   everywhere.step(200);
   const WorldMetrics a = test::total(root.metrics()), b = test::total(everywhere.metrics());

@@ -1,10 +1,11 @@
 // Fuzzing: 50 seeds of random pauses in every world's stages and in every
-// message send (PartitionedOptions::fuzz_seed), over falling-cubes,
+// message send (detail::TestingHooks::fuzz_seed), over falling-cubes,
 // cube-pile and the border scenes, on a thread per world and on a pool of
 // two: threads interleave and messages from different worlds arrive in
 // unusual orders, and every run still ends on the one-territory hash.
 // Label "concurrency" (ThreadSanitizer in CI runs fewer seeds).
 #include "runtime/partitioned_test_util.h"
+#include "testing_hooks.h"  // runtime/src: the test-only knobs
 
 #include <map>
 
@@ -30,7 +31,7 @@ TEST(Fuzz, SeededPausesInThreadsAndMessagesNeverChangeTheResult) {
     PartitionedOptions o;
     o.schedule = seed % 2 ? Schedule::ThreadPerWorld : Schedule::Pool;
     o.threads = 2;
-    o.fuzz_seed = static_cast<std::uint64_t>(seed);
+    detail::edit_testing_hooks(o).fuzz_seed = static_cast<std::uint64_t>(seed);
     o.validate = true;
     pool_runs += o.schedule == Schedule::Pool;
     PartitionedWorld world(s, map, o);

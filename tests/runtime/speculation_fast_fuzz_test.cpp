@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "soda/grid/map_file.h"
+#include "testing_hooks.h"
 
 namespace soda {
 namespace {
@@ -89,7 +90,7 @@ TEST(Speculation, FuzzedFastBodiesAcrossManyTerritoriesNeverLoseAState) {
     PartitionedOptions o;
     o.schedule = seed % 2 ? Schedule::ThreadPerWorld : Schedule::Pool;
     o.threads = 2;
-    o.fuzz_seed = static_cast<std::uint64_t>(seed) + 1000;  // not the seeds of the other fuzz tests
+    detail::edit_testing_hooks(o).fuzz_seed = static_cast<std::uint64_t>(seed) + 1000;  // not the seeds of the other fuzz tests
     o.validate = true;
     o.anticipation = std::vector<int>{64, 64, 8, 32}[static_cast<std::size_t>(seed / 3) % 4];
     o.eager_bets = seed % 4 != 0;

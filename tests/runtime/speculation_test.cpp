@@ -4,6 +4,7 @@
 // one-territory hash, whatever the anticipation, schedule, fuzzing or
 // rollback mode. Label "concurrency" (ThreadSanitizer in CI).
 #include "runtime/partitioned_test_util.h"
+#include "testing_hooks.h"  // runtime/src: the test-only knobs
 
 #include <algorithm>
 #include <chrono>
@@ -101,13 +102,13 @@ TEST(Speculation, FuzzedThreadsAndDeliveryNeverChangeTheResult) {
     PartitionedOptions o;
     o.schedule = seed % 2 ? Schedule::ThreadPerWorld : Schedule::Pool;
     o.threads = 2;
-    o.fuzz_seed = static_cast<std::uint64_t>(seed);
+    detail::edit_testing_hooks(o).fuzz_seed = static_cast<std::uint64_t>(seed);
     o.validate = true;
     o.anticipation = std::vector<int>{1, 8, 64}[static_cast<std::size_t>(seed / 2) % 3];
     o.rollback = seed % 5 == 0 ? PartitionedOptions::Rollback::Recompute : PartitionedOptions::Rollback::Propagate;
     o.eager_bets = seed % 3 != 0;
     o.checkpoint_every = seed % 4 == 1 || seed % 4 == 2 ? 1 : 8;
-    o.verify_replay = seed % 2 == 0 || std::getenv("SODA_SPEC_VERIFY");
+    detail::edit_testing_hooks(o).verify_replay = seed % 2 == 0 || std::getenv("SODA_SPEC_VERIFY");
     PartitionedWorld world(s, test::map_of(c, s), o);
     world.step(kSteps);
     const WorldMetrics t = totals(world);
@@ -185,7 +186,7 @@ struct StripRun {
 StripRun run_strip(const Scene& s, PartitionedOptions::Rollback mode, bool eager_bets, bool verify_replay = false) {
   PartitionedOptions o;
   o.eager_bets = eager_bets;
-  o.verify_replay = verify_replay;
+  detail::edit_testing_hooks(o).verify_replay = verify_replay;
   o.schedule = Schedule::ThreadPerWorld;
   o.anticipation = 16;
   o.checkpoint_every = 1;  // a rollback re-runs only from the changed step

@@ -5,6 +5,7 @@
 // event that happens only once (an injected fault) is caught as the
 // difference it makes.
 #include "runtime/partitioned_test_util.h"
+#include "testing_hooks.h"  // runtime/src: the test-only knobs
 
 namespace soda {
 namespace {
@@ -67,7 +68,7 @@ TEST(SyncTest, CatchesAnEventThatDoesNotHappenAgain) {
   BodyId body = 0;
   for (const Body& b : s.bodies)
     if (!b.is_static) body = b.id;
-  o.inject_fault = {30, body};
+  detail::edit_testing_hooks(o).inject_fault = {30, body};
   PartitionedWorld world(s, map, o);
   try {
     world.step(60);

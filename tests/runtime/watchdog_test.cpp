@@ -6,6 +6,7 @@
 // is the same for every partition, and equals one CanonicalWorld that takes
 // the same substeps at that step.
 #include "runtime/partitioned_test_util.h"
+#include "testing_hooks.h"  // runtime/src: the test-only knobs
 
 #include "soda/worlds/watchdog.h"
 #include "soda/worlds/world_snapshot.h"
@@ -34,7 +35,7 @@ PartitionedOptions options(WatchdogResponse response, BodyId body, Schedule sche
   o.threads = schedule == Schedule::Pool ? 2 : 0;
   o.validate = true;
   o.watchdog.response = response;
-  o.inject_fault = {kBadStep, body};
+  detail::edit_testing_hooks(o).inject_fault = {kBadStep, body};
   return o;
 }
 
@@ -129,7 +130,7 @@ TEST(Watchdog, HealGivesUpWithAClearErrorWhenTheStepStaysBad) {
   const Scene s = test::scene("cube-pile", kBodies);
   const TerritoryMap map = make_partition("kmeans", s, 2, GridOptions{});
   PartitionedOptions o = options(WatchdogResponse::Heal, victim(s));
-  o.inject_fault = {};
+  detail::edit_testing_hooks(o).inject_fault = {};
   o.watchdog.limits.max_penetration = -1.0;  // any contact point at all is "too deep"
   o.watchdog.max_heals = 2;
   PartitionedWorld world(s, map, o);

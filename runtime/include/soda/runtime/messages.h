@@ -11,7 +11,7 @@
 //   Gather(t)     one per border island from each non-root world to its
 //                 parent in the island's tree: the data of its subtree
 //   Results(t)    one per border island to each child of the island's tree
-//                 (the last two not with PartitionedOptions::solve_everywhere)
+//                 (the last two not with the test-only solve_everywhere hook)
 //   Migrants(t)   exactly one, possibly empty          (migrate; consumed at the end of t)
 // and, with speculation only (docs/rollback.md):
 //   Control       Notice: the sender rolled back to step t on its own; its

@@ -36,6 +36,10 @@
 
 namespace soda {
 
+namespace detail {
+struct TestingHooks;  // internal (runtime/src/testing_hooks.h)
+}
+
 /// How the worlds' steps are scheduled onto threads. Results never depend
 /// on it (tests check); speed does.
 enum class Schedule {
@@ -50,10 +54,6 @@ struct PartitionedOptions {
   int threads = 0;         // Pool only: worker threads (>= 1)
   bool serialise = true;   // every message through bytes (message_codec.h); false: values
   bool validate = false;   // check ownership and pair holders after every step (slow)
-  /// Every world involved in a border island solves it itself (identical
-  /// results, no Results messages) instead of its root solving it once and
-  /// relaying the result down the island's tree.
-  bool solve_everywhere = false;
   /// SyncTest (as GGPO's): after every scene step t, restore every world
   /// from the whole scene's state at step t - sync_test (kept in memory),
   /// re-run those steps and require the bodies' and the contacts' state at
@@ -61,11 +61,6 @@ struct PartitionedOptions {
   /// check of restore and of determinism; costs sync_test extra steps per
   /// step. 0: off.
   int sync_test = 0;
-  /// Fuzzing (tests): > 0 pauses every message send and every stage of
-  /// every world at random (seeded: transport.h, fuzz_pause), so that
-  /// threads interleave and messages arrive in unusual orders. Results must
-  /// not change. 0: off.
-  std::uint64_t fuzz_seed = 0;
   /// Pin the stepping threads to cores: ThreadPerWorld, world i's thread;
   /// Pool, worker i; on CPU (i mod the CPUs this process may use). A failure
   /// to pin is a logged warning. Sequential runs on the caller's thread and
@@ -82,13 +77,6 @@ struct PartitionedOptions {
   /// horizon to its clock (what a rollback restores; a snapshot per step).
   /// Implied by the watchdog's Heal response.
   bool keep_states = false;
-  /// Tests: a blow-up injected once per PartitionedWorld — at the end of
-  /// scene step `step` (before the watchdog's check) body `body`'s linear
-  /// velocity becomes NaN. step < 1: none.
-  struct InjectedFault {
-    std::int64_t step = 0;
-    BodyId body = 0;
-  } inject_fault = {};
   /// Speculation (docs/rollback.md): a world may run up to `anticipation`
   /// scene steps past the commit horizon, betting that a neighbour it sent
   /// no ghosts at a step sends it no ghosts and no migrants at that step; a
@@ -126,11 +114,10 @@ struct PartitionedOptions {
   /// rollbacks eager, 8 not; docs/rollback.md). On: as many bets and
   /// rollbacks as possible (tests of the rollback machinery use it).
   bool eager_bets = false;
-  /// Speculation, a check for tests: islands a re-run replays (takes from
-  /// the run it repeats instead of solving: docs/rollback.md) are solved
-  /// anyway and their result compared with the replayed one, bit for bit; a
-  /// difference throws std::logic_error. Costs what replaying saves.
-  bool verify_replay = false;
+  /// Internal: the knobs only tests set (an injected fault, fuzzing, the
+  /// solve-everywhere protocol variant, replay verification); set through
+  /// runtime/src/testing_hooks.h. Leave empty.
+  std::shared_ptr<const detail::TestingHooks> testing = {};
 };
 
 /// Thrown when the validation mode finds a broken invariant; the message names
