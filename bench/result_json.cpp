@@ -15,6 +15,19 @@ nlohmann::json step_time_json(const StepTimeStats& s) {
 
 }  // namespace
 
+nlohmann::json stages_json(const WorldMetrics& m) {
+  nlohmann::json j = nlohmann::json::object();
+  for (std::size_t i = 0; i < kStageCount; ++i) {
+    const StageCost& c = m.stages[i];
+    j[stage_name(static_cast<Stage>(i))] = {{"cpu_seconds", c.cpu_seconds},
+                                            {"wait_seconds", c.wait_seconds},
+                                            {"items", c.items},
+                                            {"messages", c.messages},
+                                            {"bytes", c.bytes}};
+  }
+  return j;
+}
+
 nlohmann::json speculation_json(const WorldMetrics& m) {
   return {{"bets", m.bets},
           {"bets_lost", m.bets_lost},
@@ -79,6 +92,7 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
                         {"cpu_seconds", m.cpu_seconds},
                         {"cpu_step_mean_ms", m.cpu_step_mean_ms},
                         {"cpu_step_max_ms", m.cpu_step_max_ms},
+                        {"thread_cpu_seconds", m.thread_cpu_seconds},
                         {"blocked_seconds", m.blocked_seconds},
                         {"owned_bodies", m.owned_bodies},
                         {"ghosts", m.ghosts},
@@ -106,6 +120,7 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
                         {"fragments_relayed", m.fragments_relayed},
                         {"messages_sent", m.messages_sent}};
       row.update(speculation_json(m));
+      row["stages"] = stages_json(m);
       worlds.push_back(std::move(row));
     }
     j["worlds"] = std::move(worlds);

@@ -136,6 +136,17 @@ void print_summary(const soda::RunResult& r) {
                 r.territories, r.partition.c_str(), r.schedule.c_str(), r.threads,
                 static_cast<unsigned long long>(r.messages), r.cpu_seconds,
                 soda::slowest_world_cpu_seconds(r.world_metrics));
+  if (r.territories > 1) {
+    // Per stage, summed over the worlds: CPU seconds / seconds waited.
+    const soda::WorldMetrics t = soda::total_metrics(r.world_metrics);
+    std::printf("  by stage (CPU s / waited s):");
+    for (std::size_t i = 0; i < soda::kStageCount; ++i) {
+      const soda::StageCost& c = t.stages[i];
+      if (c.cpu_seconds > 0 || c.wait_seconds > 0)
+        std::printf(" %s %.3f/%.3f", soda::stage_name(static_cast<soda::Stage>(i)), c.cpu_seconds, c.wait_seconds);
+    }
+    std::printf("\n");
+  }
   if (r.territories > 1 && r.anticipation > 0) {
     const soda::WorldMetrics sp = soda::total_metrics(r.world_metrics);
     std::printf("  speculation (anticipation %d, %s): %llu bets, %llu lost, %llu rollbacks, %llu steps rolled "

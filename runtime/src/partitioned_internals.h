@@ -12,9 +12,9 @@
 #include <optional>
 #include <vector>
 
-#include "commit_horizon.h"
-#include "rollback_board.h"
 #include "scheduler.h"
+#include "soda/rollback/commit_horizon.h"
+#include "soda/rollback/rollback_board.h"
 #include "soda/runtime/partitioned_world.h"
 #include "soda/runtime/transport.h"
 #include "validator.h"

@@ -27,6 +27,14 @@ namespace {
 // Adds what `m` counted to `t`: counters and times summed, maxima kept.
 void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.cpu_seconds += m.cpu_seconds;
+  t.thread_cpu_seconds += m.thread_cpu_seconds;
+  for (std::size_t i = 0; i < kStageCount; ++i) {
+    t.stages[i].cpu_seconds += m.stages[i].cpu_seconds;
+    t.stages[i].wait_seconds += m.stages[i].wait_seconds;
+    t.stages[i].items += m.stages[i].items;
+    t.stages[i].messages += m.stages[i].messages;
+    t.stages[i].bytes += m.stages[i].bytes;
+  }
   t.cpu_step_max_ms = std::max(t.cpu_step_max_ms, m.cpu_step_max_ms);
   t.blocked_seconds += m.blocked_seconds;
   t.buffer_blocked_seconds += m.buffer_blocked_seconds;

@@ -13,9 +13,12 @@
 #include <vector>
 
 #include "soda/runtime/message_codec.h"
+#include "transport_bytes.h"
 
 namespace soda {
 namespace {
+
+thread_local std::uint64_t t_bytes_sent = 0;  // thread_bytes_sent()
 
 template <bool kSerialise>
 class QueueTransport final : public Transport {
@@ -31,6 +34,7 @@ class QueueTransport final : public Transport {
     if constexpr (kSerialise) {
       item = encode_message(message);
       bytes_.fetch_add(item.size(), std::memory_order_relaxed);
+      t_bytes_sent += item.size();
     } else {
       item = std::move(message);
     }
@@ -124,6 +128,8 @@ class QueueTransport final : public Transport {
 };
 
 }  // namespace
+
+std::uint64_t thread_bytes_sent() { return t_bytes_sent; }
 
 std::unique_ptr<Transport> make_in_memory_transport(int world_count) {
   return std::make_unique<QueueTransport<false>>(world_count);

@@ -18,6 +18,10 @@ struct RunDescription {
   RunConfig config;
 };
 
+/// Per-stage costs of one world (WorldMetrics::stages): an object keyed by
+/// stage name (stage.h), each {cpu_seconds, wait_seconds, items, messages,
+/// bytes}.
+nlohmann::json stages_json(const WorldMetrics& m);
 /// Speculation figures of one world, or of a run (total_metrics over its
 /// worlds: the "speculation" object of a row).
 nlohmann::json speculation_json(const WorldMetrics& m);

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "soda/grid/territory_map.h"
+#include "soda/runtime/stage.h"
 #include "soda/runtime/world_graph.h"
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
@@ -144,6 +145,14 @@ struct WorldMetrics {
   WorldId world = 0;
   std::int64_t steps = 0;              // internal steps
   double cpu_seconds = 0;              // thread CPU time spent stepping this world (restores included)
+  /// Per stage (stage.h), over the finished internal steps: CPU time (summing
+  /// to cpu_seconds exactly), wall time waited, counts; indexed by Stage.
+  StageCosts stages = {};
+  /// CPU time of the world's thread from the world's first stage to its
+  /// last finished step, the scheduler's own work between stages included:
+  /// the check of cpu_seconds. Only when the world had a thread to itself
+  /// (Schedule::ThreadPerWorld); else 0.
+  double thread_cpu_seconds = 0;
   double cpu_step_mean_ms = 0;         // per internal step
   double cpu_step_max_ms = 0;
   std::vector<double> cpu_step_ms;     // thread CPU time of every internal step, in order

@@ -1,4 +1,4 @@
-// Internal: the commit horizon (GVT, DESIGN.md §4): the oldest internal step
+// The commit horizon (GVT, DESIGN.md §4): the oldest internal step
 // any world may still have to return to. Each world reports its low-water
 // mark — without speculation its last completed step boundary (messages it
 // has sent are for steps at or after it, and inputs are applied at
