@@ -273,6 +273,13 @@ TEST_F(CliSpeculation, RunJsonHasSpeculationFields) {
                             "rollback_cpu_seconds", "lead_max", "lead_mean", "kept_states_max"})
     EXPECT_TRUE(j["worlds"][0].contains(field)) << field << " missing in " << j["worlds"][0].dump();
   EXPECT_FALSE(j["worlds"][0].contains("lead"));  // the per-step series is not dumped
+  // Per-stage costs (stage.h): every stage by name, each with its fields.
+  const nlohmann::json& stages = j["worlds"][0]["stages"];
+  for (const char* stage : {"predict", "exchange_ghosts", "collide", "build_islands", "glue", "merge", "solve",
+                            "integrate", "migrate", "publish", "receive", "checkpoint", "rollback", "idle"})
+    for (const char* field : {"cpu_seconds", "wait_seconds", "items", "messages", "bytes"})
+      EXPECT_TRUE(stages.contains(stage) && stages[stage].contains(field)) << stage << "." << field << " missing";
+  EXPECT_TRUE(j["worlds"][0].contains("thread_cpu_seconds"));
 }
 
 }  // namespace
