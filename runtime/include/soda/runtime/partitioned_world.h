@@ -130,6 +130,16 @@ struct PartitionedOptions {
   /// anyway and their result compared with the replayed one, bit for bit; a
   /// difference throws std::logic_error. Costs what replaying saves.
   bool verify_replay = false;
+  /// Reach (docs/partitioned-step.md, "Reach beyond adjacent cells"): the
+  /// worlds' neighbourhoods are widened to every world owning a cell within
+  /// reach_cells(scene, cell size, speed) cells of their territory
+  /// (worlds/reach.h), so that the halo and the migration of a body up to
+  /// this speed (m/s) only reach neighbours. 0: scene_reach_speed(scene)
+  /// (its fastest initial speed plus a fall through its height); slow scenes
+  /// keep adjacent worlds only. A body that outruns it stops the run with a
+  /// PartitionError naming the body, its speed and the speed to set here.
+  /// Results never depend on it. >= 0.
+  double reach_speed = 0;
 };
 
 /// Thrown when the validation mode finds a broken invariant; the message names
