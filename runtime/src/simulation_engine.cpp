@@ -43,6 +43,7 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
   o.rollback = c.rollback;
   o.checkpoint_every = c.checkpoint_every;
   o.eager_bets = c.eager_bets;
+  o.reach_speed = c.reach_speed;
   if (c.past_inputs && c.validate)
     throw std::invalid_argument("SimulationConfig: past_inputs with validate is not supported (the validator "
                                 "cannot follow a rollback yet)");

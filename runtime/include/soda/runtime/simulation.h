@@ -89,6 +89,9 @@ struct SimulationConfig {
   PartitionedOptions::Rollback rollback = PartitionedOptions::Rollback::Propagate;
   int checkpoint_every = 8;
   bool eager_bets = false;
+  /// Speed (m/s) the worlds' neighbourhoods are sized for
+  /// (PartitionedOptions::reach_speed; 0: from the scene).
+  double reach_speed = 0;
 };
 
 /// A world failed. world(): the world whose thread threw (kNoWorld if no
