@@ -70,7 +70,9 @@ TEST(Reach, FastBallAcrossThinTerritoriesMatchesOneTerritory) {
         EXPECT_GT(t.ghosts_sent, 0u);
         EXPECT_GT(t.migrations_out, 0u);
         EXPECT_GT(t.manifolds_seeded, 0u) << "contact state must cross worlds";
-        if (c.territories == 16) EXPECT_GT(t.merged_islands, 0u) << "the ball must hit bricks across a border";
+        if (c.territories == 16) {
+          EXPECT_GT(t.merged_islands, 0u) << "the ball must hit bricks across a border";
+        }
         if (anticipation == 0) {  // speculating, re-run steps count twice
           EXPECT_EQ(t.bets, 0u);
           EXPECT_EQ(t.ghosts_sent, t.ghosts_received);
