@@ -132,6 +132,8 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
     j["schedule"] = r.schedule;
     j["threads"] = r.threads;
     j["messages"] = r.messages;
+    j["reach_speed"] = d.config.reach_speed;
+    j["reach_cells"] = r.reach_cells;
     j["message_bytes"] = r.message_bytes;
     j["slowest_world_cpu_seconds"] = slowest_world_cpu_seconds(r.world_metrics);
     nlohmann::json worlds = nlohmann::json::array();

@@ -107,6 +107,13 @@ void add_run_options(CLI::App& cmd, Options& o) {
                  "--watchdog heal); docs/rollback.md")
       ->check(CLI::Range(0, std::numeric_limits<int>::max()))
       ->capture_default_str();
+  cmd.add_option("--reach-speed", o.config.reach_speed,
+                 "Speed (m/s) the worlds' neighbourhoods are sized for: every world talks to the worlds owning a "
+                 "cell its bodies' halos and migrations can reach at this speed (0: the scene's fastest initial "
+                 "speed plus a fall through its height); a faster body stops the run naming it; "
+                 "docs/partitioned-step.md")
+      ->check(CLI::Range(0.0, 1e9))
+      ->capture_default_str();
   cmd.add_option("--rollback", o.rollback,
                  "What a rollback makes the neighbours do (with --anticipation): propagate (re-run only where a "
                  "message they used changed) | recompute (every neighbour that used a rolled-back step re-runs "

@@ -21,7 +21,8 @@ LocalGrid::LocalGrid(const TerritoryMap& map, WorldId world)
       bounds.lo[axis] = std::min(bounds.lo[axis], c[axis]);
       bounds.hi[axis] = std::max(bounds.hi[axis], c[axis]);
     }
-  bounds = bounds.grown(1);
+  const int r = map.reach();  // the margin reaches as far as the neighbours do
+  bounds = bounds.grown(r);
   for (int axis = 0; axis < 3; ++axis) {
     bounds.lo[axis] = std::max(bounds.lo[axis], map_box_.lo[axis]);
     bounds.hi[axis] = std::min(bounds.hi[axis], map_box_.hi[axis]);
@@ -29,11 +30,11 @@ LocalGrid::LocalGrid(const TerritoryMap& map, WorldId world)
   box_ = bounds;
   owners_.assign(static_cast<std::size_t>(box_.count()), kNoWorld);
   for (const CellCoord& c : own) owners_[box_.index(c)] = world_;
-  // Margin: every box cell 26-adjacent to an own cell carries its owner.
+  // Margin: every box cell within r of an own cell carries its owner.
   for (const CellCoord& c : own)
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz) {
+    for (int dx = -r; dx <= r; ++dx)
+      for (int dy = -r; dy <= r; ++dy)
+        for (int dz = -r; dz <= r; ++dz) {
           const CellCoord n{c.x + dx, c.y + dy, c.z + dz};
           if (!box_.contains(n)) continue;
           WorldId& slot = owners_[box_.index(n)];

@@ -2,6 +2,7 @@
 #include "soda/grid/territory_map.h"
 
 #include "foreign_cells.h"
+#include "neighbours_within.h"
 
 #include <algorithm>
 
@@ -11,7 +12,14 @@ TerritoryMap::TerritoryMap() : TerritoryMap(UniformGrid(), CellBox{}, {0}, 1) {}
 
 TerritoryMap::TerritoryMap(const UniformGrid& grid, const CellBox& box,
                            std::vector<WorldId> owners, int world_count)
+    : TerritoryMap(grid, box, std::move(owners), world_count, 1) {}
+
+TerritoryMap::TerritoryMap(const UniformGrid& grid, const CellBox& box, std::vector<WorldId> owners,
+                           int world_count, int reach)
     : grid_(grid), box_(box), world_count_(world_count) {
+  if (reach < 1 || reach > kMaxReachCells)
+    throw GridError("territory map reach " + std::to_string(reach) + " cells is outside 1.." +
+                    std::to_string(kMaxReachCells));
   if (!box.valid()) throw GridError("territory map box " + to_string(box) + " is empty");
   if (box.count() > kMaxBoxCells)
     throw GridError("territory map box " + to_string(box) + " holds more than " +
@@ -32,31 +40,8 @@ TerritoryMap::TerritoryMap(const UniformGrid& grid, const CellBox& box,
     ++data->cell_counts[static_cast<std::size_t>(w)];
   }
 
-  // Neighbour pairs over the 13 "forward" offsets of the 26-neighbourhood;
-  // each unordered pair of adjacent cells is seen once.
-  std::vector<std::pair<WorldId, WorldId>> pairs;
-  for (int x = box.lo.x; x <= box.hi.x; ++x)
-    for (int y = box.lo.y; y <= box.hi.y; ++y)
-      for (int z = box.lo.z; z <= box.hi.z; ++z) {
-        const WorldId a = owners[box.index({x, y, z})];
-        for (int dx = 0; dx <= 1; ++dx)
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dz = -1; dz <= 1; ++dz) {
-              if (dx == 0 && (dy < 0 || (dy == 0 && dz <= 0))) continue;
-              const CellCoord n{x + dx, y + dy, z + dz};
-              if (!box.contains(n)) continue;
-              const WorldId b = owners[box.index(n)];
-              if (a != b) pairs.emplace_back(std::min(a, b), std::max(a, b));
-            }
-      }
-  std::sort(pairs.begin(), pairs.end());
-  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-  data->neighbours.resize(static_cast<std::size_t>(world_count));
-  for (const auto& [a, b] : pairs) {
-    data->neighbours[static_cast<std::size_t>(a)].push_back(b);
-    data->neighbours[static_cast<std::size_t>(b)].push_back(a);
-  }
-  for (auto& list : data->neighbours) std::sort(list.begin(), list.end());
+  data->neighbours = detail::neighbours_within(box, owners, world_count, reach);
+  data->reach = reach;
   data->owners = std::move(owners);
   data_ = std::move(data);
 }
@@ -103,12 +88,17 @@ TerritoryMap TerritoryMap::reassigned(
     check_world(w);
     owners[box_.index(cell)] = w;
   }
-  return TerritoryMap(grid_, box_, std::move(owners), world_count_);
+  return TerritoryMap(grid_, box_, std::move(owners), world_count_, reach());
+}
+
+TerritoryMap TerritoryMap::with_reach(int cells) const {
+  if (cells == reach()) return *this;
+  return TerritoryMap(grid_, box_, data_->owners, world_count_, cells);
 }
 
 bool operator==(const TerritoryMap& a, const TerritoryMap& b) {
   return a.grid_ == b.grid_ && a.box_ == b.box_ && a.world_count_ == b.world_count_ &&
-         (a.data_ == b.data_ || a.data_->owners == b.data_->owners);
+         (a.data_ == b.data_ || (a.data_->reach == b.data_->reach && a.data_->owners == b.data_->owners));
 }
 
 }  // namespace soda

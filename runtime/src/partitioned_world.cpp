@@ -76,6 +76,7 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
 
 PartitionedWorld::PartitionedWorld(const Scene& scene, TerritoryMap map, PartitionedOptions options)
     : options_(std::move(options)), substeps_(scene.settings.substeps), base_substeps_(substeps_) {
+  map = map_with_reach(scene, map, options_.reach_speed);
   build(scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(scene, w, map); });
 }
 
@@ -85,7 +86,9 @@ PartitionedWorld::PartitionedWorld(const WorldSnapshot& state, TerritoryMap map,
       base_substeps_(substeps_),
       steps_done_(state.steps_done) {
   if (state.steps_done < 0) throw std::invalid_argument("PartitionedWorld: a snapshot with a negative step count");
-  build(scene_of(state), map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
+  const Scene scene = scene_of(state);
+  map = map_with_reach(scene, map, options_.reach_speed);
+  build(scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
 }
 
 void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,

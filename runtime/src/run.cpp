@@ -122,6 +122,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   options.checkpoint_every = config.checkpoint_every;
   options.rollback = config.rollback;
   options.eager_bets = config.eager_bets;
+  options.reach_speed = config.reach_speed;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
   step_ends.reserve(static_cast<std::size_t>(config.steps));
   std::int64_t t0 = 0;
@@ -152,6 +153,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.world_metrics = world.metrics();
   for (const WorldMetrics& m : r.world_metrics) r.cpu_seconds += m.cpu_seconds;
   r.messages = world.messages_sent();
+  r.reach_cells = world.world(0).map().reach();
   r.message_bytes = world.bytes_sent();
   r.state_hash = world.state_hash();
   r.sleeping_bodies = world.sleeping_count();

@@ -1,9 +1,13 @@
 #include "soda/runtime/world_graph.h"
 
+#include <cmath>
+
 #include <algorithm>
 #include <deque>
 #include <stdexcept>
 #include <string>
+
+#include "soda/worlds/reach.h"
 
 namespace soda {
 
@@ -73,6 +77,14 @@ int WorldGraph::diameter() const {
       d = std::max(d, x);
     }
   return d;
+}
+
+TerritoryMap map_with_reach(const Scene& scene, const TerritoryMap& map, double reach_speed) {
+  if (!(reach_speed >= 0) || !std::isfinite(reach_speed))
+    throw std::invalid_argument("reach speed must be finite and >= 0 m/s (0: from the scene), got " +
+                                std::to_string(reach_speed));
+  const double speed = reach_speed > 0 ? reach_speed : scene_reach_speed(scene);
+  return map.with_reach(std::max(map.reach(), reach_cells(scene, map.grid().cell_size(), speed)));
 }
 
 }  // namespace soda

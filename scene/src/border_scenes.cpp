@@ -27,6 +27,8 @@ const Vec3 kUnitHalf = Vec3::Constant(0.5);  // unit box
 
 }  // namespace
 
+int magnitude_or_default(const SceneParams& params, int default_n) { return params.n >= 1 ? params.n : default_n; }
+
 int count_or_default(const SceneParams& params, int default_n, int max_n) {
   if (params.n == 0) return default_n;
   if (params.n > max_n)
@@ -177,6 +179,48 @@ Scene make_projectile(const SceneParams& params) {
   for (const double x : {8.0, -8.0})
     for (const double z : {6.0, -6.0})
       scene.bodies.push_back(dynamic_box(id++, kUnitHalf, 1.0, Vec3(x, 0.5, z)));
+  return scene;
+}
+
+Scene make_thrown_ball(const SceneParams& params) {
+  Scene scene;
+  scene.name = "thrown-ball";
+  scene.seed = params.seed;
+  const int speed = magnitude_or_default(params, 40);  // m/s
+  constexpr double kArenaHalf = 6.0;  // inner faces of the walls at x, z = +-6
+  constexpr double kWallHalfThickness = 0.5;
+  constexpr double kWallHalfHeight = 1.0;
+  constexpr double kRestitution = 0.8;  // sphere and walls; Bullet multiplies: 0.64
+  constexpr double kRadius = 0.2;       // the ball: cells are 0.4 m by default
+  constexpr double kBrickHalf = 0.11;   // bounding diameter 0.38 m: fits the ball's cell
+  constexpr int kBricks = 6;            // 0.3 m apart: a 1.8 m row, longer than a step at 100 m/s
+  const double outer = kArenaHalf + 2 * kWallHalfThickness;
+  scene.bodies.push_back(flat_ground(outer + kGroundMargin, 0.5));
+  // Ids 1..4: walls at +x, -x, +z, -z, overlapping at the corners.
+  const double c = kArenaHalf + kWallHalfThickness;
+  const Vec3 along_z(kWallHalfThickness, kWallHalfHeight, outer);
+  const Vec3 along_x(outer, kWallHalfHeight, kWallHalfThickness);
+  for (Body w : {static_box(1, along_z, Vec3(c, kWallHalfHeight, 0.0)),
+                 static_box(2, along_z, Vec3(-c, kWallHalfHeight, 0.0)),
+                 static_box(3, along_x, Vec3(0.0, kWallHalfHeight, c)),
+                 static_box(4, along_x, Vec3(0.0, kWallHalfHeight, -c))}) {
+    w.restitution = kRestitution;
+    scene.bodies.push_back(w);
+  }
+  // Id 5: the ball, from (-1.5, 0, 0) along (0.96, 0, 0.28), frictionless.
+  const Vec3 start(-1.5, kRadius, 0.0), direction(0.96, 0.0, 0.28);
+  Body ball = dynamic_sphere(5, kRadius, 1.0, start);
+  ball.friction = 0.0;
+  ball.restitution = kRestitution;
+  ball.linear_velocity = speed * direction;
+  scene.bodies.push_back(ball);
+  // Ids 6..11: a row of 1 kg bricks on the ball's line, 1.0 to 2.5 m ahead
+  // (2 cm gaps): whatever its speed, some step finds the ball in the row.
+  for (int i = 0; i < kBricks; ++i) {
+    Vec3 p = start + (1.0 + 0.3 * i) * direction;
+    p.y() = kBrickHalf;
+    scene.bodies.push_back(dynamic_box(BodyId(6 + i), Vec3::Constant(kBrickHalf), 1.0, p));
+  }
   return scene;
 }
 

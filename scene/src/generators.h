@@ -13,6 +13,7 @@ Scene make_cube_pile(const SceneParams& params);
 Scene make_seam_stack(const SceneParams& params);
 Scene make_cross_traffic(const SceneParams& params);
 Scene make_projectile(const SceneParams& params);
+Scene make_thrown_ball(const SceneParams& params);
 Scene make_chain(const SceneParams& params);
 
 // load_scenes.cpp: the cost moves between regions over time.
@@ -37,6 +38,9 @@ Scene make_rolling_sphere(const SceneParams& params);
 /// default_n when n = 0, n when 1 <= n <= max_n; a larger n is a SceneError
 /// (never silently replaced): scenes whose n is a small count (a tower's height).
 int count_or_default(const SceneParams& params, int default_n, int max_n);
+/// n when n >= 1, else default_n: scenes whose n is a magnitude (a speed, a
+/// distance, a mass ratio) take any positive n, the CLI's 1000 included.
+int magnitude_or_default(const SceneParams& params, int default_n);
 /// Static ground box, id 0, top face at y = 0, centred under (centre_x, 0),
 /// half_footprint in x and z.
 Body flat_ground(double half_footprint, double friction, double centre_x = 0.0,

@@ -31,6 +31,10 @@ const std::vector<SceneGenerator>& scene_registry() {
        "a sphere (r 0.25 m) at 20 m/s bouncing (restitution 0.8) in a 30 x 30 m walled arena, "
        "4 unit boxes in its way (N ignored)",
        detail::make_projectile},
+      {"thrown-ball",
+       "a sphere (r 0.2 m, 0.4 m cells) thrown at N m/s (0 for the default 40) through a row of 6 "
+       "small 1 kg bricks in a 12 x 12 m walled arena: crosses several cells per step",
+       detail::make_thrown_ball},
       {"chain",
        "a row of N touching unit boxes (default 16, N <= 200) centred on x = 0, the first pushed at "
        "3 m/s along +x: one island across every territory of grid:8x1x1",

@@ -14,12 +14,6 @@ namespace {
 constexpr double kGroundMargin = 10.0;  // as generators.cpp
 const Vec3 kUnitHalf = Vec3::Constant(0.5);
 
-// n when n >= 1, else default_n: scenes whose n is a magnitude (a speed, a
-// distance, a mass ratio) take any positive n, the CLI's 1000 included.
-int magnitude_or_default(const SceneParams& params, int default_n) {
-  return params.n >= 1 ? params.n : default_n;
-}
-
 Scene start_scene(const char* name, const SceneParams& params) {
   Scene scene;
   scene.name = name;

@@ -9,9 +9,10 @@ namespace soda {
 namespace {
 
 bool adjacent_to_own(const TerritoryMap& map, WorldId w, const CellCoord& c) {
-  for (int dx = -1; dx <= 1; ++dx)
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dz = -1; dz <= 1; ++dz)
+  const int r = map.reach();  // within the map's reach (1: 26-adjacent)
+  for (int dx = -r; dx <= r; ++dx)
+    for (int dy = -r; dy <= r; ++dy)
+      for (int dz = -r; dz <= r; ++dz)
         if (map.owner({c.x + dx, c.y + dy, c.z + dz}) == w) return true;
   return false;
 }
@@ -74,6 +75,11 @@ TEST(LocalGrid, ThreeSlabsMiddleWorldSeesBothNeighbours) {
 TEST(LocalGrid, MatchesTheMapForKMeansTerritories) {
   const Scene s = test::clustered_scene(300, 7);
   check_local_grids(make_partition("kmeans", s, 8, GridOptions{}));
+}
+
+TEST(LocalGrid, MarginFollowsTheMapsReach) {
+  const Scene s = test::clustered_scene(300, 7);
+  check_local_grids(make_partition("kmeans", s, 8, GridOptions{}).with_reach(2));
 }
 
 TEST(LocalGrid, SingleWorldHasNoMargin) {

@@ -121,3 +121,52 @@ TEST(TerritoryMap, CopiesAreEqualAndReassignedLeavesTheOriginal) {
 
 }  // namespace
 }  // namespace soda
+
+namespace soda {
+namespace {
+
+// Brute force: worlds owning a box cell within `reach` (Chebyshev) of a box
+// cell of w.
+std::vector<WorldId> neighbours_by_brute_force(const TerritoryMap& map, WorldId w, int reach) {
+  std::set<WorldId> out;
+  const CellBox& box = map.box();
+  for (std::size_t i = 0; i < static_cast<std::size_t>(box.count()); ++i) {
+    const CellCoord a = box.cell_at(i);
+    if (map.owner(a) != w) continue;
+    for (std::size_t j = 0; j < static_cast<std::size_t>(box.count()); ++j) {
+      const CellCoord b = box.cell_at(j);
+      const int d = std::max({std::abs(a.x - b.x), std::abs(a.y - b.y), std::abs(a.z - b.z)});
+      if (d <= reach && map.owner(b) != w) out.insert(map.owner(b));
+    }
+  }
+  return {out.begin(), out.end()};
+}
+
+TEST(TerritoryMap, WithReachWidensNeighboursToCellsWithinReach) {
+  // Random owners (scattered, non-contiguous territories: the worst case for
+  // the dilation) and a strip of one-cell slabs.
+  std::mt19937_64 rng(7);
+  const CellBox box{{-3, -1, 0}, {4, 2, 5}};
+  std::vector<WorldId> owners(static_cast<std::size_t>(box.count()));
+  for (WorldId& o : owners) o = static_cast<WorldId>(rng() % 9);
+  const TerritoryMap random(UniformGrid(Vec3::Zero(), 1.0), box, owners, 10);  // world 9 owns nothing
+  const CellBox strip_box{{0, 0, 0}, {7, 0, 0}};
+  std::vector<WorldId> strip_owners = {0, 1, 2, 3, 4, 5, 6, 7};
+  const TerritoryMap strip(UniformGrid(Vec3::Zero(), 0.5), strip_box, strip_owners, 8);
+  for (const TerritoryMap* base : {&random, &strip})
+    for (int reach : {1, 2, 3, 5}) {
+      const TerritoryMap map = base->with_reach(reach);
+      EXPECT_EQ(map.reach(), reach);
+      for (WorldId w = 0; w < map.world_count(); ++w)
+        EXPECT_EQ(map.neighbours(w), neighbours_by_brute_force(map, w, reach)) << "world " << w << " reach " << reach;
+    }
+  EXPECT_EQ(strip.with_reach(2).neighbours(3), (std::vector<WorldId>{1, 2, 4, 5}));
+  EXPECT_EQ(strip.with_reach(1), strip);
+  EXPECT_FALSE(strip.with_reach(2) == strip);
+  EXPECT_EQ(strip.with_reach(2).reassigned({}).reach(), 2);
+  expect_grid_error([&] { (void)strip.with_reach(0); }, {"reach 0"});
+  expect_grid_error([&] { (void)strip.with_reach(kMaxReachCells + 1); }, {"reach"});
+}
+
+}  // namespace
+}  // namespace soda

@@ -159,8 +159,9 @@ TEST(SimulationThreads, InjectedFailureReachesAdvanceToAndBlockedReader) {
   }
 }
 
-// A body too fast for the partitioned step (its halo reaches a world that
-// is not a neighbour): the PartitionError of its world's thread reaches
+// A body too fast for the run's reach (neighbourhoods sized for 3 m/s, the
+// chain's push: its halo reaches a world that is not a neighbour): the
+// PartitionError of its world's thread reaches
 // advance_to as a SimulationError.
 TEST(SimulationThreads, PartitionErrorReachesTheCaller) {
   Scene s = test::scene("chain", 16);
@@ -170,7 +171,7 @@ TEST(SimulationThreads, PartitionErrorReachesTheCaller) {
   g.cell_size = 2.0;
   g.box = CellBox{{-4, 0, -1}, {3, 0, 0}};
   for (int threads : {0, 3, 1}) {
-    Simulation sim(s, make_partition("grid:8x1x1", s, 8, g), SimulationConfig{.threads = threads});
+    Simulation sim(s, make_partition("grid:8x1x1", s, 8, g), SimulationConfig{.threads = threads, .reach_speed = 3});
     try {
       sim.run_for(1.0);
       ADD_FAILURE() << "no error with " << name_of(threads);

@@ -67,9 +67,10 @@ TEST(Schedules, ChainAcrossEightWorldsOnThreads) {
   }
 }
 
-// A body faster than the partitioned step supports (its halo reaches a world
-// that is not a neighbour) fails loudly in its world; every schedule stops
-// and reports it instead of hanging.
+// A body faster than the run's reach (neighbourhoods sized for 3 m/s, the
+// chain's push: its halo reaches a world that is not a neighbour) fails
+// loudly in its world; every schedule stops and reports it instead of
+// hanging.
 TEST(Schedules, AnErrorInOneWorldStopsEveryWorld) {
   Scene s = test::scene("chain", 16);
   for (Body& b : s.bodies)
@@ -78,8 +79,9 @@ TEST(Schedules, AnErrorInOneWorldStopsEveryWorld) {
   g.cell_size = 2.0;
   g.box = CellBox{{-4, 0, -1}, {3, 0, 0}};
   const TerritoryMap map = make_partition("grid:8x1x1", s, 8, g);
-  for (PartitionedOptions o : {PartitionedOptions{}, PartitionedOptions{.schedule = Schedule::ThreadPerWorld},
-                               PartitionedOptions{.schedule = Schedule::Pool, .threads = 3}}) {
+  for (PartitionedOptions o : {PartitionedOptions{.reach_speed = 3},
+                               PartitionedOptions{.schedule = Schedule::ThreadPerWorld, .reach_speed = 3},
+                               PartitionedOptions{.schedule = Schedule::Pool, .threads = 3, .reach_speed = 3}}) {
     PartitionedWorld w(s, map, o);
     try {
       w.step(20);

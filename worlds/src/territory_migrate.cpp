@@ -99,11 +99,12 @@ std::vector<std::pair<WorldId, MigrantBatch>> TerritoryWorld::migrate() {
     }
     const WorldId w = owner_of_origin(*e);
     if (w == id_) continue;
-    if (!std::binary_search(nbrs.begin(), nbrs.end(), w))
-      throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) + ": body " +
-                           std::to_string(id) + " moved into the territory of world " + std::to_string(w) +
-                           ", which is not a neighbour (speed " +
-                           std::to_string(double(e->body->getLinearVelocity().length())) + " m/s)");
+    if (!std::binary_search(nbrs.begin(), nbrs.end(), w)) {
+      const btVector3& o = e->body->getWorldTransform().getOrigin();
+      throw PartitionError(beyond_reach(id_, steps_done_, id, double(e->body->getLinearVelocity().length()),
+                                        "moved into", map_.grid().cell_of(Vec3(double(o.x()), double(o.y()), double(o.z()))),
+                                        w, map_));
+    }
     leaving.push_back(e);
     destination[id] = w;
   }

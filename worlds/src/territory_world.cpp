@@ -34,6 +34,18 @@ btScalar max_exact_breaking_threshold() { return btScalar(std::sqrt(2.0)) * gCon
 
 }  // namespace
 
+std::string beyond_reach(WorldId world, std::int64_t step, BodyId body, double speed, const char* what,
+                         const CellCoord& cell, WorldId other, const TerritoryMap& map) {
+  std::ostringstream msg;
+  msg << "world " << world << ", step " << step << ": body " << body << " moves at " << speed << " m/s and "
+      << what << " cell " << to_string(cell) << " of world " << other
+      << ", which is not a neighbour: this run's neighbours reach " << map.reach() << " cell(s) of "
+      << map.grid().cell_size() << " m, sized for a slower scene; set the reach speed "
+      << "(PartitionedOptions::reach_speed, soda run --reach-speed) to at least " << std::ceil(speed * 1.25)
+      << " m/s (docs/partitioned-step.md, \"Reach beyond adjacent cells\")";
+  return msg.str();
+}
+
 TerritoryWorld::TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map)
     : id_(id), map_(std::move(map)), settings_(scene.settings) {
   init_world();
@@ -223,14 +235,9 @@ void TerritoryWorld::predict() {
         for (int z = cells.lo.z; z <= cells.hi.z; ++z, ++i) {
           const WorldId w = in_box ? owners[i] : map_.owner(CellCoord{x, y, z});
           if (w == id_ || std::find(e.sent_to.begin(), e.sent_to.end(), w) != e.sent_to.end()) continue;
-          if (!std::binary_search(nbrs.begin(), nbrs.end(), w)) {
-            std::ostringstream msg;
-            msg << "world " << id_ << ", step " << steps_done_ << ": the halo of body " << e.id() << " (speed "
-                << double(rb.getLinearVelocity().length()) << " m/s, cell size " << grid.cell_size()
-                << " m) overlaps cell " << to_string(CellCoord{x, y, z}) << " of world " << w
-                << ", which is not a neighbour; relaying ghosts beyond neighbours is not implemented";
-            throw PartitionError(msg.str());
-          }
+          if (!std::binary_search(nbrs.begin(), nbrs.end(), w))
+            throw PartitionError(beyond_reach(id_, steps_done_, e.id(), double(rb.getLinearVelocity().length()),
+                                              "its halo overlaps", CellCoord{x, y, z}, w, map_));
           e.sent_to.push_back(w);
         }
       }

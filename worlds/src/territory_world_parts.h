@@ -85,4 +85,11 @@ inline TerritoryWorld::Entry& entry_of(const btCollisionObject* object) {
   return *static_cast<TerritoryWorld::Entry*>(object->getUserPointer());
 }
 
+/// The PartitionError text for a body that reached a world outside this
+/// world's neighbourhood (predict: its halo overlaps `cell` of `other`;
+/// migrate: its new home `cell` belongs to `other`): names the body, its
+/// speed and the remedy, a larger reach speed.
+std::string beyond_reach(WorldId world, std::int64_t step, BodyId body, double speed, const char* what,
+                         const CellCoord& cell, WorldId other, const TerritoryMap& map);
+
 }  // namespace soda

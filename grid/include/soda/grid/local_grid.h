@@ -1,10 +1,12 @@
-// A world's local grid: its own cells plus a one-cell margin whose cells carry
-// their owners' ids, so the world knows its neighbours and nothing more (the
+// A world's local grid: its own cells plus a margin of the map's reach (one
+// cell unless TerritoryMap::with_reach widened it) whose cells carry their
+// owners' ids, so the world knows its neighbours and nothing more (the
 // thesis, 3.2.1 and 3.2.4).
 //
 // Invariants (kept by LocalGrid):
 //  1. the local grid answers the owner of every cell of Z^3 that the world
-//     owns or that is face-, edge- or corner-adjacent to a cell it owns, and
+//     owns or that lies within the map's reach of a cell it owns (reach 1:
+//     face-, edge- or corner-adjacent), and
 //     gives the same answer as the TerritoryMap it was built from;
 //  2. cells it does not know answer kNoWorld, never a guess;
 //  3. neighbours() equals TerritoryMap::neighbours(world).
@@ -29,7 +31,7 @@ class LocalGrid {
   /// The map's grid.
   const UniformGrid& grid() const { return grid_; }
   /// Cells stored: the bounding box of the world's cells inside the map box,
-  /// grown by one cell and clipped to the map box. Invalid (lo > hi) when the
+  /// grown by the map's reach and clipped to the map box. Invalid (lo > hi) when the
   /// world owns no cell.
   const CellBox& box() const { return box_; }
 

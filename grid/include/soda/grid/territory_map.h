@@ -8,12 +8,14 @@
 //     the box). Clamping keeps adjacent cells adjacent (or merges them), so a
 //     territory connected inside the box stays connected in Z^3 and two
 //     worlds are neighbours in Z^3 exactly when they are inside the box;
-//  3. neighbours(w) are the worlds other than w owning a cell face-, edge- or
-//     corner-adjacent (26-adjacency) to a cell of w; the relation is symmetric;
+//  3. neighbours(w) are the worlds other than w owning a cell within reach()
+//     cells of a cell of w (Chebyshev distance: reach 1 is face-, edge- or
+//     corner-adjacency, the 26-neighbourhood); the relation is symmetric;
 //  4. every list returned is in canonical order (cells lexicographic by
 //     (x, y, z), worlds ascending), never in hash or address order;
 //  5. the map is immutable: copies share one storage block, so copying is
-//     O(1); reassigned() makes a new map and leaves this one untouched.
+//     O(1); reassigned() and with_reach() make a new map and leave this one
+//     untouched.
 // make_partition adds: every world owns at least one cell and its cells are
 // 6-connected (see partition.h). The map itself does not require either, so
 // that cessions can be expressed with reassigned().
@@ -33,6 +35,10 @@ namespace soda {
 using WorldId = std::int32_t;
 /// "No world": returned for cells a local grid does not know.
 inline constexpr WorldId kNoWorld = -1;
+/// Largest reach (cells) a map accepts: a body crossing more than this many
+/// cells per step needs a coarser grid, not a wider neighbourhood (at the
+/// bound every world of any practical map is everyone's neighbour already).
+inline constexpr int kMaxReachCells = 1024;
 /// Most cells one foreign_cells() query may cover (a sanity bound: the AABB of
 /// a body is at most a few cells wide).
 inline constexpr std::int64_t kMaxQueryCells = std::int64_t{1} << 20;
@@ -81,6 +87,15 @@ class TerritoryMap {
   std::int64_t cell_count(WorldId world) const;
   /// Neighbours of a world (invariant 3), ascending. Throws as cells_of.
   const std::vector<WorldId>& neighbours(WorldId world) const;
+  /// How far, in cells (Chebyshev distance), a world's neighbours reach: 1
+  /// (adjacent cells) unless the map was made by with_reach().
+  int reach() const { return data_->reach; }
+  /// The same owners with neighbours reaching `cells` cells (the partitioned
+  /// runtime widens the neighbourhood so that a fast body's halo and its
+  /// migration stay among neighbours: docs/partitioned-step.md, "Reach").
+  /// O(sum over worlds of the cells within `cells` of their bounding box).
+  /// Throws GridError for cells outside 1..kMaxReachCells.
+  TerritoryMap with_reach(int cells) const;
 
   /// Cells overlapped by the closed AABB [min, max] (metres; see
   /// UniformGrid::cells_overlapping) that `world` does not own, with their
@@ -90,12 +105,12 @@ class TerritoryMap {
   std::vector<ForeignCell> foreign_cells(WorldId world, const Vec3& min,
                                          const Vec3& max) const;
 
-  /// A new map with the given box cells given to new owners (same grid, box
-  /// and world count). Throws GridError for a cell outside the box or an
+  /// A new map with the given box cells given to new owners (same grid, box,
+  /// world count and reach). Throws GridError for a cell outside the box or an
   /// owner outside [0, world_count).
   TerritoryMap reassigned(std::span<const std::pair<CellCoord, WorldId>> changes) const;
 
-  /// Same grid, box, world count and owners.
+  /// Same grid, box, world count, reach and owners.
   friend bool operator==(const TerritoryMap& a, const TerritoryMap& b);
 
  private:
@@ -103,7 +118,10 @@ class TerritoryMap {
     std::vector<WorldId> owners;
     std::vector<std::vector<WorldId>> neighbours;  // per world
     std::vector<std::int64_t> cell_counts;         // per world
+    int reach = 1;                                 // of neighbours, cells
   };
+  TerritoryMap(const UniformGrid& grid, const CellBox& box, std::vector<WorldId> owners, int world_count,
+               int reach);
   void check_world(WorldId world) const;
 
   UniformGrid grid_;

@@ -118,6 +118,16 @@ struct PartitionedOptions {
   /// solve-everywhere protocol variant, replay verification); set through
   /// runtime/src/testing_hooks.h. Leave empty.
   std::shared_ptr<const detail::TestingHooks> testing = {};
+  /// Reach (docs/partitioned-step.md, "Reach beyond adjacent cells"): the
+  /// worlds' neighbourhoods are widened to every world owning a cell within
+  /// reach_cells(scene, cell size, speed) cells of their territory
+  /// (worlds/reach.h), so that the halo and the migration of a body up to
+  /// this speed (m/s) only reach neighbours. 0: scene_reach_speed(scene)
+  /// (its fastest initial speed plus a fall through its height); slow scenes
+  /// keep adjacent worlds only. A body that outruns it stops the run with a
+  /// PartitionError naming the body, its speed and the speed to set here.
+  /// Results never depend on it. >= 0.
+  double reach_speed = 0;
 };
 
 /// Thrown when the validation mode finds a broken invariant; the message names

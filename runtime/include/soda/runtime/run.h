@@ -66,6 +66,9 @@ struct RunConfig {
   int checkpoint_every = 8;
   /// Bet on busy borders too (PartitionedOptions::eager_bets).
   bool eager_bets = false;
+  /// K > 1: speed (m/s) the worlds' neighbourhoods are sized for
+  /// (PartitionedOptions::reach_speed; 0: from the scene). >= 0.
+  double reach_speed = 0;
   /// K > 1, experiments: world 0's thread sleeps this long after each of
   /// its steps (a slow world, as in the thesis' strip with world 0 slowed
   /// down). 0: none.
@@ -100,6 +103,7 @@ struct RunResult {
   std::string partition;            // the spec used
   std::string schedule;             // sequential | thread-per-world | pool
   int anticipation = 0;             // RunConfig::anticipation
+  int reach_cells = 1;              // cells the worlds' neighbourhoods reach (map_with_reach)
   PartitionedOptions::Rollback rollback = PartitionedOptions::Rollback::Propagate;
   int threads = 1;                  // threads that stepped the worlds
   std::uint64_t messages = 0;       // messages between worlds

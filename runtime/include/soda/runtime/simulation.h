@@ -93,6 +93,9 @@ struct SimulationConfig {
   /// (watchdog.h): off or stop (a WatchdogError is the cause of the
   /// SimulationError); heal is not supported by a Simulation.
   WatchdogConfig watchdog = {};
+  /// Speed (m/s) the worlds' neighbourhoods are sized for
+  /// (PartitionedOptions::reach_speed; 0: from the scene).
+  double reach_speed = 0;
 };
 
 /// A world failed. world(): the world whose thread threw (kNoWorld if no

@@ -1,5 +1,7 @@
 // runtime/ — which worlds talk to which: the world adjacency graph of a
-// territory map (worlds owning 26-adjacent cells are neighbours) and a
+// territory map (worlds owning cells within the map's reach of each other
+// are neighbours: 26-adjacent cells at reach 1; map_with_reach widens it for
+// fast bodies) and a
 // next-hop table for relaying a message to a world further away along a
 // shortest path. Every world can build it from the map alone.
 //
@@ -12,6 +14,7 @@
 #include <vector>
 
 #include "soda/grid/territory_map.h"
+#include "soda/scene/scene.h"
 
 namespace soda {
 
@@ -37,5 +40,12 @@ class WorldGraph {
   std::vector<std::vector<int>> distance_;      // [from][to]
   std::vector<std::vector<WorldId>> next_hop_;  // [from][to]
 };
+
+/// The map a partitioned run uses: `map` with its neighbours reaching
+/// max(map.reach(), reach_cells(scene, cell size, speed)) cells
+/// (worlds/reach.h), speed = `reach_speed` m/s or, if 0,
+/// scene_reach_speed(scene). Throws std::invalid_argument for a negative or
+/// non-finite reach_speed.
+TerritoryMap map_with_reach(const Scene& scene, const TerritoryMap& map, double reach_speed);
 
 }  // namespace soda

@@ -58,7 +58,9 @@ class btCollisionObject;
 namespace soda {
 
 /// A scene or a trajectory outside what the partitioned step supports (a halo
-/// reaching a world that is not a neighbour, a body moving to a non-neighbour,
+/// reaching a world that is not a neighbour, a body moving to a non-neighbour
+/// — beyond the map's reach, see reach.h: the message names the body, its
+/// speed and the reach speed that would cover it —,
 /// a body outside the exactness contract) or a broken protocol invariant (two
 /// owners for one body). The message names the body, the step and the worlds.
 class PartitionError : public std::runtime_error {
@@ -157,7 +159,8 @@ class TerritoryWorld {
   // --- stages (see the header comment) ---------------------------------
 
   /// predict. Throws PartitionError if an owned body's halo overlaps a cell
-  /// of a world that is not a neighbour.
+  /// of a world that is not a neighbour (neighbours: the map's, within its
+  /// reach()).
   void predict();
   /// exchange_ghosts, sending half: the batch for one neighbour (possibly
   /// empty). Valid between predict() and apply_ghosts().
@@ -215,6 +218,8 @@ class TerritoryWorld {
 
   // --- readout -------------------------------------------------------------
 
+  /// The worlds this one exchanges messages with: the map's neighbours of
+  /// this world (within the map's reach()), ascending.
   const std::vector<WorldId>& neighbours() const;
   const TerritoryCounters& counters() const { return counters_; }
   /// Raw states of the owned dynamic bodies, ascending id.

@@ -1,0 +1,69 @@
+// Reach (reach.h).
+#include "soda/worlds/reach.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "soda/grid/territory_map.h"
+#include "soda/worlds/bullet_bodies.h"
+
+namespace soda {
+namespace {
+
+double step_length(const Scene& scene) { return scene.settings.dt / std::max(1, scene.settings.substeps); }
+
+// Largest distance from a dynamic body's origin to a point of its Bullet
+// AABB at any orientation: its bounding radius, plus the collision margin
+// for a hull (Bullet adds it around the points; spheres, capsules, boxes and
+// cylinders hold it inside their dimensions).
+double largest_reach_radius(const Scene& scene) {
+  double r = 0;
+  for (const Body& b : scene.bodies) {
+    if (b.is_static) continue;
+    const double margin =
+        b.shape.kind == ShapeKind::ConvexHull ? double(make_collision_shape(b.shape)->getMargin()) : 0.0;
+    r = std::max(r, b.shape.bounding_radius() + margin);
+  }
+  return r;
+}
+
+// Everything a halo adds to the travel v·h, in metres.
+double halo_slack(const Scene& scene) { return largest_reach_radius(scene) + double(gContactBreakingThreshold); }
+
+}  // namespace
+
+double scene_reach_speed(const Scene& scene) {
+  double fastest = 0;
+  for (const Body& b : scene.bodies)
+    if (!b.is_static) fastest = std::max(fastest, b.linear_velocity.norm());
+  const double g = scene.settings.gravity.norm();
+  if (g == 0) return fastest;
+  const Vec3 up = -scene.settings.gravity / g;
+  double low = INFINITY, high = -INFINITY;
+  for (const Body& b : scene.bodies) {
+    const double h = b.position.dot(up);
+    const double half = b.aabb_half_extents().cwiseProduct(up.cwiseAbs()).sum();  // AABB along `up`
+    low = std::min(low, h - half);
+    if (!b.is_static) high = std::max(high, h + b.shape.bounding_radius());
+  }
+  const double fall = high > low ? std::sqrt(2 * g * (high - low)) : 0.0;
+  return fastest + fall;
+}
+
+int reach_cells(const Scene& scene, double cell_size, double speed) {
+  if (!(speed >= 0) || !std::isfinite(speed))
+    throw std::invalid_argument("reach speed " + std::to_string(speed) + " m/s: must be finite and >= 0");
+  if (!(cell_size > 0)) throw std::invalid_argument("reach: cell size must be > 0");
+  const double cells = std::floor((halo_slack(scene) + speed * step_length(scene)) / cell_size) + 1;
+  return static_cast<int>(std::clamp(cells, 1.0, double(kMaxReachCells)));
+}
+
+double reach_speed_of(const Scene& scene, double cell_size, int cells) {
+  // reach_cells(v) <= cells  <=>  slack + v h < cells * cell_size.
+  const double v = (cells * cell_size - halo_slack(scene)) / step_length(scene);
+  return std::max(0.0, v);
+}
+
+}  // namespace soda
