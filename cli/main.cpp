@@ -1,7 +1,8 @@
 // soda — run, benchmark and inspect SODA scenes. See docs/cli.md.
 //
 // Exit codes: 0 success; 1 the run failed; 2 bad input (usage, scene,
-// partition or configuration errors), always with a message on stderr.
+// partition or configuration errors); 3 out of memory (the run cannot fit,
+// or an allocation failed: docs/memory.md), always with a message on stderr.
 #include <cstdio>
 #include <exception>
 #include <iostream>
@@ -18,6 +19,7 @@
 #include "soda/bench/result_json.h"
 #include "soda/grid/partition.h"
 #include "soda/scene/input_file.h"
+#include "soda/runtime/memory_estimate.h"
 #include "soda/scene/registry.h"
 #include "soda/scene/scene_json.h"
 #include "soda/scene/validate.h"
@@ -39,6 +41,7 @@ const CLI::Validator kUnsigned(
       return "";
     },
     "UINT64");
+constexpr int kExitOutOfMemory = 3;
 
 // Options shared by `run` and `bench`.
 struct Options {
@@ -162,6 +165,14 @@ void print_summary(const soda::RunResult& r) {
               soda::world_kind_name(r.world), soda::kPrecisionName, r.bodies, r.steps, r.wall_seconds,
               r.wall_seconds > 0 ? r.steps / r.wall_seconds : 0.0, soda::hash_hex(r.state_hash).c_str(),
               r.sleeping_bodies);
+  std::printf("  setup %.3f s (CPU %.3f s), teardown %.3f s (CPU %.3f s): %.2f us per body\n", r.setup_seconds,
+              r.setup_cpu_seconds, r.teardown_seconds, r.teardown_cpu_seconds,
+              r.bodies ? (r.setup_cpu_seconds + r.teardown_cpu_seconds) * 1e6 / static_cast<double>(r.bodies) : 0.0);
+  if (r.bodies_at_start || r.bodies_at_end)
+    std::printf("  validate: %zu bodies and %zu contact pairs after building, %zu bodies and %zu contact pairs at "
+                "the end; %llu migrations\n",
+                r.bodies_at_start, r.contact_pairs_at_start, r.bodies_at_end, r.contact_pairs_at_end,
+                static_cast<unsigned long long>(r.migrations));
   if (r.territories > 1)
     std::printf("  %d territories (%s), %s on %d thread(s), %llu messages, per-world CPU %.3f s in all, "
                 "slowest world per step summed %.3f s\n",
@@ -350,6 +361,15 @@ int main(int argc, char** argv) {
   } catch (const std::invalid_argument& e) {  // includes soda::GridError
     std::fprintf(stderr, "soda: error: %s\n", e.what());
     return kExitBadInput;
+  } catch (const soda::MemoryLimitError& e) {
+    std::fprintf(stderr, "soda: out of memory: %s\n", e.what());
+    return kExitOutOfMemory;
+  } catch (const std::bad_alloc&) {  // the message itself must not allocate
+    std::fputs("soda: out of memory: an allocation failed (the scene, its worlds or their contacts do not fit in "
+               "the memory this process may have: ulimit -v / -d, the machine's or the cgroup's memory; "
+               "docs/memory.md)\n",
+               stderr);
+    return kExitOutOfMemory;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "soda: failed: %s\n", e.what());
     return kExitFailure;

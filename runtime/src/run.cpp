@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <memory>
 #include <numeric>
 #include <thread>
 #include <random>
@@ -15,6 +16,7 @@
 #include "run_inputs.h"
 #include "soda/grid/partition.h"
 #include "soda/loadbalance/thread_clock.h"
+#include "soda/runtime/memory_estimate.h"
 #include "soda/worlds/canonical_world.h"
 #include "soda/worlds/stock_world.h"
 
@@ -80,6 +82,41 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
   return r;
 }
 
+// Wall and calling-thread CPU clocks at one instant.
+struct Stamp {
+  std::int64_t wall = wall_ns(), cpu = thread_cpu_ns();
+  double wall_since(const Stamp& a) const { return static_cast<double>(wall - a.wall) * 1e-9; }
+  double cpu_since(const Stamp& a) const { return static_cast<double>(cpu - a.cpu) * 1e-9; }
+};
+
+// Builds a W, runs it, destroys it; times the building and the destruction.
+template <class W, class... Args>
+RunResult build_run_destroy(const Scene& scene, const RunConfig& config, const Stamp& start, Args&&... args) {
+  auto world = std::make_unique<W>(std::forward<Args>(args)...);
+  const Stamp built;
+  std::size_t bodies0 = 0, pairs0 = 0;
+  if constexpr (std::is_same_v<W, CanonicalWorld>) {
+    if (config.validate) bodies0 = world->body_count(), pairs0 = world->contact_state().size();
+  }
+  RunResult r = run_world(*world, scene, config);
+  if constexpr (std::is_same_v<W, CanonicalWorld>) {
+    if (config.validate) {
+      r.bodies_at_start = bodies0;
+      r.contact_pairs_at_start = pairs0;
+      r.bodies_at_end = world->body_count();
+      r.contact_pairs_at_end = world->contact_state().size();
+    }
+  }
+  const Stamp stepped;
+  world.reset();
+  const Stamp gone;
+  r.setup_seconds = built.wall_since(start);
+  r.setup_cpu_seconds = built.cpu_since(start);
+  r.teardown_seconds = gone.wall_since(stepped);
+  r.teardown_cpu_seconds = gone.cpu_since(stepped);
+  return r;
+}
+
 // K > 1: all steps in one call (the worlds run without a barrier between
 // steps); progress and step times come from world 0's thread. Every world
 // inserts its bodies in the order of config.shuffle_seed.
@@ -142,7 +179,17 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
       next_progress = now + static_cast<std::int64_t>(config.progress_seconds * 1e9);
     }
   };
-  PartitionedWorld world(scene, map, options);
+  const Stamp start;
+  auto owned_world = std::make_unique<PartitionedWorld>(scene, map, options);
+  PartitionedWorld& world = *owned_world;
+  const Stamp built;
+  r.setup_seconds = built.wall_since(start);
+  r.setup_cpu_seconds = built.cpu_since(start);
+  if (config.validate) {  // snapshot() also throws if two worlds own one body
+    const WorldSnapshot s = world.snapshot();
+    r.bodies_at_start = s.bodies.size();
+    r.contact_pairs_at_start = s.manifolds.size();
+  }
   t0 = wall_ns();
   next_progress = t0 + static_cast<std::int64_t>(config.progress_seconds * 1e9);
   world.step(config.steps);
@@ -159,7 +206,27 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.sleeping_bodies = world.sleeping_count();
   r.healed_steps = world.healed_steps();
   r.sync_rollbacks = world.sync_rollbacks();
+  for (const WorldMetrics& m : r.world_metrics) r.migrations += m.migrations_out;
+  if (config.validate) {
+    const WorldSnapshot s = world.snapshot();
+    r.bodies_at_end = s.bodies.size();
+    r.contact_pairs_at_end = s.manifolds.size();
+  }
+  const Stamp stepped;
+  owned_world.reset();
+  const Stamp gone;
+  r.teardown_seconds = gone.wall_since(stepped);
+  r.teardown_cpu_seconds = gone.cpu_since(stepped);
   return r;
+}
+
+// Refuses a run whose worlds cannot fit (docs/memory.md) before building any.
+void check_run_memory(const Scene& scene, const RunConfig& config) {
+  const int k = config.territories;
+  const int threads = k <= 1 || config.threads == 1 ? 0 : (config.threads == 0 || config.threads >= k ? k : config.threads);
+  check_memory(estimate_run_memory(scene, config, threads), current_memory_budget(),
+               "scene '" + scene.name + "' (" + std::to_string(scene.bodies.size()) + " bodies, " +
+                   std::to_string(k) + (k == 1 ? " territory)" : " territories)"));
 }
 
 }  // namespace
@@ -232,19 +299,15 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
     throw std::invalid_argument("--anticipation > 0 cannot be combined with --watchdog heal (speculation is not "
                                 "supported with self-heal): use --watchdog stop or off, or --anticipation 0");
   const SleepingSwitch sleeping(config.sleeping);
+  const Stamp start;
+  check_run_memory(scene, config);
   if (config.inputs) return run_with_inputs(scene, config);
   if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0)
     return run_partitioned(scene, config);
   const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), config.shuffle_seed);
   switch (config.world) {
-    case WorldKind::Stock: {
-      StockWorld world(scene, order);
-      return run_world(world, scene, config);
-    }
-    case WorldKind::Canonical: {
-      CanonicalWorld world(scene, order);
-      return run_world(world, scene, config);
-    }
+    case WorldKind::Stock: return build_run_destroy<StockWorld>(scene, config, start, scene, order);
+    case WorldKind::Canonical: return build_run_destroy<CanonicalWorld>(scene, config, start, scene, order);
   }
   throw std::invalid_argument("unknown world kind");
 }

@@ -19,6 +19,9 @@ Scene make_chain(const SceneParams& params);
 // load_scenes.cpp: the cost moves between regions over time.
 Scene make_alternating_load(const SceneParams& params);
 
+// soak_scenes.cpp: long runs of one mechanism.
+Scene make_border_shuttle(const SceneParams& params);
+
 // stress_scenes.cpp: numerical stability (stress) and closed-form answers
 // (analytic).
 Scene make_tower(const SceneParams& params);

@@ -45,6 +45,12 @@ const std::vector<SceneGenerator>& scene_registry() {
        "x = 0, launched upwards so that the load alternates between the halves every 150 steps: left "
        "columns land, right columns land, then small boxes wake the left, then the right columns",
        detail::make_alternating_load},
+      // Soak scenes (one mechanism many times).
+      {"border-shuttle",
+       "N spheres (default 200, r 0.25 m) sliding frictionless at 4..8 m/s in a walled box 1 m long "
+       "per 4 spheres, bouncing elastically: with grid:Kx1x1 they cross borders back and forth "
+       "(migrations; docs/soak.md)",
+       detail::make_border_shuttle},
       // Stress scenes (numerical stability).
       {"tower", "N unit boxes (default 10, N <= 100) stacked exactly resting on the origin",
        detail::make_tower},

@@ -336,4 +336,23 @@ TEST_F(CliSpeculationBench, OneTerritoryIsBadInput) {
   EXPECT_NE(o.output.find("--territories"), std::string::npos) << o.output;
 }
 
+// Out of memory (docs/memory.md): exit code 3 and a message, never a crash.
+// Before: SIGSEGV in Bullet's allocator (NULL, then memset) or "failed:
+// std::bad_alloc" with exit code 1.
+TEST(CliMemory, ARunThatCannotFitIsRefusedBeforeBuilding) {
+  // 300,000 cubes need ~0.6 GB of worlds; the limit leaves less.
+  const Outcome o = run_cli("run --scene falling-cubes --n 300000 --steps 1", "ulimit -v 600000; ");
+  EXPECT_EQ(o.exit_code, 3) << o.output;
+  EXPECT_NE(o.output.find("out of memory"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("RLIMIT_AS"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("300001 bodies"), std::string::npos) << o.output;
+}
+
+TEST(CliMemory, AnAllocationThatFailsIsACleanError) {
+  // The scene itself (3,000,000 cubes) does not fit: std::bad_alloc while generating.
+  const Outcome o = run_cli("run --scene falling-cubes --n 3000000 --steps 1", "ulimit -v 300000; ");
+  EXPECT_EQ(o.exit_code, 3) << o.output;
+  EXPECT_NE(o.output.find("out of memory: an allocation failed"), std::string::npos) << o.output;
+}
+
 }  // namespace

@@ -19,8 +19,9 @@ struct Outcome {
   std::string output;  // stdout and stderr
 };
 
-inline Outcome run_cli(const std::string& args) {
-  const std::string cmd = std::string(SODA_CLI_PATH) + " " + args + " 2>&1";
+/// `shell_prefix`: /bin/sh commands run before the CLI (e.g. "ulimit -v N;").
+inline Outcome run_cli(const std::string& args, const std::string& shell_prefix = "") {
+  const std::string cmd = shell_prefix + "exec " + std::string(SODA_CLI_PATH) + " " + args + " 2>&1";
   Outcome o;
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return o;

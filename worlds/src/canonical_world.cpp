@@ -8,6 +8,7 @@
 #include <string>
 
 #include "canonical_world_parts.h"
+#include "soda/worlds/bullet_allocator.h"
 #include "soda/worlds/bullet_bodies.h"
 
 namespace soda {
@@ -43,15 +44,13 @@ CanonicalWorld::CanonicalWorld(const Scene& scene, const std::vector<std::size_t
                                   std::to_string(entries_[i]->description.id));
 }
 
-CanonicalWorld::~CanonicalWorld() {
-  if (!parts_) return;
-  btDiscreteDynamicsWorld& w = parts_->world;
-  for (int i = w.getNumCollisionObjects() - 1; i >= 0; --i)
-    w.removeCollisionObject(w.getCollisionObjectArray()[i]);
-}
+// parts_ is declared after entries_: it goes first, while the bodies it
+// reads in ~btCollisionWorld are alive (also when a constructor throws).
+CanonicalWorld::~CanonicalWorld() = default;
 
 void CanonicalWorld::build(const SceneSettings& settings) {
   settings_ = settings;
+  install_bullet_allocator();
   parts_ = std::make_unique<CanonicalWorldParts>();
   parts_->world.setGravity(to_bt(settings_.gravity));
   parts_->world.getSolverInfo().m_numIterations = settings_.iterations;

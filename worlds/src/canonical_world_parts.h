@@ -9,12 +9,20 @@
 #include "body_factory.h"
 #include "canonical_dynamics_world.h"
 #include "soda/worlds/canonical_world.h"
+#include "world_teardown.h"
 
 namespace soda {
 
 /// Every Bullet object a world uses is its own: pool allocators of a
-/// collision configuration and dispatcher are not thread-safe.
+/// collision configuration and dispatcher are not thread-safe. Destroyed
+/// before the bodies it holds (~btCollisionWorld reads them), pairs first
+/// so that teardown is linear in bodies (world_teardown.h).
 struct CanonicalWorldParts {
+  CanonicalWorldParts() = default;
+  ~CanonicalWorldParts() { release_all_pairs(broadphase, dispatcher); }
+  CanonicalWorldParts(const CanonicalWorldParts&) = delete;
+  CanonicalWorldParts& operator=(const CanonicalWorldParts&) = delete;
+
   btDefaultCollisionConfiguration config;
   btCollisionDispatcher dispatcher{&config};
   btDbvtBroadphase broadphase;

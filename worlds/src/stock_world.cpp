@@ -1,10 +1,22 @@
 #include "soda/worlds/stock_world.h"
 
+#include "soda/worlds/bullet_allocator.h"
+#include "world_teardown.h"
+
 namespace soda {
+namespace {
+
+// The first Bullet object of the world: the allocator hook goes in before it.
+std::unique_ptr<btDefaultCollisionConfiguration> make_config() {
+  install_bullet_allocator();
+  return std::make_unique<btDefaultCollisionConfiguration>();
+}
+
+}  // namespace
 
 StockWorld::StockWorld(const Scene& scene, const std::vector<std::size_t>& insertion_order)
     : settings_(scene.settings),
-      config_(std::make_unique<btDefaultCollisionConfiguration>()),
+      config_(make_config()),
       dispatcher_(std::make_unique<btCollisionDispatcher>(config_.get())),
       broadphase_(std::make_unique<btDbvtBroadphase>()),
       solver_(std::make_unique<btSequentialImpulseConstraintSolver>()),
@@ -13,16 +25,24 @@ StockWorld::StockWorld(const Scene& scene, const std::vector<std::size_t>& inser
       bodies_(scene) {
   world_->setGravity(to_bt(settings_.gravity));
   world_->getSolverInfo().m_numIterations = settings_.iterations;
-  if (insertion_order.empty()) {
-    for (auto& b : bodies_.bodies) world_->addRigidBody(b.get());
-  } else {
-    for (std::size_t i : insertion_order) world_->addRigidBody(bodies_.bodies.at(i).get());
+  try {
+    if (insertion_order.empty()) {
+      for (auto& b : bodies_.bodies) world_->addRigidBody(b.get());
+    } else {
+      for (std::size_t i : insertion_order) world_->addRigidBody(bodies_.bodies.at(i).get());
+    }
+  } catch (...) {  // e.g. std::bad_alloc: the world goes before the bodies it reads
+    release_all_pairs(*broadphase_, *dispatcher_);
+    world_.reset();
+    throw;
   }
 }
 
+// Linear in bodies (world_teardown.h): pairs first, then the world (its
+// destructor reads the bodies, which bodies_ still holds), then the rest.
 StockWorld::~StockWorld() {
-  for (int i = world_->getNumCollisionObjects() - 1; i >= 0; --i)
-    world_->removeCollisionObject(world_->getCollisionObjectArray()[i]);
+  release_all_pairs(*broadphase_, *dispatcher_);
+  world_.reset();
 }
 
 void StockWorld::step() {

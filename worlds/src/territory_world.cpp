@@ -7,6 +7,7 @@
 #include <string>
 
 #include "canonical_dynamics_world.h"
+#include "soda/worlds/bullet_allocator.h"
 #include "soda/worlds/bullet_bodies.h"
 #include "territory_world_parts.h"
 
@@ -66,6 +67,7 @@ void TerritoryWorld::init_world(const TerritoryWorld* share_pools_of) {
   if (id_ < 0 || id_ >= map_.world_count())
     throw PartitionError("TerritoryWorld: world id " + std::to_string(id_) + " outside the map's " +
                          std::to_string(map_.world_count()) + " worlds");
+  install_bullet_allocator();
   parts_ = std::make_unique<Parts>(this, share_pools_of ? share_pools_of->parts_->config : nullptr);
   parts_->world.setGravity(to_bt(settings_.gravity));
   parts_->world.getSolverInfo().m_numIterations = settings_.iterations;
@@ -114,11 +116,8 @@ void TerritoryWorld::sort_lists() {
   lists_sorted_ = true;
 }
 
-TerritoryWorld::~TerritoryWorld() {
-  if (!parts_) return;
-  btDiscreteDynamicsWorld& w = parts_->world;
-  for (int i = w.getNumCollisionObjects() - 1; i >= 0; --i) w.removeCollisionObject(w.getCollisionObjectArray()[i]);
-}
+// parts_ goes before entries_ (member order), pairs first: linear in bodies.
+TerritoryWorld::~TerritoryWorld() = default;
 
 void TerritoryWorld::insert_static(const Body& b) {
   auto e = std::make_unique<Entry>();

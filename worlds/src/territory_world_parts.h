@@ -13,6 +13,7 @@
 
 #include "body_factory.h"
 #include "soda/worlds/territory_world.h"
+#include "world_teardown.h"
 
 namespace soda {
 
@@ -53,10 +54,15 @@ class TerritoryWorld::Dispatcher final : public btCollisionDispatcher {
 /// Every Bullet object of one territory world is its own (pool allocators
 /// are not thread-safe), except that a world rebuilt from a snapshot may
 /// share the collision configuration (its pools) of the world it replaces.
+/// Destroyed before the bodies it holds (~btCollisionWorld reads them),
+/// pairs first so that teardown is linear in bodies (world_teardown.h).
 struct TerritoryWorld::Parts {
   Parts(TerritoryWorld* owner, std::shared_ptr<btDefaultCollisionConfiguration> shared)
       : config(shared ? std::move(shared) : std::make_shared<btDefaultCollisionConfiguration>()),
         dispatcher(config.get(), owner) {}
+  ~Parts() { release_all_pairs(broadphase, dispatcher); }
+  Parts(const Parts&) = delete;
+  Parts& operator=(const Parts&) = delete;
   std::shared_ptr<btDefaultCollisionConfiguration> config;  // first: outlives every user of its pools
   Dispatcher dispatcher;
   btDbvtBroadphase broadphase;

@@ -97,6 +97,17 @@ struct RunResult {
   int territories = 1;
   double wall_seconds = 0;          // stepping only, not scene set-up
   double cpu_seconds = 0;           // thread CPU time of the stepping thread(s)
+  // Building the world(s) from the Scene (the memory check included) and
+  // destroying them at the end, on the calling thread: wall seconds and that
+  // thread's CPU seconds (docs/memory.md, "Setup and teardown").
+  double setup_seconds = 0, setup_cpu_seconds = 0;
+  double teardown_seconds = 0, teardown_cpu_seconds = 0;
+  // validate (canonical world): the whole scene's bodies and contact pairs
+  // (manifolds holding points) counted from the worlds' own state after
+  // building and at the end (docs/soak.md). 0 without validate.
+  std::size_t bodies_at_start = 0, bodies_at_end = 0;
+  std::size_t contact_pairs_at_start = 0, contact_pairs_at_end = 0;
+  std::uint64_t migrations = 0;     // K > 1: bodies that changed owner (sum over worlds)
   StepTimeStats step_time;          // K > 1: intervals between world 0's step ends
   WorldKind world = WorldKind::Canonical;
   // Partitioned runs (territories > 1) only:
@@ -126,7 +137,9 @@ Scene in_insertion_order(const Scene& scene, std::uint64_t shuffle_seed);
 /// territories > 1 or watchdog heal with the stock world, steps < 0,
 /// anticipation < 0, anticipation > 0 with watchdog heal), GridError for a bad
 /// partition, PartitionError when the scene leaves what the partitioned step
-/// supports. Blocks the calling thread; logs a progress line through spdlog
+/// supports, MemoryLimitError (memory_estimate.h) before building anything
+/// when the worlds cannot fit in the memory the process may have, and
+/// std::bad_alloc when an allocation fails anyway. Blocks the calling thread; logs a progress line through spdlog
 /// every config.progress_seconds.
 RunResult run_scene(const Scene& scene, const RunConfig& config);
 

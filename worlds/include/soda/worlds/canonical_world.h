@@ -98,8 +98,9 @@ class CanonicalWorld {
   void import_manifolds(const std::vector<ManifoldState>& manifolds);
 
   SceneSettings settings_;
-  std::unique_ptr<CanonicalWorldParts> parts_;
   std::vector<std::unique_ptr<Entry>> entries_;  // sorted by id after construction
+  // After entries_: destroyed first, while the bodies it holds are alive.
+  std::unique_ptr<CanonicalWorldParts> parts_;
   std::int64_t steps_done_ = 0;
 };
 

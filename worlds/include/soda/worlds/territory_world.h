@@ -319,8 +319,8 @@ class TerritoryWorld {
   WorldId id_;
   TerritoryMap map_;
   SceneSettings settings_;
-  std::unique_ptr<Parts> parts_;
   std::unordered_map<BodyId, std::unique_ptr<Entry>> entries_;
+  std::unique_ptr<Parts> parts_;  // after entries_: destroyed first, while its bodies are alive
   std::vector<Entry*> owned_;    // ascending id once sort_lists() ran
   std::vector<Entry*> ghosts_;   // ascending id once sort_lists() ran
   std::vector<Entry*> statics_;  // ascending id once sort_lists() ran

@@ -1,0 +1,184 @@
+#include "soda/runtime/memory_estimate.h"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <LinearMath/btScalar.h>
+
+#include "soda/worlds/world_snapshot.h"
+
+namespace soda {
+namespace {
+
+// Bytes per body of a built world. Float: measured as peak RSS of `soda run
+// --scene cube-pile --steps 0` minus that of the scene alone, per body:
+// 1,730 B at 100,000 cubes, 1,640 B at 1,000,000 (docs/memory.md), plus
+// ~400 B for the manifolds of a resting pile. Double: scaled by the size of
+// Bullet's types (not measured yet). Covers the SODA entry, the Bullet
+// shape, body, broadphase proxy and tree nodes, pairs with their collision
+// algorithms and manifolds.
+#if defined(BT_USE_DOUBLE_PRECISION)
+constexpr std::uint64_t kWorldBytesPerBody = 3300;
+#else
+constexpr std::uint64_t kWorldBytesPerBody = 2100;
+#endif
+
+// A territory world also holds ghosts of its neighbours' border bodies:
+// counted as this share of the dynamic bodies (a thin strip of small
+// territories has more; the margin below covers it).
+constexpr double kGhostShare = 0.25;
+
+// Manifolds per body and points per manifold in a kept state: a resting
+// dense pile has about three manifolds per body, four points at most each.
+constexpr std::uint64_t kKeptManifoldsPerBody = 3;
+constexpr std::uint64_t kPointsPerManifold = 4;
+
+// The model is refused only when the estimate times this margin does not
+// fit: it guards against what the model misses (allocator slack, per-step
+// scratch, messages) while keeping the refusal for runs that clearly cannot fit.
+constexpr double kSafetyMargin = 1.25;
+
+std::uint64_t kept_state_bytes_per_body() {
+  return sizeof(BodySnapshot) +
+         kKeptManifoldsPerBody * (sizeof(ManifoldState) + kPointsPerManifold * sizeof(ContactPointState));
+}
+
+// Stack of a std::thread: glibc takes RLIMIT_STACK (8 MiB unless changed),
+// or 2 MiB when it is unlimited.
+std::uint64_t thread_stack_bytes() {
+  rlimit r{};
+  if (getrlimit(RLIMIT_STACK, &r) != 0 || r.rlim_cur == RLIM_INFINITY) return 2ull << 20;
+  return static_cast<std::uint64_t>(r.rlim_cur);
+}
+
+std::uint64_t limit_minus(int resource, std::uint64_t used) {
+  rlimit r{};
+  if (getrlimit(resource, &r) != 0 || r.rlim_cur == RLIM_INFINITY) return UINT64_MAX;
+  const auto limit = static_cast<std::uint64_t>(r.rlim_cur);
+  return limit > used ? limit - used : 0;
+}
+
+// /proc/self/statm: size resident shared text lib data dt, in pages.
+void read_statm(std::uint64_t& vm_bytes, std::uint64_t& data_bytes) {
+  vm_bytes = data_bytes = 0;
+  std::ifstream in("/proc/self/statm");
+  std::uint64_t size = 0, resident = 0, shared = 0, text = 0, lib = 0, data = 0;
+  if (!(in >> size >> resident >> shared >> text >> lib >> data)) return;
+  const auto page = static_cast<std::uint64_t>(sysconf(_SC_PAGESIZE));
+  vm_bytes = size * page;
+  data_bytes = data * page;
+}
+
+std::uint64_t mem_available() {
+  std::ifstream in("/proc/meminfo");
+  std::string key;
+  std::uint64_t kb = 0;
+  std::string unit;
+  while (in >> key >> kb) {
+    std::getline(in, unit);
+    if (key == "MemAvailable:") return kb * 1024;
+  }
+  return UINT64_MAX;
+}
+
+// cgroup v2: memory.max minus memory.current of this process's cgroup.
+std::uint64_t cgroup_available() {
+  std::ifstream cg("/proc/self/cgroup");
+  std::string line;
+  while (std::getline(cg, line)) {
+    if (line.rfind("0::", 0) != 0) continue;
+    const std::string dir = "/sys/fs/cgroup" + line.substr(3);
+    std::ifstream max_in(dir + "/memory.max"), cur_in(dir + "/memory.current");
+    std::string max_text;
+    std::uint64_t current = 0;
+    if (!(max_in >> max_text) || max_text == "max" || !(cur_in >> current)) return UINT64_MAX;
+    const std::uint64_t max = std::stoull(max_text);
+    return max > current ? max - current : 0;
+  }
+  return UINT64_MAX;
+}
+
+std::string gib(std::uint64_t bytes) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.2f GiB", static_cast<double>(bytes) / double(1ull << 30));
+  return text;
+}
+
+}  // namespace
+
+std::uint64_t world_bytes_per_body() { return kWorldBytesPerBody; }
+
+MemoryEstimate estimate_run_memory(const Scene& scene, const RunConfig& config, int threads) {
+  MemoryEstimate e;
+  const std::uint64_t dynamic = scene.dynamic_count();
+  const std::uint64_t statics = scene.static_count();
+  const bool partitioned = config.territories > 1 || config.sync_test > 0 ||
+                           config.watchdog.response == WatchdogResponse::Heal;
+  const auto worlds = static_cast<std::uint64_t>(std::max(1, config.territories));
+  // Every world holds every static; ghosts only where there are borders.
+  const double ghosts = worlds > 1 ? kGhostShare * static_cast<double>(dynamic) : 0.0;
+  e.world_body_count = dynamic + statics * worlds + static_cast<std::uint64_t>(ghosts);
+  e.world_bytes = e.world_body_count * kWorldBytesPerBody;
+  if (partitioned) {
+    // States kept per world, from the commit horizon to its clock: every
+    // checkpoint_every internal steps while speculating, every step with
+    // heal (lockstep: the horizon is at most a few steps behind).
+    const std::uint64_t substeps = static_cast<std::uint64_t>(std::max(1, scene.settings.substeps));
+    std::uint64_t kept = 0;
+    if (config.anticipation > 0)
+      kept = static_cast<std::uint64_t>(config.anticipation) * substeps /
+                 static_cast<std::uint64_t>(std::max(1, config.checkpoint_every)) + 2;
+    else if (config.watchdog.response == WatchdogResponse::Heal)
+      kept = 3;
+    // SyncTest keeps the whole scene's state for its window of steps.
+    if (config.sync_test > 0) kept += static_cast<std::uint64_t>(config.sync_test) + 1;
+    e.kept_state_bytes = kept * (dynamic + statics) * kept_state_bytes_per_body();
+  }
+  e.thread_bytes = static_cast<std::uint64_t>(std::max(0, threads)) * thread_stack_bytes();
+  return e;
+}
+
+MemoryBudget current_memory_budget() {
+  MemoryBudget b;
+  std::uint64_t vm = 0, data = 0;
+  read_statm(vm, data);
+  b.address_space = limit_minus(RLIMIT_AS, vm);
+  b.data = limit_minus(RLIMIT_DATA, data);
+  b.available = std::min(mem_available(), cgroup_available());
+  return b;
+}
+
+void check_memory(const MemoryEstimate& estimate, const MemoryBudget& budget, const std::string& what) {
+  const auto need = [](std::uint64_t bytes) {
+    return static_cast<std::uint64_t>(static_cast<double>(bytes) * kSafetyMargin);
+  };
+  std::string limit;
+  std::uint64_t have = UINT64_MAX;
+  if (need(estimate.total()) > budget.address_space) {
+    limit = "the address-space limit (RLIMIT_AS, ulimit -v)";
+    have = budget.address_space;
+  } else if (need(estimate.total()) > budget.data) {
+    limit = "the data-segment limit (RLIMIT_DATA, ulimit -d)";
+    have = budget.data;
+  } else if (need(estimate.touched()) > budget.available) {
+    limit = "the memory available (MemAvailable, or the cgroup's memory.max)";
+    have = budget.available;
+  } else {
+    return;
+  }
+  std::ostringstream m;
+  m << what << " needs about " << gib(estimate.total()) << " (worlds " << gib(estimate.world_bytes) << ": "
+    << estimate.world_body_count << " bodies x " << kWorldBytesPerBody << " B in " << (sizeof(btScalar) == 8 ? "double" : "float")
+    << "; kept states " << gib(estimate.kept_state_bytes) << "; thread stacks " << gib(estimate.thread_bytes)
+    << "; a margin of " << kSafetyMargin << "x on top) but " << limit << " leaves " << gib(have)
+    << ": use fewer bodies, territories or kept states, or raise the limit (docs/memory.md)";
+  throw MemoryLimitError(m.str());
+}
+
+}  // namespace soda

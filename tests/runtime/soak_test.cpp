@@ -1,0 +1,83 @@
+// Nothing lost, counted (docs/soak.md): bodies shuttling across the borders
+// of a thin territory map, validation on every step, bodies and contact
+// pairs counted from the worlds at the start and at the end; the state hash
+// equals one territory's. The small CI version of the ≥ 1,000,000-migration
+// soak; also the memory estimate's refusal (runtime/memory_estimate.h).
+#include <gtest/gtest.h>
+
+#include "soda/runtime/memory_estimate.h"
+#include "soda/runtime/run.h"
+#include "soda/scene/registry.h"
+#include "soda/worlds/body_state.h"
+
+namespace {
+
+soda::RunConfig soak_config(int territories) {
+  soda::RunConfig c;
+  c.steps = 600;
+  c.territories = territories;
+  c.partition = "grid:16x1x1";
+  c.threads = 1;
+  c.validate = true;
+  c.progress_seconds = 0;
+  return c;
+}
+
+TEST(Soak, BorderShuttleLosesNothingAcrossThousandsOfMigrations) {
+  const soda::Scene scene = soda::make_scene("border-shuttle", {80, 7});
+  const soda::RunResult one = soda::run_scene(scene, soak_config(1));
+  const soda::RunResult many = soda::run_scene(scene, soak_config(16));
+  std::printf("border-shuttle 80, 600 steps: %llu migrations; bodies %zu -> %zu, contact pairs %zu -> %zu (one "
+              "territory %zu); hash %s (one territory %s)\n",
+              static_cast<unsigned long long>(many.migrations), many.bodies_at_start, many.bodies_at_end,
+              many.contact_pairs_at_start, many.contact_pairs_at_end, one.contact_pairs_at_end,
+              soda::hash_hex(many.state_hash).c_str(), soda::hash_hex(one.state_hash).c_str());
+  EXPECT_GE(many.migrations, 2000u);
+  EXPECT_EQ(many.bodies_at_start, scene.bodies.size());
+  EXPECT_EQ(many.bodies_at_end, scene.bodies.size());
+  EXPECT_EQ(one.bodies_at_end, scene.bodies.size());
+  EXPECT_EQ(many.contact_pairs_at_start, one.contact_pairs_at_start);
+  EXPECT_EQ(many.contact_pairs_at_end, one.contact_pairs_at_end);
+  EXPECT_GT(many.contact_pairs_at_end, 0u);  // every sphere touches the ground
+  EXPECT_EQ(many.state_hash, one.state_hash);
+}
+
+TEST(MemoryEstimate, GrowsWithBodiesTerritoriesAndKeptStates) {
+  const soda::Scene small = soda::make_scene("falling-cubes", {1000, 1});
+  const soda::Scene large = soda::make_scene("falling-cubes", {4000, 1});
+  soda::RunConfig c;
+  const soda::MemoryEstimate a = soda::estimate_run_memory(small, c, 0);
+  const soda::MemoryEstimate b = soda::estimate_run_memory(large, c, 0);
+  EXPECT_EQ(a.world_bytes, small.bodies.size() * soda::world_bytes_per_body());
+  EXPECT_GT(b.world_bytes, 3 * a.world_bytes);
+  EXPECT_EQ(a.kept_state_bytes, 0u);
+  c.territories = 4;
+  c.anticipation = 16;
+  c.checkpoint_every = 1;
+  const soda::MemoryEstimate k = soda::estimate_run_memory(small, c, 4);
+  EXPECT_GT(k.world_bytes, a.world_bytes);  // statics per world, ghosts
+  EXPECT_GT(k.kept_state_bytes, 0u);
+  EXPECT_GT(k.thread_bytes, 0u);
+}
+
+TEST(MemoryEstimate, RefusesWhatDoesNotFitNamingTheLimit) {
+  const soda::Scene scene = soda::make_scene("falling-cubes", {1000, 1});
+  const soda::MemoryEstimate e = soda::estimate_run_memory(scene, {}, 0);
+  soda::MemoryBudget plenty;
+  EXPECT_NO_THROW(soda::check_memory(e, plenty, "test"));
+  soda::MemoryBudget tight;
+  tight.address_space = e.total();  // no room for the margin
+  try {
+    soda::check_memory(e, tight, "scene 'x'");
+    FAIL() << "no MemoryLimitError";
+  } catch (const soda::MemoryLimitError& err) {
+    const std::string m = err.what();
+    EXPECT_NE(m.find("scene 'x'"), std::string::npos) << m;
+    EXPECT_NE(m.find("RLIMIT_AS"), std::string::npos) << m;
+  }
+  soda::MemoryBudget low_ram;
+  low_ram.available = e.touched() / 2;
+  EXPECT_THROW(soda::check_memory(e, low_ram, "x"), soda::MemoryLimitError);
+}
+
+}  // namespace
