@@ -22,14 +22,6 @@ void check_supported(const RunConfig& config) {
     throw std::invalid_argument("--inputs cannot be combined with --watchdog heal (use stop or off)");
   if (config.sync_test > 0) throw std::invalid_argument("--inputs cannot be combined with --sync-test");
   if (config.shuffle_seed != 0) throw std::invalid_argument("--inputs cannot be combined with --shuffle-seed");
-  // Known race (issue 14 notes): under speculation, an input at a step the
-  // worlds have run past is a rollback of every world, and 1 run in 3-8 of
-  // tests/cli/cli_input_test.cpp's case stopped with "TransformBuffer::
-  // invalidate_from(51): steps at or below the commit step 52 can no longer
-  // change" (hash never wrong). Refused until that is found and fixed.
-  if (config.anticipation > 0)
-    throw std::invalid_argument("--inputs cannot be combined with --anticipation > 0 yet (a known race between "
-                                "past inputs and the commit step under speculation); use --anticipation 0");
 }
 
 // The API call for one input, as an embedding application makes it.

@@ -224,8 +224,9 @@ void SimulationEngine::input(UserInput in) {
     throw std::invalid_argument(what + ": a world has already passed that step (inputs at past steps need "
                                 "SimulationConfig::past_inputs)");
   CommitHorizon& horizon = *parts().horizon;
-  if (!horizon.try_pin(in.step * substeps_))
-    throw std::invalid_argument(what + ": older than the commit horizon (step " + std::to_string(horizon.gvt() / substeps_) +
+  if (!horizon.try_pin_final(in.step * substeps_))
+    throw std::invalid_argument(what + ": older than the commit horizon (step " +
+                                std::to_string(horizon.highest_gvt() / substeps_) +
                                 "); nothing before it can be changed any more");
   struct Unpin {
     CommitHorizon& h;
@@ -282,7 +283,9 @@ void SimulationEngine::rewind_world(WorldId w, const WorldSnapshot& state) {
   parts().worlds[static_cast<std::size_t>(w)] = std::move(fresh);
 }
 
-std::int64_t SimulationEngine::commit_horizon_step() const { return world->internals().horizon->gvt() / substeps_; }
+std::int64_t SimulationEngine::commit_horizon_step() const {
+  return world->internals().horizon->highest_gvt() / substeps_;
+}
 
 std::uint64_t SimulationEngine::rollbacks() const {
   std::lock_guard lock(lifecycle_);

@@ -72,9 +72,14 @@ void Speculation::restore(std::int64_t step, std::int64_t changed_step, bool kee
   if (c_.output.buffer) {
     // Entries of boundaries after the changed step are void: republished
     // with a new revision by the re-run. Earlier ones come out of the re-run
-    // unchanged and stay (the re-run skips them); the changed step is at or
-    // above GVT, and the commit step below it, so none is committed.
-    const std::int64_t first = changed_step / c_.substeps + 1;
+    // unchanged and stay (the re-run skips them). The changed step is at or
+    // above the GVT read now, but GVT may have gone down since this world
+    // set its commit step (a rollback of every world lowers the marks to a
+    // checkpoint below the pinned step, and the re-run of the steps between
+    // bets again: a bet lost there changes a step below the commit step).
+    // Committed steps were computed from confirmed messages only; the re-run
+    // repeats them bit for bit, so they stay too.
+    const std::int64_t first = std::max(changed_step / c_.substeps + 1, c_.output.buffer->commit_step() + 1);
     c_.output.buffer->invalidate_from(first);
     s_.next_publish = std::min(s_.next_publish, first);
     last_published_ = std::min(last_published_, first - 1);

@@ -40,6 +40,14 @@ class CommitHorizon {
   /// Holds gvt() at or below `step` until unpin(step) (a rollback to `step`
   /// is being prepared); false, and no pin, if gvt() is already above it.
   virtual bool try_pin(std::int64_t step) = 0;
+  /// As try_pin, but also false (and no pin) if `step` is below
+  /// highest_gvt(): gvt() may go down (a mark lowered under a hold), while
+  /// what a world read stays final for it (its commit step), so a change
+  /// from outside (a user input at a past step) must not reach below it.
+  virtual bool try_pin_final(std::int64_t step) = 0;
+  /// The highest value gvt() has computed so far (never goes down): no
+  /// step below it may change any more. Any thread.
+  virtual std::int64_t highest_gvt() const = 0;
   virtual void unpin(std::int64_t step) = 0;
   /// Calls the wake hook for `world` once gvt() >= `step`; false (and no
   /// call) if it already is.
@@ -72,6 +80,16 @@ class SharedMemoryHorizon final : public CommitHorizon {
     if (step < gvt_locked()) return false;
     pins_.insert(step);
     return true;
+  }
+  bool try_pin_final(std::int64_t step) override {
+    std::lock_guard lock(mutex_);
+    if (step < std::max(highest_, gvt_locked())) return false;
+    pins_.insert(step);
+    return true;
+  }
+  std::int64_t highest_gvt() const override {
+    std::lock_guard lock(mutex_);
+    return std::max(highest_, gvt_locked());
   }
   void unpin(std::int64_t step) override {
     std::vector<WorldId> woken;
@@ -106,11 +124,13 @@ class SharedMemoryHorizon final : public CommitHorizon {
   std::int64_t gvt_locked() const {
     std::int64_t low = *std::min_element(marks_.begin(), marks_.end());
     if (!pins_.empty()) low = std::min(low, *pins_.begin());
+    highest_ = std::max(highest_, low);
     return low;
   }
   mutable std::mutex mutex_;
   std::vector<std::int64_t> marks_;
   std::multiset<std::int64_t> pins_;
+  mutable std::int64_t highest_ = INT64_MIN;  // highest gvt_locked() result (highest_gvt())
   std::vector<std::int64_t> wake_;  // per world: the gvt it waits for
   std::function<void(WorldId)> hook_ = [](WorldId) {};
 };
