@@ -11,10 +11,11 @@ namespace soda::detail {
 // ground of a long walled box, half the lanes towards +x from the -x end,
 // half towards -x from the +x end, so a thin territory map (grid:Kx1x1) sees
 // bodies cross its borders in both directions. Each crossing is a migration
-// (docs/soak.md). Energy-stable by construction: no two spheres ever touch
-// (one speed per lane, lanes 0.75 m apart), the ground only cancels gravity
-// (friction 0, restitution 0) and nothing is elastic: the walls have
-// restitution 0, so a sphere reaching the far end stops there. Bullet's
+// (docs/soak.md). Energy-stable by construction: no two spheres touch while
+// they slide (one speed per lane, lanes 0.75 m apart), the ground only
+// cancels gravity (friction 0, restitution 0) and nothing is elastic: a lane
+// reaching the far wall comes to rest against it, its spheres against each
+// other (restitution 0 everywhere). Bullet's
 // elastic contacts (restitution 1) were not: the energy of spheres bouncing
 // between walls drifted up and down by random walk and ran away (x 2,000 in
 // 60,000 steps at 0.8..1.2 m/s, x 5 in 3,000 steps at 4..8 m/s).
