@@ -3,12 +3,16 @@
 // pairs counted from the worlds at the start and at the end; the state hash
 // equals one territory's. The small CI version of the ≥ 1,000,000-migration
 // soak; also the memory estimate's refusal (runtime/memory_estimate.h).
+#include <algorithm>
+#include <cstdio>
+
 #include <gtest/gtest.h>
 
 #include "soda/runtime/memory_estimate.h"
 #include "soda/runtime/run.h"
 #include "soda/scene/registry.h"
 #include "soda/worlds/body_state.h"
+#include "soda/worlds/canonical_world.h"
 
 namespace {
 
@@ -16,7 +20,7 @@ soda::RunConfig soak_config(int territories) {
   soda::RunConfig c;
   c.steps = 600;
   c.territories = territories;
-  c.partition = "grid:16x1x1";
+  c.partition = "grid:32x1x1";
   c.threads = 1;
   c.validate = true;
   c.progress_seconds = 0;
@@ -24,11 +28,11 @@ soda::RunConfig soak_config(int territories) {
 }
 
 TEST(Soak, BorderShuttleLosesNothingAcrossThousandsOfMigrations) {
-  const soda::Scene scene = soda::make_scene("border-shuttle", {80, 7});
+  const soda::Scene scene = soda::make_scene("border-shuttle", {200, 7});
   const soda::RunResult one = soda::run_scene(scene, soak_config(1));
-  const soda::RunResult many = soda::run_scene(scene, soak_config(16));
-  std::printf("border-shuttle 80, 600 steps: %llu migrations; bodies %zu -> %zu, contact pairs %zu -> %zu (one "
-              "territory %zu); hash %s (one territory %s)\n",
+  const soda::RunResult many = soda::run_scene(scene, soak_config(32));
+  std::printf("border-shuttle 200, 32 territories, 600 steps: %llu migrations; bodies %zu -> %zu, contact pairs "
+              "%zu -> %zu (one territory %zu); hash %s (one territory %s)\n",
               static_cast<unsigned long long>(many.migrations), many.bodies_at_start, many.bodies_at_end,
               many.contact_pairs_at_start, many.contact_pairs_at_end, one.contact_pairs_at_end,
               soda::hash_hex(many.state_hash).c_str(), soda::hash_hex(one.state_hash).c_str());
@@ -40,6 +44,37 @@ TEST(Soak, BorderShuttleLosesNothingAcrossThousandsOfMigrations) {
   EXPECT_EQ(many.contact_pairs_at_end, one.contact_pairs_at_end);
   EXPECT_GT(many.contact_pairs_at_end, 0u);  // every sphere touches the ground
   EXPECT_EQ(many.state_hash, one.state_hash);
+}
+
+// The soak only counts if the spheres keep crossing borders: the scene must
+// neither pump energy in (Bullet's elastic contacts did: the spheres of the
+// first border-shuttle bounced out of the box) nor bleed it away. Kinetic
+// energy of the spheres (1 kg each, frictionless: no spin) at the start and
+// after 600 steps (10 s), and every sphere still on the ground.
+TEST(Soak, BorderShuttleKeepsItsEnergyAndStaysOnTheGround) {
+  const soda::Scene scene = soda::make_scene("border-shuttle", {80, 7});
+  double start = 0;
+  for (const soda::Body& b : scene.bodies) start += 0.5 * b.mass * b.linear_velocity.squaredNorm();
+  soda::CanonicalWorld world(scene);
+  constexpr int kSteps = 600;  // 10 s: at most 80 m, no sphere reaches the far wall (>= 90 m away)
+  for (int i = 0; i < kSteps; ++i) world.step();
+  double end = 0, highest = 0, lowest = 1e9;
+  for (const soda::BodyState& s : world.body_states()) {
+    if (s.id <= 4) continue;  // ground, walls
+    const double v2 = double(s.linear_velocity[0]) * s.linear_velocity[0] +
+                      double(s.linear_velocity[1]) * s.linear_velocity[1] +
+                      double(s.linear_velocity[2]) * s.linear_velocity[2];
+    end += 0.5 * v2;
+    highest = std::max(highest, double(s.origin[1]));
+    lowest = std::min(lowest, double(s.origin[1]));
+  }
+  std::printf("border-shuttle 80: kinetic energy %.3f J at the start, %.3f J after %d steps; centres at y "
+              "%.4f .. %.4f m\n",
+              start, end, kSteps, lowest, highest);
+  EXPECT_GT(end, 0.999 * start);  // crossings go on at the same pace
+  EXPECT_LT(end, 1.001 * start);  // nothing pumps energy in
+  EXPECT_LT(highest, 0.25 + 0.01);  // on the ground (radius 0.25 m), not bouncing
+  EXPECT_GT(lowest, 0.25 - 0.01);   // nor through it
 }
 
 TEST(MemoryEstimate, GrowsWithBodiesTerritoriesAndKeptStates) {
