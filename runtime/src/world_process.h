@@ -98,8 +98,6 @@ class PartitionedWorld::Process {
   /// Wall time the world's thread waited for it (a blocking receive, a
   /// park): counted in the stage the world waits in.
   void add_blocked_ns(std::int64_t ns);
-  /// Pool scheduling: when the world parked (set before parking).
-  std::int64_t parked_at_ns = 0;
 
   WorldMetrics metrics() const;
 
