@@ -1,6 +1,7 @@
 // make_balance_policy: options checked, then the named policy.
 #include <string>
 
+#include "churn_policy.h"
 #include "soda/loadbalance/policy.h"
 
 namespace soda {
@@ -29,6 +30,7 @@ void check_options(const BalanceOptions& o) {
 std::unique_ptr<BalancePolicy> make_balance_policy(const BalanceOptions& options) {
   check_options(options);
   if (options.policy == "none") return std::make_unique<NoBalance>();
+  if (options.policy == "churn") return std::make_unique<ChurnPolicy>(options);
   throw BalanceError("unknown balance policy '" + options.policy + "' (none, diffusive, rcb, churn)");
 }
 

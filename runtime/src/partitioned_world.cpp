@@ -76,6 +76,7 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
 
 PartitionedWorld::PartitionedWorld(const Scene& scene, TerritoryMap map, PartitionedOptions options)
     : options_(std::move(options)), substeps_(scene.settings.substeps), base_substeps_(substeps_) {
+  init_balance();
   map = map_with_reach(scene, map, options_.reach_speed);
   build(scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(scene, w, map); });
 }
@@ -86,6 +87,7 @@ PartitionedWorld::PartitionedWorld(const WorldSnapshot& state, TerritoryMap map,
       base_substeps_(substeps_),
       steps_done_(state.steps_done) {
   if (state.steps_done < 0) throw std::invalid_argument("PartitionedWorld: a snapshot with a negative step count");
+  init_balance();
   const Scene scene = scene_of(state);
   map = map_with_reach(scene, map, options_.reach_speed);
   build(scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
@@ -106,6 +108,7 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
       const WorldMetrics m = in_->processes[w]->metrics();
       add_counts(carried_[w], m);
       carried_[w].cpu_step_ms.insert(carried_[w].cpu_step_ms.end(), m.cpu_step_ms.begin(), m.cpu_step_ms.end());
+      carried_[w].lead.insert(carried_[w].lead.end(), m.lead.begin(), m.lead.end());
     }
   }
   in_.reset();
@@ -182,12 +185,15 @@ PartitionedWorld::~PartitionedWorld() = default;
 // keeps (at or after GVT, at or before the bad step's start), run up to the
 // bad step, which is then re-simulated as heal_substeps substeps, and go on.
 // Every world's verdict is a function of the whole scene's state, so the
-// heals, like the steps, are the same for every partition.
+// heals, like the steps, are the same for every partition. Load balancing:
+// the worlds run to each balance step, where the cession happens before
+// they go on (balance_step.cpp).
 void PartitionedWorld::step(int n) {
   if (n < 0) throw std::invalid_argument("PartitionedWorld::step: n must be >= 0");
   const std::int64_t goal = steps_done_ + n;
   while (steps_done_ < goal) {
     try {
+      if (balance_due()) balance();
       if (heal_at_ > 0 && steps_done_ == heal_at_ - 1) {
         resimulate_with_substeps();
         continue;
@@ -196,7 +202,7 @@ void PartitionedWorld::step(int n) {
         sync_test_step();
         continue;
       }
-      run_to(heal_at_ > 0 ? heal_at_ - 1 : goal);
+      run_to(std::min(heal_at_ > 0 ? heal_at_ - 1 : goal, next_balance_step()));
     } catch (const WatchdogError& e) {
       if (options_.watchdog.response != WatchdogResponse::Heal) throw;
       if (heal_attempts_ >= options_.watchdog.max_heals)
@@ -249,6 +255,7 @@ void PartitionedWorld::run_to(std::int64_t scene_step) {
   o.pin = options_.pin;
   Scheduler(std::move(o), in_->task_list(), *in_->transport, nullptr).run();
   steps_done_ = scene_step;
+  collect_step_loads();
 }
 
 // The worlds stopped wherever they were; the newest step whose state every
@@ -282,10 +289,8 @@ void PartitionedWorld::resimulate_with_substeps() {
 }
 
 void PartitionedWorld::restore(WorldSnapshot state) {
-  const TerritoryMap map = in_->worlds.front()->map();  // a copy: build() replaces the worlds
-  substeps_ = state.settings.substeps;
-  steps_done_ = state.steps_done;
-  build(scene_of(state), map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
+  const TerritoryMap map = this->map();  // a copy: the rebuild replaces the worlds
+  rebuild(state, map);
 }
 
 std::vector<BodyState> PartitionedWorld::body_states() const {
@@ -329,6 +334,12 @@ std::vector<WorldMetrics> PartitionedWorld::metrics() const {
       add_counts(m, c);
       m.cpu_step_ms.insert(m.cpu_step_ms.begin(), c.cpu_step_ms.begin(), c.cpu_step_ms.end());
       m.cpu_step_mean_ms = m.cpu_step_ms.empty() ? 0.0 : m.cpu_seconds * 1e3 / double(m.cpu_step_ms.size());
+      if (!c.lead.empty()) {  // lead_max: add_counts
+        m.lead.insert(m.lead.begin(), c.lead.begin(), c.lead.end());
+        double sum = 0;
+        for (std::int32_t l : m.lead) sum += l;
+        m.lead_mean = sum / static_cast<double>(m.lead.size());
+      }
     }
     out.push_back(std::move(m));
   }

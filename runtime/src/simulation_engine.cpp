@@ -36,6 +36,12 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
   if (c.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument("SimulationConfig: watchdog heal is not supported by a Simulation (off or stop)");
   o.reach_speed = c.reach_speed;
+  if (c.balance.policy != "none")
+    throw std::invalid_argument(
+        "SimulationConfig: load balancing (policy '" + c.balance.policy +
+        "') is not supported by a Simulation yet: a cession is applied at a balance step where every world "
+        "stands, and a Simulation's worlds run freely (use PartitionedWorld::step, or `soda run` without "
+        "--inputs; docs/loadbalance.md)");
   if (c.past_inputs && c.validate)
     throw std::invalid_argument("SimulationConfig: past_inputs with validate is not supported (the validator "
                                 "cannot follow a rollback yet)");

@@ -41,6 +41,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "kept_states.h"
@@ -100,6 +101,20 @@ class PartitionedWorld::Process {
   void add_blocked_ns(std::int64_t ns);
 
   WorldMetrics metrics() const;
+
+  /// One finished internal step, as PartitionedWorld::step_loads() needs it.
+  struct StepRecord {
+    std::int64_t step = 0;     // internal steps done when it finished
+    std::int64_t cpu_ns = 0;   // the step's CPU time (restores before it included)
+    std::int64_t wait_ns = 0;  // blocked since the previous step finished
+    std::int32_t bodies = 0;   // owned at its end
+    std::int32_t lead = 0;     // speculation: clock - commit horizon at its end; else 0
+    std::int32_t islands = 0;  // local islands + merged islands solved here (its last substep)
+  };
+  /// The records of the steps finished since the last call, in the order
+  /// they finished (a re-run step again). None under a Simulation (nobody
+  /// takes them). Between advances only.
+  std::vector<StepRecord> take_step_log() { return std::exchange(step_log_, {}); }
 
  private:
   bool run_phase();
@@ -163,6 +178,8 @@ class PartitionedWorld::Process {
   std::int64_t step_cpu_max_ns_ = 0;
   std::vector<std::int64_t> step_cpu_history_ns_;  // CPU time of every finished internal step
   std::int64_t blocked_ns_ = 0;
+  std::int64_t step_start_blocked_ns_ = 0;  // blocked_ns_ at the last step's end
+  std::vector<StepRecord> step_log_;         // since the last take_step_log()
   std::int64_t room_blocked_ns_ = 0;
   std::uint64_t entries_published_ = 0;
   std::uint64_t entries_dropped_ = 0;

@@ -19,6 +19,14 @@ void PartitionedWorld::Process::step_costs_done() {
   if (spec_) spec_->step_cpu(step_ns - (rollback_ns - step_start_rollback_ns_));  // restores: counted
   step_start_cpu_ns_ = t.cpu_ns_sum;
   step_start_rollback_ns_ = rollback_ns;
+  if (!output_.control) {  // PartitionedWorld::step: its per-step loads
+    const TerritoryCounters& c = s_.world->counters();
+    const std::int64_t lead = spec_ ? s_.step - safety_.horizon->gvt() : 0;
+    step_log_.push_back(StepRecord{s_.step, step_ns, blocked_ns_ - step_start_blocked_ns_,
+                                   static_cast<std::int32_t>(s_.world->owned_count()), static_cast<std::int32_t>(lead),
+                                   static_cast<std::int32_t>(c.local_islands + c.border_islands)});
+  }
+  step_start_blocked_ns_ = blocked_ns_;
 }
 
 // The stage a world waiting in s_.phase waits for.

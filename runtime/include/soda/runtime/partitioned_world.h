@@ -27,6 +27,8 @@
 #include <vector>
 
 #include "soda/grid/territory_map.h"
+#include "soda/loadbalance/policy.h"
+#include "soda/runtime/balance_log.h"
 #include "soda/runtime/stage.h"
 #include "soda/runtime/world_graph.h"
 #include "soda/scene/scene.h"
@@ -128,6 +130,20 @@ struct PartitionedOptions {
   /// PartitionError naming the body, its speed and the speed to set here.
   /// Results never depend on it. >= 0.
   double reach_speed = 0;
+  /// Load balancing (docs/loadbalance.md): every balance.period scene steps
+  /// step() stops every world at that step (the *balance step*: nothing is
+  /// speculated beyond it), shows the policy what the worlds measured over
+  /// the period (LoadView), gives the cells it names to their new owners
+  /// and rebuilds the worlds for the new map from the whole scene's state
+  /// there. Results never depend on it (bit-identical under every policy);
+  /// speed does. Policy "none" (the default) has no balance steps at all.
+  /// Checked by make_balance_policy: bad values throw BalanceError (a
+  /// std::invalid_argument) from the constructor.
+  BalanceOptions balance = {};
+  /// A policy to use instead of make_balance_policy(balance) (tests,
+  /// experiments); balance.period still sets the balance steps. Called from
+  /// step()'s thread only; give one PartitionedWorld its own.
+  std::shared_ptr<BalancePolicy> balance_policy = {};
 };
 
 /// Thrown when the validation mode finds a broken invariant; the message names
@@ -250,6 +266,16 @@ class PartitionedWorld {
   /// SyncTest rollbacks done (each checked bit-identical).
   std::uint64_t sync_rollbacks() const { return sync_rollbacks_; }
 
+  /// The territory map in force now (reach included: map_with_reach).
+  const TerritoryMap& map() const;
+  /// One record per balance step so far, in order (PartitionedOptions::
+  /// balance; empty under policy "none"). Valid until the next step().
+  const std::vector<BalanceRecord>& balance_log() const { return balance_log_; }
+  /// What every world measured in every scene step step() ran, in step
+  /// order (the first entry is the first step after construction). Steps
+  /// re-run (SyncTest, heal) add to their entry. Valid until the next step().
+  const std::vector<StepLoads>& step_loads() const { return step_loads_; }
+
   /// Runtime-internal, not for users: the worlds' processes, mailboxes and
   /// shared speculation state, through which the runtime's own drivers (the
   /// scheduler, a Simulation's engine) run them. An incomplete type outside
@@ -267,6 +293,13 @@ class PartitionedWorld {
   void sync_test_step();
   void restore_before(const WatchdogError& error);
   void resimulate_with_substeps();
+  // Load balancing (balance_step.cpp).
+  void init_balance();
+  std::int64_t next_balance_step() const;
+  bool balance_due() const;
+  void balance();
+  void collect_step_loads();
+  void rebuild(const WorldSnapshot& state, const TerritoryMap& map);
 
   PartitionedOptions options_;
   int substeps_ = 1;       // of the worlds now (a heal re-simulates a step with more)
@@ -281,6 +314,11 @@ class PartitionedWorld {
   std::uint64_t sync_rollbacks_ = 0;
   std::int64_t heal_at_ = 0;  // > 0: this scene step is re-simulated with substeps next
   std::vector<std::int64_t> healed_steps_;
+  std::shared_ptr<BalancePolicy> policy_;  // null: no balance steps (policy "none")
+  std::int64_t balanced_through_ = 0;      // the last balance step done (or the first step)
+  std::vector<BalanceRecord> balance_log_;
+  std::vector<StepLoads> step_loads_;
+  std::int64_t first_step_ = 0;            // scene step step_loads_ starts after
 };
 
 }  // namespace soda

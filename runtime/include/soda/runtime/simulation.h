@@ -96,6 +96,11 @@ struct SimulationConfig {
   /// Speed (m/s) the worlds' neighbourhoods are sized for
   /// (PartitionedOptions::reach_speed; 0: from the scene).
   double reach_speed = 0;
+  /// Load balancing: only policy "none" (the default) for now. A
+  /// Simulation's worlds run freely and are never all stopped at one step,
+  /// and the cession (PartitionedOptions::balance) is applied at such a
+  /// step: any other policy throws std::invalid_argument (docs/loadbalance.md).
+  BalanceOptions balance = {};
 };
 
 /// A world failed. world(): the world whose thread threw (kNoWorld if no

@@ -1,0 +1,233 @@
+// PartitionedWorld's load balancing (docs/loadbalance.md, "How a cession is
+// applied"): the balance steps, the LoadView a policy decides on, the moves
+// checked and applied by rebuilding every world for the new map from the
+// whole scene's state at the balance step, and the per-step loads.
+//
+// Why a rebuild is exact: a TerritoryWorld built from a whole-scene snapshot
+// steps exactly as the worlds the snapshot was taken from, for any map
+// (tests/worlds/territory_snapshot_test.cpp) — the bodies of a ceded cell
+// arrive at their new owner with their raw state, and every pair's contact
+// state goes to its key body's new owner. Every world stands at the balance
+// step (step() drains to it), so no rollback can reach below it.
+#include <algorithm>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "partitioned_internals.h"
+#include "soda/loadbalance/thread_clock.h"
+#include "soda/worlds/world_snapshot.h"
+
+namespace soda {
+namespace {
+
+constexpr std::int32_t kSleeping = 2;  // Bullet's ISLAND_SLEEPING: the one state TerritoryWorld counts asleep
+
+// Policy contract point 2 (policy.h): a broken one is a bug of the policy.
+void check_moves(const std::vector<CellMove>& moves, const TerritoryMap& map, const char* policy,
+                 std::int64_t step) {
+  std::set<std::size_t> seen;
+  for (std::size_t i = 0; i < moves.size(); ++i) {
+    const CellMove& m = moves[i];
+    std::ostringstream text;
+    text << "balance policy '" << policy << "' at step " << step << ": move " << i << " (cell (" << m.cell.x << ", "
+         << m.cell.y << ", " << m.cell.z << ") from world " << m.from << " to world " << m.to << ") ";
+    const std::string what = text.str();
+    if (!map.box().contains(m.cell)) throw std::logic_error(what + "names a cell outside the map's box");
+    if (m.to < 0 || m.to >= map.world_count() || m.to == m.from)
+      throw std::logic_error(what + "names no other world of the " + std::to_string(map.world_count()));
+    if (map.owner(m.cell) != m.from)
+      throw std::logic_error(what + "but world " + std::to_string(map.owner(m.cell)) + " owns the cell");
+    if (!seen.insert(map.box().index(m.cell)).second) throw std::logic_error(what + "moves the cell twice");
+  }
+}
+
+// CellLoad of every box cell holding a dynamic body, canonical order (box
+// index order is lexicographic x, y, z). A pair counts at its key body's
+// cell: the dynamic body of a static pair, else the lower id.
+std::vector<CellLoad> cell_loads(const WorldSnapshot& state, const TerritoryMap& map) {
+  const CellBox& box = map.box();
+  std::vector<std::int64_t> index(state.bodies.size(), -1);  // box index of each body's home cell; -1: static
+  std::map<std::int64_t, CellLoad> cells;
+  for (std::size_t i = 0; i < state.bodies.size(); ++i) {
+    const BodySnapshot& b = state.bodies[i];
+    if (b.description.is_static) continue;
+    const btScalar* o = b.state.origin;
+    const CellCoord c = box.clamp(map.grid().cell_of(Vec3(double(o[0]), double(o[1]), double(o[2]))));
+    index[i] = static_cast<std::int64_t>(box.index(c));
+    CellLoad& l = cells[index[i]];
+    l.cell = c;
+    l.owner = map.owner(c);
+    ++l.bodies;
+    if (b.state.activation_state != kSleeping) ++l.awake_bodies;
+  }
+  auto position = [&](BodyId id) {
+    auto it = std::lower_bound(state.bodies.begin(), state.bodies.end(), id,
+                               [](const BodySnapshot& b, BodyId v) { return b.description.id < v; });
+    return static_cast<std::size_t>(it - state.bodies.begin());
+  };
+  for (const ManifoldState& m : state.manifolds) {
+    const std::size_t i0 = position(m.id0), i1 = position(m.id1);
+    if (i0 >= index.size() || i1 >= index.size()) continue;
+    const std::int64_t key = index[i0] >= 0 ? index[i0] : index[i1];
+    if (key >= 0) ++cells[key].contact_pairs;
+  }
+  std::vector<CellLoad> out;
+  out.reserve(cells.size());
+  for (auto& [i, l] : cells) out.push_back(l);
+  return out;
+}
+
+}  // namespace
+
+BalanceTotals balance_totals(const std::vector<BalanceRecord>& log) {
+  BalanceTotals t;
+  for (const BalanceRecord& r : log) {
+    ++t.balance_steps;
+    t.cells_moved += r.cells_moved;
+    t.bodies_moved += r.bodies_moved;
+    t.gather_cpu_seconds += r.gather_cpu_seconds;
+    t.decide_cpu_seconds += r.decide_cpu_seconds;
+    t.apply_cpu_seconds += r.apply_cpu_seconds;
+    t.wall_seconds += r.wall_seconds;
+  }
+  return t;
+}
+
+void PartitionedWorld::init_balance() {
+  if (options_.balance_policy) {
+    BalanceOptions checked = options_.balance;  // the knobs are checked even when the policy is given
+    checked.policy = "none";
+    make_balance_policy(checked);
+    policy_ = options_.balance_policy;
+  } else {
+    std::unique_ptr<BalancePolicy> made = make_balance_policy(options_.balance);
+    if (options_.balance.policy != "none") policy_ = std::move(made);
+  }
+  balanced_through_ = first_step_ = steps_done_;
+}
+
+const TerritoryMap& PartitionedWorld::map() const { return in_->worlds.front()->map(); }
+
+std::int64_t PartitionedWorld::next_balance_step() const {
+  if (!policy_) return std::numeric_limits<std::int64_t>::max();
+  const std::int64_t p = options_.balance.period;
+  return (steps_done_ / p + 1) * p;
+}
+
+bool PartitionedWorld::balance_due() const {
+  return policy_ && steps_done_ > balanced_through_ && steps_done_ % options_.balance.period == 0;
+}
+
+// Every world stands at steps_done_ (step() ran them to it).
+void PartitionedWorld::balance() {
+  BalanceRecord rec;
+  rec.step = steps_done_;
+  const std::int64_t wall0 = wall_ns(), cpu0 = thread_cpu_ns();
+  const WorldSnapshot state = snapshot();  // also throws if two worlds own one body
+  const TerritoryMap map = this->map();    // O(1) copy: the rebuild replaces the worlds
+  const int k = map.world_count();
+  LoadView view;
+  view.step = steps_done_;
+  view.map = &map;
+  view.cells = cell_loads(state, map);
+  view.worlds.resize(static_cast<std::size_t>(k));
+  for (WorldId w = 0; w < k; ++w) {
+    WorldLoad& l = view.worlds[static_cast<std::size_t>(w)];
+    l.world = w;
+    l.cells = map.cell_count(w);
+    l.contact_pairs = static_cast<std::int64_t>(in_->worlds[static_cast<std::size_t>(w)]->held_contact_pairs().size());
+  }
+  for (const CellLoad& c : view.cells) {
+    WorldLoad& l = view.worlds[static_cast<std::size_t>(c.owner)];
+    l.bodies += c.bodies;
+    l.awake_bodies += c.awake_bodies;
+  }
+  // The period's steps: means per internal step.
+  std::vector<double> lead_sum(static_cast<std::size_t>(k), 0.0);
+  std::int64_t scene_steps = 0;
+  for (const StepLoads& s : step_loads_) {
+    if (s.step <= balanced_through_ || s.step > steps_done_) continue;
+    ++scene_steps;
+    for (WorldId w = 0; w < k; ++w) {
+      const WorldStepLoad& x = s.worlds[static_cast<std::size_t>(w)];
+      WorldLoad& l = view.worlds[static_cast<std::size_t>(w)];
+      l.busy += x.busy_seconds;
+      l.wait += x.wait_seconds;
+      lead_sum[static_cast<std::size_t>(w)] += x.lead;
+      l.islands = x.islands;
+    }
+  }
+  for (WorldId w = 0; w < k; ++w) {
+    WorldLoad& l = view.worlds[static_cast<std::size_t>(w)];
+    l.steps = scene_steps * substeps_;
+    if (l.steps == 0) continue;
+    l.busy /= static_cast<double>(l.steps);
+    l.wait /= static_cast<double>(l.steps);
+    l.lead = lead_sum[static_cast<std::size_t>(w)] / static_cast<double>(scene_steps);
+  }
+  const std::int64_t cpu1 = thread_cpu_ns();
+  rec.moves = policy_->decide(view);
+  const std::int64_t cpu2 = thread_cpu_ns();
+  check_moves(rec.moves, map, policy_->name(), steps_done_);
+  rec.cells_moved = static_cast<std::int64_t>(rec.moves.size());
+  if (!rec.moves.empty()) {
+    std::vector<std::pair<CellCoord, WorldId>> changes;
+    std::set<std::size_t> moved;
+    for (const CellMove& m : rec.moves) {
+      changes.emplace_back(m.cell, m.to);
+      moved.insert(map.box().index(m.cell));
+    }
+    for (const CellLoad& c : view.cells)
+      if (moved.count(map.box().index(c.cell))) rec.bodies_moved += c.bodies;
+    const TerritoryMap next = map_with_reach(scene_of(state), map.reassigned(changes), options_.reach_speed);
+    rebuild(state, next);
+  }
+  const std::int64_t cpu3 = thread_cpu_ns();
+  rec.gather_cpu_seconds = static_cast<double>(cpu1 - cpu0) * 1e-9;
+  rec.decide_cpu_seconds = static_cast<double>(cpu2 - cpu1) * 1e-9;
+  rec.apply_cpu_seconds = static_cast<double>(cpu3 - cpu2) * 1e-9;
+  rec.wall_seconds = static_cast<double>(wall_ns() - wall0) * 1e-9;
+  for (WorldId w = 0; w < k; ++w) rec.cells_owned.push_back(this->map().cell_count(w));
+  balanced_through_ = steps_done_;
+  balance_log_.push_back(std::move(rec));
+}
+
+// After every run of the worlds: their finished steps' records, by scene step.
+void PartitionedWorld::collect_step_loads() {
+  const int k = world_count();
+  for (WorldId w = 0; w < k; ++w) {
+    const std::int32_t cells = static_cast<std::int32_t>(map().cell_count(w));
+    for (const Process::StepRecord& r : in_->process(w).take_step_log()) {
+      const std::int64_t scene_step = (r.step - 1) / substeps_ + 1;
+      if (scene_step <= first_step_) continue;
+      const std::size_t i = static_cast<std::size_t>(scene_step - first_step_ - 1);
+      while (step_loads_.size() <= i) {
+        StepLoads s;
+        s.step = first_step_ + static_cast<std::int64_t>(step_loads_.size()) + 1;
+        s.worlds.resize(static_cast<std::size_t>(k));
+        step_loads_.push_back(std::move(s));
+      }
+      WorldStepLoad& l = step_loads_[i].worlds[static_cast<std::size_t>(w)];
+      l.busy_seconds += static_cast<double>(r.cpu_ns) * 1e-9;
+      l.wait_seconds += static_cast<double>(r.wait_ns) * 1e-9;
+      l.bodies = r.bodies;
+      l.cells = cells;
+      l.lead = r.lead;
+      l.islands = r.islands;
+    }
+  }
+}
+
+// The worlds (and their processes, mailboxes, horizon) rebuilt from the
+// whole scene's state for `map`; the replaced processes' counts are carried.
+void PartitionedWorld::rebuild(const WorldSnapshot& state, const TerritoryMap& map) {
+  substeps_ = state.settings.substeps;
+  steps_done_ = state.steps_done;
+  build(scene_of(state), map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
+}
+
+}  // namespace soda
