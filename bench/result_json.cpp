@@ -93,6 +93,42 @@ nlohmann::json speculation_json(const WorldMetrics& m) {
           {"kept_states_max", m.kept_states_max}};
 }
 
+namespace {
+
+// Load balancing (docs/loadbalance.md): the options, the totals and one row
+// per balance step.
+nlohmann::json balance_json(const BalanceOptions& o, const std::vector<BalanceRecord>& log) {
+  const BalanceTotals t = balance_totals(log);
+  nlohmann::json steps = nlohmann::json::array();
+  for (const BalanceRecord& r : log)
+    steps.push_back({{"step", r.step},
+                     {"cells_moved", r.cells_moved},
+                     {"bodies_moved", r.bodies_moved},
+                     {"gather_cpu_seconds", r.gather_cpu_seconds},
+                     {"decide_cpu_seconds", r.decide_cpu_seconds},
+                     {"apply_cpu_seconds", r.apply_cpu_seconds},
+                     {"wall_seconds", r.wall_seconds},
+                     {"cells_owned", r.cells_owned}});
+  return {{"policy", o.policy},
+          {"period", o.period},
+          {"seed", o.seed},
+          {"smoothing", o.smoothing},
+          {"overload", o.overload},
+          {"underload", o.underload},
+          {"max_cells_per_move", o.max_cells_per_move},
+          {"balance_steps", t.balance_steps},
+          {"cells_moved", t.cells_moved},
+          {"bodies_moved", t.bodies_moved},
+          {"cpu_seconds", t.cpu_seconds()},
+          {"gather_cpu_seconds", t.gather_cpu_seconds},
+          {"decide_cpu_seconds", t.decide_cpu_seconds},
+          {"apply_cpu_seconds", t.apply_cpu_seconds},
+          {"wall_seconds", t.wall_seconds},
+          {"steps", steps}};
+}
+
+}  // namespace
+
 nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
   const SceneSettings& st = d.resolved->settings;
   const double simulated = r.steps * st.dt;
@@ -136,6 +172,7 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"rollback", rollback_name(d.config.rollback)},
       {"checkpoint_every", d.config.checkpoint_every},
       {"eager_bets", d.config.eager_bets},
+      {"balance", balance_json(d.config.balance, r.balance_log)},
   };
   if (r.territories > 1) {
     j["schedule"] = r.schedule;

@@ -132,6 +132,30 @@ void add_run_options(CLI::App& cmd, Options& o) {
   cmd.add_flag("--eager-bets", o.config.eager_bets,
                "Speculation: bet also on neighbours whose newest ghosts were not empty (more bets and rollbacks; "
                "by default a world waits for a busy border)");
+  cmd.add_option("--lb", o.config.balance.policy,
+                 "Load balancing by cell cession (territories > 1): none | diffusive | rcb | churn (random cells, "
+                 "to exercise the machinery); results are identical under every policy; docs/loadbalance.md")
+      ->capture_default_str();
+  cmd.add_option("--lb-period", o.config.balance.period,
+                 "Scene steps between balance steps (every world stops there while cells change owner; >= 1)")
+      ->check(CLI::Range(1, 1 << 30))
+      ->capture_default_str();
+  cmd.add_option("--lb-seed", o.config.balance.seed, "Seed of the policy's tie-breaks and of churn's draws (>= 0)")
+      ->check(kUnsigned)
+      ->capture_default_str();
+  cmd.add_option("--lb-smoothing", o.config.balance.smoothing,
+                 "Weight of the newest period in the smoothed load, in (0, 1] (1: no history)")
+      ->capture_default_str();
+  cmd.add_option("--lb-overload", o.config.balance.overload,
+                 "A world is overloaded above this x the mean smoothed busy time (> 1)")
+      ->capture_default_str();
+  cmd.add_option("--lb-underload", o.config.balance.underload,
+                 "A world is underloaded below this x the mean smoothed busy time (in (0, 1))")
+      ->capture_default_str();
+  cmd.add_option("--lb-max-cells", o.config.balance.max_cells_per_move,
+                 "Most cells one world gives away at one balance step (>= 1)")
+      ->check(CLI::Range(1, 1 << 30))
+      ->capture_default_str();
   cmd.add_option("--json", o.json_path, "Write results as JSON to this path ('-': stdout)");
 }
 
@@ -202,6 +226,14 @@ void print_summary(const soda::RunResult& r) {
                 static_cast<unsigned long long>(sp.bodies_resolved),
                 static_cast<unsigned long long>(sp.bodies_replayed), sp.rollback_cpu_seconds,
                 static_cast<long long>(sp.lead_max), sp.lead_mean);
+  }
+  if (!r.balance_log.empty()) {
+    const soda::BalanceTotals t = soda::balance_totals(r.balance_log);
+    std::printf("  load balancing: %lld balance steps, %lld cells and %lld bodies moved, %.4f s CPU (deciding "
+                "%.4f s, applying %.4f s)\n",
+                static_cast<long long>(t.balance_steps), static_cast<long long>(t.cells_moved),
+                static_cast<long long>(t.bodies_moved), t.cpu_seconds(), t.gather_cpu_seconds + t.decide_cpu_seconds,
+                t.apply_cpu_seconds);
   }
   if (r.sync_rollbacks)
     std::printf("  SyncTest: %llu rollbacks re-run bit-identical\n", static_cast<unsigned long long>(r.sync_rollbacks));

@@ -160,6 +160,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   options.rollback = config.rollback;
   options.eager_bets = config.eager_bets;
   options.reach_speed = config.reach_speed;
+  options.balance = config.balance;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
   step_ends.reserve(static_cast<std::size_t>(config.steps));
   std::int64_t t0 = 0;
@@ -206,6 +207,8 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.sleeping_bodies = world.sleeping_count();
   r.healed_steps = world.healed_steps();
   r.sync_rollbacks = world.sync_rollbacks();
+  r.balance_log = world.balance_log();
+  r.step_loads = world.step_loads();
   for (const WorldMetrics& m : r.world_metrics) r.migrations += m.migrations_out;
   if (config.validate) {
     const WorldSnapshot s = world.snapshot();
@@ -298,6 +301,7 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   if (config.anticipation > 0 && config.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument("--anticipation > 0 cannot be combined with --watchdog heal (speculation is not "
                                 "supported with self-heal): use --watchdog stop or off, or --anticipation 0");
+  make_balance_policy(config.balance);  // BalanceError (std::invalid_argument) for bad options
   const SleepingSwitch sleeping(config.sleeping);
   const Stamp start;
   check_run_memory(scene, config);

@@ -51,6 +51,7 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   sc.checkpoint_every = config.checkpoint_every;
   sc.eager_bets = config.eager_bets;
   sc.watchdog = config.watchdog;
+  sc.balance = config.balance;  // a Simulation refuses any policy but "none"
   sc.buffer_capacity = std::max<std::size_t>(sc.buffer_capacity, static_cast<std::size_t>(config.anticipation) + 3);
   // Progress and step times from world 0's thread (re-runs after a rollback
   // included).

@@ -80,6 +80,12 @@ struct RunConfig {
   /// stock world, watchdog heal, SyncTest or a shuffle seed.
   std::optional<std::vector<UserInput>> inputs;
   std::string inputs_source = "inputs";  // names the inputs in messages (the file)
+  /// K > 1: load balancing (PartitionedOptions::balance; `--lb`,
+  /// docs/loadbalance.md). Checked for every K (BalanceError, a
+  /// std::invalid_argument); with one territory there is nothing to balance
+  /// (accepted, no balance step). Not with inputs (a Simulation cannot
+  /// balance yet).
+  BalanceOptions balance = {};
 };
 
 /// Summary statistics of per-step times, in milliseconds.
@@ -122,6 +128,8 @@ struct RunResult {
   std::vector<WorldMetrics> world_metrics;  // one per world, by id
   std::vector<std::int64_t> healed_steps;   // watchdog Heal: steps re-simulated with substeps
   std::uint64_t sync_rollbacks = 0;         // SyncTest: rollbacks checked bit-identical
+  std::vector<BalanceRecord> balance_log;   // K > 1: PartitionedWorld::balance_log()
+  std::vector<StepLoads> step_loads;        // K > 1 (not with inputs): PartitionedWorld::step_loads()
 };
 
 /// Insertion order of the scene's bodies for a shuffle seed (0: scene order).

@@ -1,0 +1,69 @@
+// `soda run --lb ...` (docs/loadbalance.md, docs/cli.md): load balancing
+// changes who simulates which cells, never the result; the summary and the
+// JSON carry the balance totals; bad values exit 2 naming the option.
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "cli/cli_test_util.h"
+
+namespace {
+
+using namespace soda_cli_test;
+
+TEST_F(CliTest, ChurnMovesCellsAndBodiesAndKeepsTheOneTerritoryHash) {
+  const Outcome one = run_cli("run --scene falling-cubes --n 150 --steps 60 --log-level warn");
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  const std::string out = (dir_ / "lb.json").string();
+  const Outcome o = run_cli("run --scene falling-cubes --n 150 --steps 60 --territories 4 --lb churn --lb-period 6 "
+                            "--lb-seed 3 --lb-max-cells 2 --validate --log-level warn --json " + out);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_EQ(hash_of(o), hash_of(one)) << o.output;
+  EXPECT_NE(o.output.find("load balancing: 9 balance steps"), std::string::npos) << o.output;
+  std::ifstream in(out);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const nlohmann::json& b = j["balance"];
+  EXPECT_EQ(b["policy"], "churn");
+  EXPECT_EQ(b["period"], 6);
+  EXPECT_EQ(b["seed"], 3);
+  EXPECT_EQ(b["balance_steps"], 9);
+  EXPECT_EQ(b["cells_moved"], 18);  // 2 cells per balance step: churn draws from cells holding bodies
+  EXPECT_GT(b["bodies_moved"].get<int>(), 0);
+  EXPECT_GT(b["cpu_seconds"].get<double>(), 0.0);
+  EXPECT_EQ(b["steps"].size(), 9u);
+  EXPECT_EQ(j["bodies_at_end"], j["bodies_at_start"]);
+}
+
+TEST_F(CliTest, BadBalanceOptionsExitTwoNamingThem) {
+  const std::string run = "run --scene falling-cubes --n 30 --steps 5 --territories 2 ";
+  struct Bad {
+    const char* args;
+    const char* needle;
+  };
+  for (const Bad& bad : {Bad{"--lb bogus", "unknown balance policy 'bogus'"},
+                         Bad{"--lb churn --lb-period 0", "--lb-period"},
+                         Bad{"--lb churn --lb-max-cells 0", "--lb-max-cells"},
+                         Bad{"--lb churn --lb-seed -2", "--lb-seed"},
+                         Bad{"--lb churn --lb-smoothing 0", "smoothing"},
+                         Bad{"--lb churn --lb-overload 0.9", "overload"},
+                         Bad{"--lb churn --lb-underload 1.5", "underload"}}) {
+    const Outcome o = run_cli(run + bad.args);
+    EXPECT_EQ(o.exit_code, 2) << bad.args << "\n" << o.output;
+    EXPECT_NE(o.output.find(bad.needle), std::string::npos) << bad.args << "\n" << o.output;
+  }
+}
+
+// `--inputs` runs through a Simulation, which cannot balance yet: refused,
+// not ignored.
+TEST_F(CliTest, InputsWithABalancePolicyAreRefused) {
+  const std::string inputs = write("inputs.json", R"({"format": "soda-inputs", "version": 1, "inputs": [
+    {"type": "apply_impulse", "step": 3, "id": 3, "impulse": [1, 0, 0]}]})");
+  const Outcome o =
+      run_cli("run --scene falling-cubes --n 30 --steps 5 --territories 2 --lb churn --inputs " + inputs);
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("not supported by a Simulation"), std::string::npos) << o.output;
+}
+
+}  // namespace
