@@ -33,4 +33,8 @@ Command add_speculation_command(CLI::App& bench);
 /// `stress`: the numerical-stability suite. cmd_stress.cpp; docs/stress.md.
 Command add_stress_command(CLI::App& app);
 
+/// `lb`: a load-balance experiment, one scene under each balance policy.
+/// cmd_lb.cpp; docs/loadbalance.md.
+Command add_lb_command(CLI::App& app);
+
 }  // namespace soda::cli

@@ -366,6 +366,7 @@ int main(int argc, char** argv) {
   std::vector<soda::cli::Command> more = soda::cli::add_accuracy_commands(*bench);  // bench accuracy|accuracy-trace|analytic
   more.push_back(soda::cli::add_speculation_command(*bench));
   more.push_back(soda::cli::add_stress_command(app));
+  more.push_back(soda::cli::add_lb_command(app));
 
   try {
     app.parse(argc, argv);

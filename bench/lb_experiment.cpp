@@ -1,0 +1,249 @@
+// `soda lb`: a scene under each balance policy, side by side (lb_experiment.h).
+#include "soda/bench/lb_experiment.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <set>
+#include <stdexcept>
+#include <utility>
+
+#include <spdlog/spdlog.h>
+
+#include "soda/grid/partition.h"
+#include "soda/worlds/body_state.h"
+
+namespace soda {
+namespace {
+
+std::string hex(std::uint64_t v) {
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(v));
+  return text;
+}
+
+void check_config(const LbExperimentConfig& config) {
+  if (config.policies.empty()) throw std::invalid_argument("soda lb: no policy to run (--policies)");
+  std::set<std::string> seen;
+  for (const std::string& p : config.policies) {
+    if (!seen.insert(p).second) throw std::invalid_argument("soda lb: policy '" + p + "' named twice in --policies");
+    BalanceOptions o = config.run.balance;
+    o.policy = p;
+    (void)make_balance_policy(o);  // throws BalanceError for an unknown name or bad knobs, before any run
+  }
+  if (config.run.territories < 2)
+    throw std::invalid_argument("soda lb: --territories must be >= 2 (one territory has nothing to balance), got " +
+                                std::to_string(config.run.territories));
+  if (config.repeat < 1) throw std::invalid_argument("soda lb: --repeat must be >= 1");
+}
+
+RunConfig policy_config(const LbExperimentConfig& config, const std::string& policy) {
+  RunConfig c = config.run;
+  c.world = WorldKind::Canonical;
+  c.balance.policy = policy;
+  return c;
+}
+
+RunConfig stock_config(const LbExperimentConfig& config) {
+  RunConfig c = config.run;
+  c.world = WorldKind::Stock;
+  c.territories = 1;
+  c.balance = {};
+  c.anticipation = 0;
+  c.sync_test = 0;
+  c.validate = false;
+  return c;
+}
+
+// Keeps the fastest of a run's repeats.
+void keep_best(std::optional<RunResult>& best, RunResult r) {
+  if (!best || r.wall_seconds < best->wall_seconds) best = std::move(r);
+}
+
+}  // namespace
+
+Imbalance imbalance_of(const std::vector<StepLoads>& loads) {
+  Imbalance im;
+  double sum_max = 0, sum_mean = 0;
+  for (const StepLoads& step : loads) {
+    if (step.worlds.empty()) continue;
+    double max = 0, sum = 0;
+    for (const WorldStepLoad& w : step.worlds) {
+      max = std::max(max, w.busy_seconds);
+      sum += w.busy_seconds;
+    }
+    const double mean = sum / static_cast<double>(step.worlds.size());
+    if (!(mean > 0)) continue;
+    im.mean += max / mean;
+    im.max = std::max(im.max, max / mean);
+    sum_max += max;
+    sum_mean += mean;
+    ++im.steps;
+  }
+  if (im.steps > 0) im.mean /= static_cast<double>(im.steps);
+  if (sum_mean > 0) im.weighted = sum_max / sum_mean;
+  return im;
+}
+
+LbExperimentResult run_lb_experiment(const Scene& scene, const LbExperimentConfig& config) {
+  check_config(config);
+  LbExperimentResult r;
+  r.first_map = make_partition(config.run.partition, scene, config.run.territories, GridOptions{});
+  std::vector<std::optional<RunResult>> best(config.policies.size());
+  r.runs.resize(config.policies.size());
+  std::optional<RunResult> stock;
+  const int runs = static_cast<int>(config.policies.size()) + (config.baseline ? 1 : 0);
+  for (int rep = 0; rep < config.repeat; ++rep) {
+    for (int k = 0; k < runs; ++k) {
+      const int i = rep % 2 == 0 ? k : runs - 1 - k;  // interleaved: drift of the machine hits every run alike
+      if (i == static_cast<int>(config.policies.size())) {
+        spdlog::info("soda lb: stock Bullet world (baseline), repeat {}/{}", rep + 1, config.repeat);
+        RunResult s = run_scene(scene, stock_config(config));
+        r.stock_walls.push_back(s.wall_seconds);
+        keep_best(stock, std::move(s));
+        continue;
+      }
+      const std::string& policy = config.policies[static_cast<std::size_t>(i)];
+      spdlog::info("soda lb: policy {}, repeat {}/{}", policy, rep + 1, config.repeat);
+      RunResult run = run_scene(scene, policy_config(config, policy));
+      LbPolicyRun& out = r.runs[static_cast<std::size_t>(i)];
+      out.policy = policy;
+      out.walls.push_back(run.wall_seconds);
+      out.hashes.push_back(run.state_hash);
+      spdlog::info("soda lb: policy {}: {:.3f} s, state hash {}", policy, run.wall_seconds, hex(run.state_hash));
+      keep_best(best[static_cast<std::size_t>(i)], std::move(run));
+    }
+  }
+  for (std::size_t i = 0; i < r.runs.size(); ++i) r.runs[i].best = std::move(*best[i]);
+  r.stock = std::move(stock);
+  r.hashes_equal = true;
+  const std::uint64_t h = r.runs.front().hashes.front();
+  for (const LbPolicyRun& run : r.runs)
+    for (std::uint64_t other : run.hashes) r.hashes_equal = r.hashes_equal && other == h;
+  return r;
+}
+
+TerritoryMap map_at(const TerritoryMap& first, const std::vector<BalanceRecord>& log, std::int64_t step) {
+  TerritoryMap map = first;
+  for (const BalanceRecord& rec : log) {
+    if (rec.step > step) break;
+    if (rec.moves.empty()) continue;
+    std::vector<std::pair<CellCoord, WorldId>> changes;
+    changes.reserve(rec.moves.size());
+    for (const CellMove& m : rec.moves) changes.emplace_back(m.cell, m.to);
+    map = map.reassigned(changes);
+  }
+  return map;
+}
+
+void write_steps_csv(std::ostream& out, const LbExperimentResult& r) {
+  out << "policy,step,world,busy_ms,wait_ms,bodies,cells,lead,islands\n";
+  char line[256];
+  for (const LbPolicyRun& run : r.runs)
+    for (const StepLoads& step : run.best.step_loads)
+      for (std::size_t w = 0; w < step.worlds.size(); ++w) {
+        const WorldStepLoad& l = step.worlds[w];
+        std::snprintf(line, sizeof line, ",%lld,%zu,%.6f,%.6f,%d,%d,%d,%d\n", static_cast<long long>(step.step), w,
+                      l.busy_seconds * 1e3, l.wait_seconds * 1e3, l.bodies, l.cells, l.lead, l.islands);
+        out << run.policy << line;
+      }
+}
+
+void write_balance_csv(std::ostream& out, const LbExperimentResult& r) {
+  out << "policy,step,cells_moved,bodies_moved,gather_ms,decide_ms,apply_ms,wall_ms\n";
+  char line[256];
+  for (const LbPolicyRun& run : r.runs)
+    for (const BalanceRecord& rec : run.best.balance_log) {
+      std::snprintf(line, sizeof line, ",%lld,%lld,%lld,%.4f,%.4f,%.4f,%.4f\n", static_cast<long long>(rec.step),
+                    static_cast<long long>(rec.cells_moved), static_cast<long long>(rec.bodies_moved),
+                    rec.gather_cpu_seconds * 1e3, rec.decide_cpu_seconds * 1e3, rec.apply_cpu_seconds * 1e3,
+                    rec.wall_seconds * 1e3);
+      out << run.policy << line;
+    }
+}
+
+void write_maps_csv(std::ostream& out, const LbExperimentResult& r, const std::vector<std::int64_t>& steps) {
+  out << "policy,step,x,y,z,owner\n";
+  const CellBox& box = r.first_map.box();
+  char line[128];
+  for (const LbPolicyRun& run : r.runs)
+    for (std::int64_t step : steps) {
+      const TerritoryMap map = map_at(r.first_map, run.best.balance_log, step);
+      for (int x = box.lo.x; x <= box.hi.x; ++x)
+        for (int y = box.lo.y; y <= box.hi.y; ++y)
+          for (int z = box.lo.z; z <= box.hi.z; ++z) {
+            std::snprintf(line, sizeof line, ",%lld,%d,%d,%d,%d\n", static_cast<long long>(step), x, y, z,
+                          map.owner(CellCoord{x, y, z}));
+            out << run.policy << line;
+          }
+    }
+}
+
+nlohmann::json lb_summary_json(const RunDescription& d, const LbExperimentConfig& config,
+                               const LbExperimentResult& r) {
+  const RunResult& first = r.runs.front().best;
+  const BalanceOptions& o = config.run.balance;
+  nlohmann::json j = {
+      {"benchmark", "lb"},
+      {"scene", d.scene},
+      {"params", {{"n", d.params.n}, {"seed", d.params.seed}, {"random_scale", d.params.random_scale}}},
+      {"precision", kPrecisionName},
+      {"bodies", first.bodies},
+      {"dynamic_bodies", first.dynamic_bodies},
+      {"steps", first.steps},
+      {"dt", d.resolved->settings.dt},
+      {"territories", first.territories},
+      {"partition", config.run.partition},
+      {"schedule", first.schedule},
+      {"threads", first.threads},
+      {"anticipation", config.run.anticipation},
+      {"sync_test", config.run.sync_test},
+      {"validate", config.run.validate},
+      {"balance_options",
+       {{"period", o.period}, {"seed", o.seed}, {"smoothing", o.smoothing}, {"overload", o.overload},
+        {"underload", o.underload}, {"max_cells_per_move", o.max_cells_per_move}}},
+  };
+  j["repeat"] = config.repeat;
+  j["hashes_equal"] = r.hashes_equal;
+  j["state_hash"] = hex(r.runs.front().best.state_hash);
+  if (r.stock) {
+    j["baseline"] = {{"world", "stock"}, {"wall_seconds", r.stock->wall_seconds}, {"walls", r.stock_walls},
+                     {"state_hash", hex(r.stock->state_hash)}, {"sleeping_bodies", r.stock->sleeping_bodies}};
+  }
+  const LbPolicyRun* none = nullptr;
+  for (const LbPolicyRun& run : r.runs)
+    if (run.policy == "none") none = &run;
+  nlohmann::json policies = nlohmann::json::array();
+  for (const LbPolicyRun& run : r.runs) {
+    const RunResult& b = run.best;
+    const Imbalance im = imbalance_of(b.step_loads);
+    const BalanceTotals t = balance_totals(b.balance_log);
+    double busy = 0;
+    for (const WorldMetrics& m : b.world_metrics) busy += m.cpu_seconds;
+    nlohmann::json p = {{"policy", run.policy},
+                        {"wall_seconds", b.wall_seconds},
+                        {"walls", run.walls},
+                        {"makespan_seconds", b.wall_seconds},
+                        {"busy_cpu_seconds", busy},
+                        {"imbalance_mean", im.mean},
+                        {"imbalance_weighted", im.weighted},
+                        {"imbalance_max", im.max},
+                        {"imbalance_steps", im.steps},
+                        {"balance_steps", t.balance_steps},
+                        {"cells_moved", t.cells_moved},
+                        {"bodies_moved", t.bodies_moved},
+                        {"lb_cpu_seconds", t.cpu_seconds()},
+                        {"lb_gather_cpu_seconds", t.gather_cpu_seconds},
+                        {"lb_decide_cpu_seconds", t.decide_cpu_seconds},
+                        {"lb_apply_cpu_seconds", t.apply_cpu_seconds},
+                        {"lb_wall_seconds", t.wall_seconds},
+                        {"lb_overhead_share", b.wall_seconds > 0 ? t.wall_seconds / b.wall_seconds : 0.0},
+                        {"state_hash", hex(b.state_hash)}};
+    if (r.stock && b.wall_seconds > 0) p["ratio_vs_baseline"] = r.stock->wall_seconds / b.wall_seconds;
+    if (none && b.wall_seconds > 0) p["speedup_vs_none"] = none->best.wall_seconds / b.wall_seconds;
+    policies.push_back(std::move(p));
+  }
+  j["policies"] = std::move(policies);
+  return j;
+}
+
+}  // namespace soda

@@ -1,0 +1,176 @@
+// `soda lb` (docs/loadbalance.md, "Running an experiment"): a scene under
+// each balance policy; CSV files and summary.json in --out, the summary JSON
+// on stdout, a readable table on stderr.
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+
+#include "commands.h"
+#include "soda/bench/lb_experiment.h"
+#include "soda/scene/registry.h"
+#include "soda/scene/validate.h"
+
+namespace soda::cli {
+namespace {
+
+struct LbOptions {
+  std::string scene = "hotspot";
+  SceneParams params;
+  std::optional<int> steps;
+  LbExperimentConfig experiment;
+  std::string policies = "none,diffusive,rcb";
+  std::string map_steps;
+  bool no_baseline = false;
+  std::string out;
+};
+
+std::vector<std::string> split(const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream in(text);
+  for (std::string part; std::getline(in, part, ',');)
+    if (!part.empty()) parts.push_back(part);
+  return parts;
+}
+
+std::vector<std::int64_t> parse_steps(const std::string& text, int steps) {
+  std::vector<std::int64_t> out;
+  if (text.empty()) {
+    for (int q = 0; q <= 4; ++q) out.push_back(static_cast<std::int64_t>(steps) * q / 4);
+    return out;
+  }
+  for (const std::string& part : split(text)) {
+    std::size_t used = 0;
+    long long v = -1;
+    try {
+      v = std::stoll(part, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != part.size() || v < 0 || v > steps)
+      throw std::invalid_argument("--maps-at: '" + part + "' is not a step in 0.." + std::to_string(steps));
+    out.push_back(v);
+  }
+  return out;
+}
+
+void write_file(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream f(path);
+  f << text;
+  if (!f) throw std::runtime_error("cannot write " + path.string());
+}
+
+void print_summary(const nlohmann::json& j) {
+  std::fprintf(stderr, "soda lb: %s, %zu bodies, %d steps, %d territories (%s, %d threads), period %d, anticipation %d\n",
+               j["scene"].get<std::string>().c_str(), j["bodies"].get<std::size_t>(), j["steps"].get<int>(),
+               j["territories"].get<int>(), j["partition"].get<std::string>().c_str(), j["threads"].get<int>(),
+               j["balance_options"]["period"].get<int>(), j["anticipation"].get<int>());
+  std::fprintf(stderr, "  %-10s %9s %9s %9s %10s %10s %7s %7s %8s %9s  %s\n", "policy", "wall_s", "vs_stock", "vs_none",
+               "imbalance", "(weighted)", "cells", "bodies", "lb_cpu_s", "lb_share", "state_hash");
+  for (const nlohmann::json& p : j["policies"]) {
+    const double vs_stock = p.contains("ratio_vs_baseline") ? p["ratio_vs_baseline"].get<double>() : 0.0;
+    const double vs_none = p.contains("speedup_vs_none") ? p["speedup_vs_none"].get<double>() : 0.0;
+    std::fprintf(stderr, "  %-10s %9.3f %9.3f %9.3f %10.3f %10.3f %7lld %7lld %8.3f %8.1f%%  %s\n",
+                 p["policy"].get<std::string>().c_str(), p["wall_seconds"].get<double>(), vs_stock, vs_none,
+                 p["imbalance_mean"].get<double>(), p["imbalance_weighted"].get<double>(),
+                 p["cells_moved"].get<long long>(), p["bodies_moved"].get<long long>(),
+                 p["lb_cpu_seconds"].get<double>(), 100.0 * p["lb_overhead_share"].get<double>(),
+                 p["state_hash"].get<std::string>().c_str());
+  }
+  std::fprintf(stderr, "  imbalance: max / mean busy CPU of the worlds per step (thread CPU, so it holds on 2 cores "
+                       "with more worlds than cores); state hashes %s\n",
+               j["hashes_equal"].get<bool>() ? "equal under every policy" : "DIFFER");
+}
+
+int run_lb(LbOptions& o) {
+  Scene scene = load_or_make_scene(o.scene, o.params);
+  if (o.steps) scene.settings.steps = *o.steps;
+  validate_scene(scene, o.scene);
+  o.experiment.run.steps = scene.settings.steps;
+  if (o.experiment.run.partition.empty())
+    o.experiment.run.partition = "grid:" + std::to_string(o.experiment.run.territories) + "x1x1";
+  o.experiment.policies = split(o.policies);
+  o.experiment.baseline = !o.no_baseline;
+  const std::vector<std::int64_t> map_steps = parse_steps(o.map_steps, scene.settings.steps);
+  if (!o.out.empty()) std::filesystem::create_directories(o.out);
+  const LbExperimentResult r = run_lb_experiment(scene, o.experiment);
+  const nlohmann::json j = lb_summary_json({o.scene, o.params, &scene, o.experiment.run}, o.experiment, r);
+  print_summary(j);
+  write_json(j, "-");
+  if (!o.out.empty()) {
+    const std::filesystem::path dir(o.out);
+    write_json(j, (dir / "summary.json").string());
+    std::ostringstream steps, balance, maps;
+    write_steps_csv(steps, r);
+    write_balance_csv(balance, r);
+    write_maps_csv(maps, r, map_steps);
+    write_file(dir / "steps.csv", steps.str());
+    write_file(dir / "balance.csv", balance.str());
+    write_file(dir / "maps.csv", maps.str());
+    std::fprintf(stderr, "  wrote %s/{summary.json,steps.csv,balance.csv,maps.csv}; plots: /usr/bin/python3 "
+                         "bench/plot_lb.py %s\n",
+                 o.out.c_str(), o.out.c_str());
+  }
+  if (!r.hashes_equal) {
+    std::fprintf(stderr, "soda: error: lb: the state hashes differ between policies (load balancing changed physics)\n");
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+Command add_lb_command(CLI::App& app) {
+  auto o = std::make_shared<LbOptions>();
+  o->experiment.run.territories = 8;
+  o->experiment.run.partition = "";  // grid:Kx1x1
+  CLI::App* cmd = app.add_subcommand(
+      "lb", "Load-balance experiment: one scene under each balance policy (same seed, same first map) beside one "
+            "stock Bullet world; per-step CSV and summary.json in --out, summary JSON on stdout");
+  cmd->add_option("--scene", o->scene, "Registry scene name or a .json scene file")->capture_default_str();
+  cmd->add_option("--n", o->params.n, "Scene size (0: the scene's default)")->capture_default_str();
+  cmd->add_option("--seed", o->params.seed, "Seed of the scene generator")->capture_default_str();
+  cmd->add_option("--steps", o->steps, "Steps to run (default: the scene's)");
+  cmd->add_option("--territories", o->experiment.run.territories, "Territories (K >= 2)")->capture_default_str();
+  cmd->add_option("--partition", o->experiment.run.partition, "The first map: kmeans | rcb | grid:AxBxC | file (default: grid:Kx1x1, strips along x)");
+  cmd->add_option("--threads", o->experiment.run.threads, "Threads stepping the worlds (0: one per world)")
+      ->capture_default_str();
+  cmd->add_option("--policies", o->policies, "Comma-separated policies: none, diffusive, rcb, churn")
+      ->capture_default_str();
+  cmd->add_option("--lb-period", o->experiment.run.balance.period, "Scene steps between balance steps (>= 1)")
+      ->check(CLI::Range(1, 1 << 30))
+      ->capture_default_str();
+  cmd->add_option("--lb-seed", o->experiment.run.balance.seed, "Seed of tie-breaks and churn's draws")
+      ->capture_default_str();
+  cmd->add_option("--lb-smoothing", o->experiment.run.balance.smoothing, "Weight of the newest period, (0, 1]")
+      ->capture_default_str();
+  cmd->add_option("--lb-overload", o->experiment.run.balance.overload, "Overloaded above this x the mean (> 1)")
+      ->capture_default_str();
+  cmd->add_option("--lb-underload", o->experiment.run.balance.underload, "Underloaded below this x the mean, (0, 1)")
+      ->capture_default_str();
+  cmd->add_option("--lb-max-cells", o->experiment.run.balance.max_cells_per_move,
+                  "Most cells one world gives away at one balance step (>= 1)")
+      ->check(CLI::Range(1, 1 << 30))
+      ->capture_default_str();
+  cmd->add_option("--anticipation", o->experiment.run.anticipation, "Speculation: steps past the commit horizon")
+      ->check(CLI::Range(0, 1 << 20))
+      ->capture_default_str();
+  cmd->add_option("--sync-test", o->experiment.run.sync_test, "SyncTest depth (0: off)")
+      ->check(CLI::Range(0, 1 << 20))
+      ->capture_default_str();
+  cmd->add_flag("--validate", o->experiment.run.validate, "Check ownership and pair holders after every step");
+  cmd->add_flag("--pin", o->experiment.run.pin, "Pin world threads to cores");
+  cmd->add_option("--repeat", o->experiment.repeat, "Interleaved repeats; the fastest of each policy is kept")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  cmd->add_flag("--no-baseline", o->no_baseline, "Skip the stock Bullet world (no ratio_vs_baseline)");
+  cmd->add_option("--maps-at", o->map_steps,
+                  "Comma-separated steps whose territory maps go to maps.csv (default: 0, 1/4, 1/2, 3/4, end)");
+  cmd->add_option("--out", o->out, "Directory for summary.json, steps.csv, balance.csv and maps.csv");
+  return {cmd, [o] { return run_lb(*o); }};
+}
+
+}  // namespace soda::cli
