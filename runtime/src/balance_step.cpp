@@ -289,12 +289,14 @@ std::int64_t PartitionedWorld::cede(const WorldSnapshot& state, const TerritoryM
   return helper_ns.load();
 }
 
-// As many threads as step the worlds (the caller's alone when sequential).
+// As many threads as step the worlds (the caller's alone when sequential),
+// at most one per CPU: more only add switches to pure CPU work.
 int PartitionedWorld::rebuild_threads() const {
+  const int cpus = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   switch (options_.schedule) {
     case Schedule::Sequential: return 1;
-    case Schedule::ThreadPerWorld: return world_count();
-    case Schedule::Pool: return options_.threads;
+    case Schedule::ThreadPerWorld: return std::min(world_count(), cpus);
+    case Schedule::Pool: return std::min(options_.threads, cpus);
   }
   return 1;
 }
