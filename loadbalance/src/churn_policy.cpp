@@ -2,7 +2,7 @@
 
 #include <set>
 
-namespace soda {
+namespace soda::detail {
 
 ChurnPolicy::ChurnPolicy(const BalanceOptions& options)
     : cells_per_step_(options.max_cells_per_move), random_(options.seed) {}
@@ -46,4 +46,4 @@ std::vector<CellMove> ChurnPolicy::decide(const LoadView& view) {
   return moves;
 }
 
-}  // namespace soda
+}  // namespace soda::detail

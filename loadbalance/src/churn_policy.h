@@ -11,7 +11,7 @@
 
 #include "soda/loadbalance/policy.h"
 
-namespace soda {
+namespace soda::detail {
 
 /// Each balance step: up to max_cells_per_move cells, drawn uniformly among
 /// the cells holding bodies (view.cells) while there are any left, then
@@ -39,4 +39,4 @@ class ChurnPolicy final : public BalancePolicy {
   std::mt19937_64 random_;
 };
 
-}  // namespace soda
+}  // namespace soda::detail

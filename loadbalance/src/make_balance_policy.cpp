@@ -30,7 +30,7 @@ void check_options(const BalanceOptions& o) {
 std::unique_ptr<BalancePolicy> make_balance_policy(const BalanceOptions& options) {
   check_options(options);
   if (options.policy == "none") return std::make_unique<NoBalance>();
-  if (options.policy == "churn") return std::make_unique<ChurnPolicy>(options);
+  if (options.policy == "churn") return std::make_unique<detail::ChurnPolicy>(options);
   throw BalanceError("unknown balance policy '" + options.policy + "' (none, diffusive, rcb, churn)");
 }
 

@@ -10,7 +10,12 @@
 // state goes to its key body's new owner. Every world stands at the balance
 // step (step() drains to it), so no rollback can reach below it.
 #include <algorithm>
+#include <atomic>
+#include <exception>
+#include <functional>
 #include <limits>
+#include <optional>
+#include <thread>
 #include <map>
 #include <set>
 #include <sstream>
@@ -79,6 +84,26 @@ std::vector<CellLoad> cell_loads(const WorldSnapshot& state, const TerritoryMap&
   out.reserve(cells.size());
   for (auto& [i, l] : cells) out.push_back(l);
   return out;
+}
+
+// f(w) for every world, on `threads` threads (the caller's among them);
+// rethrows the first error. The stepping threads are idle meanwhile.
+void for_each_world(int k, int threads, const std::function<void(WorldId)>& f) {
+  std::atomic<int> next{0};
+  std::vector<std::exception_ptr> errors(static_cast<std::size_t>(k));
+  auto work = [&] {
+    for (int w; (w = next++) < k;) try {
+        f(w);
+      } catch (...) {
+        errors[static_cast<std::size_t>(w)] = std::current_exception();
+      }
+  };
+  std::vector<std::thread> helpers;
+  for (int i = 1; i < std::min(threads, k); ++i) helpers.emplace_back(work);
+  work();
+  for (std::thread& t : helpers) t.join();
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
 }
 
 }  // namespace
@@ -170,6 +195,7 @@ void PartitionedWorld::balance() {
     l.lead = lead_sum[static_cast<std::size_t>(w)] / static_cast<double>(scene_steps);
   }
   const std::int64_t cpu1 = thread_cpu_ns();
+  std::int64_t helper_ns = 0;  // CPU time of the rebuild's helper threads
   rec.moves = policy_->decide(view);
   const std::int64_t cpu2 = thread_cpu_ns();
   check_moves(rec.moves, map, policy_->name(), steps_done_);
@@ -183,10 +209,11 @@ void PartitionedWorld::balance() {
     }
     for (const CellLoad& c : view.cells)
       if (moved.count(map.box().index(c.cell))) rec.bodies_moved += c.bodies;
-    const TerritoryMap next = map_with_reach(scene_of(state), map.reassigned(changes), options_.reach_speed);
-    rebuild(state, next);
+    // The reach is the scene's and the cell size's, not the owners': the
+    // map keeps it (reassigned), as map_with_reach would give it again.
+    helper_ns = cede(state, map.reassigned(changes));
   }
-  const std::int64_t cpu3 = thread_cpu_ns();
+  const std::int64_t cpu3 = thread_cpu_ns() + helper_ns;
   rec.gather_cpu_seconds = static_cast<double>(cpu1 - cpu0) * 1e-9;
   rec.decide_cpu_seconds = static_cast<double>(cpu2 - cpu1) * 1e-9;
   rec.apply_cpu_seconds = static_cast<double>(cpu3 - cpu2) * 1e-9;
@@ -227,7 +254,51 @@ void PartitionedWorld::collect_step_loads() {
 void PartitionedWorld::rebuild(const WorldSnapshot& state, const TerritoryMap& map) {
   substeps_ = state.settings.substeps;
   steps_done_ = state.steps_done;
-  build(scene_of(state), map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
+  std::optional<Scene> scene;
+  if (options_.validate) scene = scene_of(state);
+  build(scene ? &*scene : nullptr, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
+}
+
+// The cession: rebuild() for the new map, with the worlds built and the old
+// ones destroyed on rebuild_threads() threads (each new world shares its
+// predecessor's Bullet pools). Concurrent building and destruction of
+// TerritoryWorlds is what speculation's rollbacks already do on the worlds'
+// own threads. Returns the helper threads' CPU time, ns.
+std::int64_t PartitionedWorld::cede(const WorldSnapshot& state, const TerritoryMap& map) {
+  const int k = world_count();
+  const int threads = rebuild_threads();
+  std::atomic<std::int64_t> helper_ns{0};
+  const std::thread::id me = std::this_thread::get_id();
+  auto timed = [&](const std::function<void(std::size_t)>& f) {
+    return [&, f](WorldId w) {
+      const std::int64_t c0 = thread_cpu_ns();
+      f(static_cast<std::size_t>(w));
+      if (std::this_thread::get_id() != me) helper_ns += thread_cpu_ns() - c0;
+    };
+  };
+  std::vector<std::unique_ptr<TerritoryWorld>> fresh(static_cast<std::size_t>(k));
+  for_each_world(k, threads, timed([&](std::size_t w) {
+                   fresh[w] = std::make_unique<TerritoryWorld>(state, static_cast<WorldId>(w), map, -1,
+                                                               in_->worlds[w].get());
+                 }));
+  std::vector<std::unique_ptr<TerritoryWorld>> old = retire();
+  for_each_world(k, threads, timed([&](std::size_t w) { old[w].reset(); }));
+  std::optional<Scene> scene;
+  if (options_.validate) scene = scene_of(state);
+  build(scene ? &*scene : nullptr, map, [&](WorldId w) { return std::move(fresh[static_cast<std::size_t>(w)]); });
+  return helper_ns.load();
+}
+
+// As many threads as step the worlds (the caller's alone when sequential),
+// at most one per CPU: more only add switches to pure CPU work.
+int PartitionedWorld::rebuild_threads() const {
+  const int cpus = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  switch (options_.schedule) {
+    case Schedule::Sequential: return 1;
+    case Schedule::ThreadPerWorld: return std::min(world_count(), cpus);
+    case Schedule::Pool: return std::min(options_.threads, cpus);
+  }
+  return 1;
 }
 
 }  // namespace soda

@@ -78,7 +78,7 @@ PartitionedWorld::PartitionedWorld(const Scene& scene, TerritoryMap map, Partiti
     : options_(std::move(options)), substeps_(scene.settings.substeps), base_substeps_(substeps_) {
   init_balance();
   map = map_with_reach(scene, map, options_.reach_speed);
-  build(scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(scene, w, map); });
+  build(&scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(scene, w, map); });
 }
 
 PartitionedWorld::PartitionedWorld(const WorldSnapshot& state, TerritoryMap map, PartitionedOptions options)
@@ -90,10 +90,25 @@ PartitionedWorld::PartitionedWorld(const WorldSnapshot& state, TerritoryMap map,
   init_balance();
   const Scene scene = scene_of(state);
   map = map_with_reach(scene, map, options_.reach_speed);
-  build(scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
+  build(&scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
 }
 
-void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
+// The processes' counts are carried (metrics()); the worlds are returned,
+// to be destroyed by the caller.
+std::vector<std::unique_ptr<TerritoryWorld>> PartitionedWorld::retire() {
+  carried_.resize(in_->processes.size());
+  for (std::size_t w = 0; w < in_->processes.size(); ++w) {
+    const WorldMetrics m = in_->processes[w]->metrics();
+    add_counts(carried_[w], m);
+    carried_[w].cpu_step_ms.insert(carried_[w].cpu_step_ms.end(), m.cpu_step_ms.begin(), m.cpu_step_ms.end());
+    carried_[w].lead.insert(carried_[w].lead.end(), m.lead.begin(), m.lead.end());
+  }
+  std::vector<std::unique_ptr<TerritoryWorld>> worlds = std::move(in_->worlds);
+  in_.reset();
+  return worlds;
+}
+
+void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
                              const std::function<std::unique_ptr<TerritoryWorld>(WorldId)>& make_world) {
   if (options_.schedule == Schedule::Pool && options_.threads < 1)
     throw std::invalid_argument("PartitionedWorld: the pool schedule needs threads >= 1");
@@ -102,23 +117,15 @@ void PartitionedWorld::build(const Scene& scene, const TerritoryMap& map,
   if (options_.watchdog.heal_substeps < 1 || options_.watchdog.max_heals < 0)
     throw std::invalid_argument("PartitionedWorld: watchdog heal_substeps must be >= 1 and max_heals >= 0");
   if (!fault_fired_) fault_fired_ = std::make_shared<std::atomic<bool>>(false);
-  if (in_) {
-    carried_.resize(in_->processes.size());
-    for (std::size_t w = 0; w < in_->processes.size(); ++w) {
-      const WorldMetrics m = in_->processes[w]->metrics();
-      add_counts(carried_[w], m);
-      carried_[w].cpu_step_ms.insert(carried_[w].cpu_step_ms.end(), m.cpu_step_ms.begin(), m.cpu_step_ms.end());
-      carried_[w].lead.insert(carried_[w].lead.end(), m.lead.begin(), m.lead.end());
-    }
-  }
-  in_.reset();
+  if (in_) retire();
   in_ = std::make_unique<Internals>();
   Internals& in = *in_;
   const detail::TestingHooks& hooks = detail::testing_hooks_of(options_);
   in.graph = std::make_unique<WorldGraph>(map);
   in.transport = options_.serialise ? make_serialising_transport(k) : make_in_memory_transport(k);
   if (hooks.fuzz_seed) in.transport = make_fuzzing_transport(std::move(in.transport), hooks.fuzz_seed);
-  in.validator = options_.validate ? std::make_unique<Validator>(scene, k) : nullptr;
+  if (options_.validate && !scene) throw std::logic_error("PartitionedWorld::build: validation needs the scene");
+  in.validator = options_.validate ? std::make_unique<Validator>(*scene, k) : nullptr;
   for (WorldId w = 0; w < k; ++w) in.worlds.push_back(make_world(w));
   const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
   in.horizon = std::make_unique<SharedMemoryHorizon>(k, steps_done_ * substeps_);

@@ -286,7 +286,9 @@ class PartitionedWorld {
 
  private:
   class Process;
-  void build(const Scene& scene, const TerritoryMap& map,
+  // scene: needed by validation only (may be null without it).
+  std::vector<std::unique_ptr<TerritoryWorld>> retire();
+  void build(const Scene* scene, const TerritoryMap& map,
              const std::function<std::unique_ptr<TerritoryWorld>(WorldId)>& make_world);
   void restore(WorldSnapshot state);
   void run_to(std::int64_t scene_step);
@@ -300,6 +302,8 @@ class PartitionedWorld {
   void balance();
   void collect_step_loads();
   void rebuild(const WorldSnapshot& state, const TerritoryMap& map);
+  std::int64_t cede(const WorldSnapshot& state, const TerritoryMap& map);
+  int rebuild_threads() const;
 
   PartitionedOptions options_;
   int substeps_ = 1;       // of the worlds now (a heal re-simulates a step with more)
