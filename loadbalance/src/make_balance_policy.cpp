@@ -1,6 +1,8 @@
 // make_balance_policy: options checked, then the named policy.
 #include <string>
 
+#include "diffusive_policy.h"
+#include "rcb_policy.h"
 #include "soda/loadbalance/policy.h"
 
 namespace soda {
@@ -29,6 +31,8 @@ void check_options(const BalanceOptions& o) {
 std::unique_ptr<BalancePolicy> make_balance_policy(const BalanceOptions& options) {
   check_options(options);
   if (options.policy == "none") return std::make_unique<NoBalance>();
+  if (options.policy == "diffusive") return std::make_unique<detail::DiffusivePolicy>(options);
+  if (options.policy == "rcb") return std::make_unique<detail::RcbPolicy>(options);
   throw BalanceError("unknown balance policy '" + options.policy + "' (none, diffusive, rcb, churn)");
 }
 
