@@ -34,7 +34,7 @@ TEST(CostModel, FitRecoversKnownCoefficients) {
   const CostModel exact = CostModel::fit(samples_of(kTruth, 40, 0.0, 1));
   ASSERT_TRUE(exact.fitted());
   const CostCoefficients& c = exact.coefficients();
-  // The ridge pulls by 0.1 % of each term's scale towards the prior.
+  // The ridge pulls by 0.01 % of each term's scale towards the prior.
   EXPECT_NEAR(c.overhead, kTruth.overhead, 0.05 * kTruth.overhead);
   EXPECT_NEAR(c.per_body, kTruth.per_body, 0.02 * kTruth.per_body);
   EXPECT_NEAR(c.per_awake, kTruth.per_awake, 0.02 * kTruth.per_awake);

@@ -37,11 +37,13 @@ struct CostCoefficients {
   friend bool operator==(const CostCoefficients&, const CostCoefficients&) = default;
 };
 
-/// The documented prior (docs/loadbalance.md, "Cost model": measured on the
-/// float build, alternating-load and falling-cubes, one core of the CI machine
-/// class): 0.3 µs per body, 0.6 µs more per awake body, 1.2 µs per contact
-/// pair, 20 µs per world and step.
-inline constexpr CostCoefficients kPriorCost{20e-6, 0.3e-6, 0.6e-6, 1.2e-6};
+/// The documented prior (docs/loadbalance.md, "Cost model", measured on the
+/// float build, Release, on the 2-core CI machine class): 20 µs per world
+/// and step (an idle world of an 8-territory hotspot run: 19 µs), 0.05 µs
+/// per body (420 sleeping cubes: 0.01 ms per step), 3.5 µs more per awake
+/// body and 1.5 µs per contact pair (fits over hotspot, avalanche,
+/// falling-cubes and alternating-load in one world: 3.3–9.1 and 0.8–3.4 µs).
+inline constexpr CostCoefficients kPriorCost{20e-6, 0.05e-6, 3.5e-6, 1.5e-6};
 
 /// Fewest samples fit() uses: two per coefficient, so that one odd period
 /// cannot set a coefficient alone.
@@ -65,6 +67,10 @@ struct CostFitQuality {
   int samples = 0;                  // samples with busy > 0
   double mean_relative_error = 0;   // mean of |error| / busy
   double max_relative_error = 0;
+  /// sum |error| / sum busy: the error on the time that matters (a world
+  /// with almost nothing to do weighs little, however far off in relative
+  /// terms its prediction is).
+  double weighted_relative_error = 0;
 };
 
 class CostModel {
