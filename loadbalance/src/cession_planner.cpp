@@ -12,13 +12,13 @@ CessionPlanner::CessionPlanner(const LoadView& view, const LoadMonitor& monitor,
   cost_.assign(static_cast<std::size_t>(box.count()), 0.0);
   moved_.assign(cost_.size(), 0);
   for (const CellLoad& cell : view.cells) cost_[box.index(box.clamp(cell.cell))] += monitor.model().cell_cost(cell);
-  load_ = monitor.smoothed();
+  load_ = monitor.estimated();
   load_.resize(k, 0.0);
   kappa_.assign(k, 1.0);
   for (std::size_t w = 0; w < k; ++w) {
     const double predicted = monitor.model().predict(view.worlds[w]);
     if (predicted > 0 && load_[w] > 0)
-      kappa_[w] = std::clamp(load_[w] / predicted, 1.0 / kCalibrationClamp, kCalibrationClamp);
+      kappa_[w] = std::clamp(load_[w] / predicted, 1.0 / kCalibrationLimit, kCalibrationLimit);
   }
   role_.assign(k, Role::None);
   given_.assign(k, 0);
@@ -42,17 +42,17 @@ std::vector<WorldId> CessionPlanner::recipients_of(WorldId g) const {
   return out;
 }
 
-bool CessionPlanner::score(const CellCoord& c, WorldId g, WorldId r, double want, double& out) const {
+bool CessionPlanner::eligible(const CellCoord& c, WorldId g, WorldId r) const {
   if (moved_[box_index(c)] || grid_.owner(c) != g || !grid_.touches(c, r) || !grid_.removable(c, g)) return false;
-  const double given_cost = cost_in(g, c);
-  if (load(g) - given_cost < load(r) + cost_in(r, c)) return false;  // rule c: never reverse the imbalance
-  const double gain = want > 0 ? std::min(given_cost, want) / want : 0.0;
+  return load(g) - cost_in(g, c) >= load(r) + cost_in(r, c);  // rule c: never reverse the imbalance
+}
+
+double CessionPlanner::score(const CellCoord& c, WorldId g, WorldId r, double want, double scale) const {
+  const double gain = scale > 0 ? std::min(cost_in(g, c), want) / scale : 0.0;
   const FaceCounts f = grid_.faces(c, g, r);
-  if (gain < kNegligibleGain && f.recipient <= f.giver) return false;  // filler rule
   const double shape = (f.recipient - f.giver) / 6.0;
   const double foreign = grid_.foreign_neighbours(c, g) / 26.0;
-  out = kGainWeight * gain + kShapeWeight * shape + kForeignWeight * foreign;
-  return true;
+  return kGainWeight * gain + kShapeWeight * shape + kForeignWeight * foreign;
 }
 
 void CessionPlanner::move(const CellCoord& c, WorldId from, WorldId to) {
@@ -68,27 +68,54 @@ void CessionPlanner::move(const CellCoord& c, WorldId from, WorldId to) {
 
 double CessionPlanner::cede(WorldId g, WorldId r, double want) {
   const CellBox& box = grid_.box();
-  std::vector<CellCoord> candidates;
+  std::vector<CellCoord> candidates;  // g's cells touching r
   for (std::size_t i = 0, n = static_cast<std::size_t>(box.count()); i < n; ++i) {
     const CellCoord c = box.cell_at(i);
     if (grid_.owner(c) == g && grid_.touches(c, r)) candidates.push_back(c);
   }
   double given_cost = 0;
+  std::vector<int> distance;  // to g's load, computed when first needed
   while (given(g) < options_.max_cells_per_move && want - given_cost > 0) {
     const double still = want - given_cost;
+    // Loaded cells by score; the gain is relative to the most any eligible
+    // cell can deliver now, so it ranks cells however fine the grid.
+    double scale = 0;
+    bool loaded_touching = false;
+    for (const CellCoord& c : candidates) {
+      if (grid_.owner(c) != g || !grid_.touches(c, r)) continue;
+      if (loaded(g, c)) loaded_touching = true;
+      if (loaded(g, c) && eligible(c, g, r)) scale = std::max(scale, std::min(cost_in(g, c), still));
+    }
     bool found = false;
     double best_score = 0;
     std::uint64_t best_tie = 0;
     CellCoord best;
-    for (const CellCoord& c : candidates) {
-      double s = 0;
-      if (!score(c, g, r, still, s)) continue;
+    const auto consider = [&](const CellCoord& c, double s) {
       const std::uint64_t tie = tie_break(options_.seed, view_.step, box_index(c));
       if (!found || s > best_score || (s == best_score && tie < best_tie)) {
         found = true;
         best_score = s;
         best_tie = tie;
         best = c;
+      }
+    };
+    for (const CellCoord& c : candidates) {
+      if (!eligible(c, g, r)) continue;
+      if (!loaded(g, c)) {
+        // Filler rule: an empty cell only where it shortens the border.
+        const FaceCounts f = grid_.faces(c, g, r);
+        if (f.recipient <= f.giver) continue;
+      }
+      consider(c, score(c, g, r, still, scale));
+    }
+    if (!found && !loaded_touching) {
+      // Advance: the empty cells nearest g's load (then the shorter border).
+      if (distance.empty()) distance = distance_to_load(g);
+      for (const CellCoord& c : candidates) {
+        const std::size_t i = box_index(c);
+        if (!eligible(c, g, r) || distance[i] < 0) continue;
+        const FaceCounts f = grid_.faces(c, g, r);
+        consider(c, -static_cast<double>(distance[i]) + (f.recipient - f.giver) / 12.0);
       }
     }
     if (!found) break;
@@ -103,10 +130,36 @@ double CessionPlanner::cede(WorldId g, WorldId r, double want) {
   return given_cost;
 }
 
+std::vector<int> CessionPlanner::distance_to_load(WorldId g) const {
+  const CellBox& box = grid_.box();
+  const std::size_t n = static_cast<std::size_t>(box.count());
+  std::vector<int> d(n, -1);
+  std::vector<std::size_t> queue;
+  for (std::size_t i = 0; i < n; ++i)
+    if (grid_.owner(box.cell_at(i)) == g && loaded(g, box.cell_at(i))) {
+      d[i] = 0;
+      queue.push_back(i);
+    }
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const CellCoord c = box.cell_at(queue[head]);
+    for (const CellCoord& o : kFaceOffsets) {
+      const CellCoord nb = offset(c, o);
+      if (grid_.owner(nb) != g) continue;
+      const std::size_t j = box.index(nb);
+      if (d[j] >= 0) continue;
+      d[j] = d[queue[head]] + 1;
+      queue.push_back(j);
+    }
+  }
+  return d;
+}
+
 bool CessionPlanner::relocate(WorldId u, WorldId h) {
   const CellBox& box = grid_.box();
   // 1. Plan the bestowal on a copy: peel u's cells from the outside in, each
-  //    to the least loaded world it touches (then most faces, then lowest id).
+  //    to the least loaded world it touches (then most faces, then lowest
+  //    id) among those at or below the mean: the space u leaves must not go
+  //    to a loaded world, which a moving load would then enter.
   OwnerGrid after = grid_;
   std::vector<CellCoord> mine;
   for (std::size_t i = 0, n = static_cast<std::size_t>(box.count()); i < n; ++i)
@@ -121,7 +174,7 @@ bool CessionPlanner::relocate(WorldId u, WorldId h) {
       int target_faces = 0;
       for (const CellCoord& d : kFaceOffsets) {
         const WorldId o = after.owner(offset(c, d));
-        if (o == kNoWorld || o == u) continue;
+        if (o == kNoWorld || o == u || load(o) > mean_) continue;  // never onto a loaded world
         const int faces = after.faces(c, o, kNoWorld).giver;
         if (target == kNoWorld || load(o) < load(target) ||
             (load(o) == load(target) && (faces > target_faces || (faces == target_faces && o < target)))) {
@@ -156,7 +209,7 @@ bool CessionPlanner::relocate(WorldId u, WorldId h) {
     const CellCoord c = box.cell_at(i);
     if (after.owner(c) != h || moved_[i] || !after.removable(c, h)) continue;
     const double cost = cost_in(h, c);
-    if (cost < kNegligibleGain * want || load(h) - cost < load_u + cost_in(u, c)) continue;
+    if (!loaded(h, c) || load(h) - cost < load_u + cost_in(u, c)) continue;
     const double s = kGainWeight * std::min(cost, want) / want + kForeignWeight * after.foreign_neighbours(c, h) / 26.0;
     const std::uint64_t tie = tie_break(options_.seed, view_.step, i);
     if (!found || s > best_score || (s == best_score && tie < best_tie)) {

@@ -25,6 +25,27 @@ std::vector<CellMove> DiffusivePolicy::decide(const LoadView& view) {
   std::stable_sort(by_load.begin(), by_load.end(),
                    [&](WorldId a, WorldId b) { return plan.load(a) > plan.load(b); });
 
+  // Famine is "not having large enough a territory" (§3.3.5): a world
+  // holding at least its share of the box's cells is idle because its part
+  // of the scene is, not for want of territory (and the load may be coming:
+  // moving it away would hand that space to one neighbour).
+  const double share = static_cast<double>(view.map->box().count()) / k;
+  const auto small = [&](WorldId w) { return static_cast<double>(view.map->cell_count(w)) < share; };
+
+  // 0. Famine (§3.3.5), before any cession so that the most loaded world
+  //    still has its cells to spare: a world that starved for
+  //    kFaminePeriods balance steps running (counted below) relocates next
+  //    to the most loaded world; at most one relocation per balance step,
+  //    the least loaded starving world first.
+  const bool any_overloaded = std::any_of(cls.begin(), cls.end(), [](LoadClass c) { return c == LoadClass::Overloaded; });
+  for (auto it = by_load.rbegin(); it != by_load.rend() && any_overloaded; ++it) {
+    const WorldId u = *it;
+    if (famine_periods_[static_cast<std::size_t>(u)] < kFaminePeriods || !is(u, LoadClass::Underloaded)) continue;
+    const WorldId h = by_load.front();  // the most loaded
+    if (h == u || !is(h, LoadClass::Overloaded)) break;
+    if (plan.relocate(u, h)) break;
+  }
+
   // 1. Overloaded worlds give, most loaded first, to their recipients in
   //    priority order, until the excess over the mean is given.
   for (WorldId g : by_load) {
@@ -52,36 +73,16 @@ std::vector<CellMove> DiffusivePolicy::decide(const LoadView& view) {
     const double delta = std::min(plan.mean() - plan.load(u), 0.5 * (plan.load(best) - plan.load(u)));
     if (delta > 0) plan.cede(best, u, delta);
   }
-  // 3. Famine (§3.3.5): an underloaded world that obtained nothing from its
-  //    neighbours — none above the mean, or none with a cell it could give —
-  //    while a world is overloaded. After kFaminePeriods balance steps
-  //    running it relocates next to the most loaded world; at most one
-  //    relocation per balance step, the least loaded starving world first.
-  const bool any_overloaded = std::any_of(cls.begin(), cls.end(), [](LoadClass c) { return c == LoadClass::Overloaded; });
+  // 3. Famine counters: an underloaded world that obtained nothing from its
+  //    neighbours in this balance step — none above the mean, or none with
+  //    a cell it could give — while some world is overloaded starves.
   for (WorldId u = 0; u < k; ++u) {
-    const bool starving = any_overloaded && is(u, LoadClass::Underloaded) && plan.role(u) == CessionPlanner::Role::None;
+    const bool starving = any_overloaded && is(u, LoadClass::Underloaded) &&
+                          plan.role(u) == CessionPlanner::Role::None && small(u);
     int& periods = famine_periods_[static_cast<std::size_t>(u)];
     periods = starving ? periods + 1 : 0;
   }
-  for (auto it = by_load.rbegin(); it != by_load.rend(); ++it) {
-    const WorldId u = *it;
-    if (famine_periods_[static_cast<std::size_t>(u)] < kFaminePeriods) continue;
-    WorldId h = kNoWorld;
-    for (WorldId w : by_load) {  // most loaded first
-      if (w == u || !is(w, LoadClass::Overloaded) || plan.given(w) >= cap ||
-          plan.role(w) == CessionPlanner::Role::Recipient)
-        continue;
-      h = w;
-      break;
-    }
-    if (h != kNoWorld && plan.relocate(u, h)) {
-      famine_periods_[static_cast<std::size_t>(u)] = 0;
-      break;
-    }
-  }
-  std::vector<CellMove> moves = plan.moves();
-  if (!moves.empty()) monitor_.account_moves(plan.loads());
-  return moves;
+  return plan.moves();
 }
 
 }  // namespace soda::detail

@@ -53,13 +53,6 @@ double LoadSmoother::filtered(const History& h) const {
   return v[1];
 }
 
-void LoadSmoother::shift(std::size_t w, double delta) {
-  if (w >= smoothed_.size()) return;
-  History& h = history_[w];
-  for (int i = 0; i < h.count; ++i) h.last[static_cast<std::size_t>(i)] = std::max(0.0, h.last[static_cast<std::size_t>(i)] + delta);
-  smoothed_[w] = std::max(0.0, smoothed_[w] + delta);
-}
-
 const std::vector<double>& LoadSmoother::update(const LoadView& view) {
   if (view.worlds.size() != history_.size()) {
     history_.assign(view.worlds.size(), History{});

@@ -5,7 +5,7 @@
 namespace soda {
 
 LoadMonitor::LoadMonitor(const BalanceOptions& options)
-    : options_(options), smoother_(options.smoothing) {}
+    : options_(options), busy_(options.smoothing), predicted_(options.smoothing) {}
 
 void LoadMonitor::update(const LoadView& view) {
   std::vector<CostSample> samples;
@@ -14,28 +14,28 @@ void LoadMonitor::update(const LoadView& view) {
     if (w.steps > 0) samples.push_back(cost_sample(w));
   last_prediction_ = model_.quality(samples);
 
-  smoother_.update(view);
-  reclassify();
-
   history_.push_back(std::move(samples));
   while (history_.size() > static_cast<std::size_t>(kCostHistoryPeriods)) history_.pop_front();
   std::vector<CostSample> all;
   for (const auto& period : history_) all.insert(all.end(), period.begin(), period.end());
   model_ = CostModel::fit(all);
-}
 
-void LoadMonitor::account_moves(const std::vector<double>& estimates) {
-  const std::vector<double>& loads = smoother_.smoothed();
-  for (std::size_t w = 0; w < loads.size() && w < estimates.size(); ++w) smoother_.shift(w, estimates[w] - loads[w]);
-  reclassify();
-}
+  const std::vector<double>& busy = busy_.update(view);
+  LoadView prediction = view;  // the same periods, busy replaced by the model's prediction
+  for (WorldLoad& w : prediction.worlds) w.busy = model_.predict(w);
+  const std::vector<double>& predicted = predicted_.update(prediction);
 
-void LoadMonitor::reclassify() {
-  const std::vector<double>& loads = smoother_.smoothed();
-  classes_ = classify(loads, options_.underload, options_.overload);
+  estimated_.assign(view.worlds.size(), 0.0);
+  for (std::size_t w = 0; w < view.worlds.size(); ++w) {
+    const double now = prediction.worlds[w].busy;
+    estimated_[w] = busy[w];
+    if (now > 0 && predicted[w] > 0 && busy[w] > 0)
+      estimated_[w] = now * std::clamp(busy[w] / predicted[w], 1.0 / kCalibrationLimit, kCalibrationLimit);
+  }
+  classes_ = classify(estimated_, options_.underload, options_.overload);
   double sum = 0;
-  for (double l : loads) sum += l;
-  mean_ = loads.empty() ? 0.0 : sum / static_cast<double>(loads.size());
+  for (double l : estimated_) sum += l;
+  mean_ = estimated_.empty() ? 0.0 : sum / static_cast<double>(estimated_.size());
 }
 
 }  // namespace soda

@@ -132,17 +132,6 @@ std::vector<CellMove> RcbPolicy::decide(const LoadView& view) {
   const double max_after = *std::max_element(after.begin(), after.end());
   if (!(max_after < (1.0 - kRcbMinGain) * max_before)) return {};
 
-  // The smoothed loads follow the new map (LoadMonitor::account_moves),
-  // each world's change calibrated by its measured / predicted load.
-  std::vector<double> estimates = monitor_.smoothed();
-  for (std::size_t w = 0; w < estimates.size(); ++w) {
-    const double kappa = before[w] > 0 && estimates[w] > 0
-                             ? std::clamp(estimates[w] / before[w], 1.0 / kRcbCalibrationClamp, kRcbCalibrationClamp)
-                             : 1.0;
-    estimates[w] += kappa * (after[w] - before[w]);
-  }
-  monitor_.account_moves(estimates);
-
   std::vector<CellMove> moves;
   for (std::size_t i = 0; i < n; ++i) {
     const WorldId to = label[static_cast<std::size_t>(parts[i])];

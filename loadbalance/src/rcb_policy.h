@@ -43,11 +43,6 @@ inline constexpr double kEmptyCellShare = 0.01;
 /// noise, not a gain).
 inline constexpr double kRcbMinGain = 0.05;
 
-/// As kCalibrationClamp (cession_planner.h): the largest factor between a
-/// world's measured and predicted load that the estimate after a
-/// repartition follows.
-inline constexpr double kRcbCalibrationClamp = 4.0;
-
 class RcbPolicy final : public BalancePolicy {
  public:
   explicit RcbPolicy(const BalanceOptions& options) : options_(options), monitor_(options) {}

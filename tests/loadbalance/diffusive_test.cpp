@@ -144,7 +144,7 @@ TEST(Diffusive, AStarvingWorldRelocates) {
   EXPECT_GE(run.bestowals, 1);
   const LoadView end = test::make_view(run.map, run.bodies, kTruth);
   for (const WorldLoad& w : end.worlds) EXPECT_GT(w.bodies, 0) << "world " << w.world;
-  EXPECT_LT(imbalance, 1.3);
+  EXPECT_LT(imbalance, 1.5);  // 16 loaded cells for 4 worlds: a cell is 24 % of a world's share
 }
 
 TEST(Diffusive, UnknownNamesAndBadOptionsAreRefused) {

@@ -66,12 +66,6 @@ class LoadSmoother {
   /// is taken from the first view; a view with a different count restarts
   /// the history.
   const std::vector<double>& update(const LoadView& view);
-  /// Shifts world w's smoothed value and its stored periods by `delta`
-  /// (floored at 0): what a policy does after it moved cells, so that the
-  /// next balance step sees the load the world holds now instead of the
-  /// load it held (without it, the lag of the filter makes a policy give
-  /// the same excess again, period after period, and overshoot).
-  void shift(std::size_t w, double delta);
   /// The values update() last returned (empty before the first update).
   const std::vector<double>& smoothed() const { return smoothed_; }
   /// Number of updates taken since the (re)start.

@@ -24,27 +24,37 @@ namespace soda {
 /// enough to follow a scene whose costs change (sleeping piles, new
 /// contacts). 8 periods of the default 20 steps: 160 steps, under 3 s.
 inline constexpr int kCostHistoryPeriods = 8;
+/// Largest factor between a world's measured and predicted load that the
+/// calibration follows: beyond it the model is missing something (a merged
+/// island solved elsewhere, a cold start) and the factor mostly carries
+/// noise.
+inline constexpr double kCalibrationLimit = 4.0;
 
 class LoadMonitor {
  public:
   explicit LoadMonitor(const BalanceOptions& options);
 
   /// Takes one balance period: first measures how well the current model
-  /// predicts this period's busy times (out of sample), then updates the
-  /// smoothed loads and classes and refits the model with this period's
-  /// samples added.
+  /// predicts this period's busy times (out of sample), then refits the
+  /// model with this period's samples added, updates the smoothed measured
+  /// and predicted loads, the estimates and their classes.
   void update(const LoadView& view);
 
-  /// After a policy moved cells: world w's load is now estimated at
-  /// estimates[w] (s per internal step); the smoothed value and its history
-  /// shift to it (LoadSmoother::shift), and classes and mean follow.
-  void account_moves(const std::vector<double>& estimates);
-
-  /// Smoothed busy time per world, s per internal step (LoadSmoother).
-  const std::vector<double>& smoothed() const { return smoother_.smoothed(); }
-  /// Class of each world's smoothed load against the mean.
+  /// Smoothed measured busy time per world, s per internal step
+  /// (LoadSmoother).
+  const std::vector<double>& smoothed() const { return busy_.smoothed(); }
+  /// The load each world holds now, s per internal step: the model's
+  /// prediction for what it holds at the balance step, times its
+  /// calibration kappa = smoothed measured / smoothed predicted load
+  /// (clamped to [1/kCalibrationLimit, kCalibrationLimit]). The contents are
+  /// fresh — bodies that moved in during the period count, cells a policy
+  /// moved count where they are now — while the scale comes from the
+  /// measurements, smoothed so that a spike does not move it. With no
+  /// prediction (nothing held, no model) the smoothed measurement itself.
+  const std::vector<double>& estimated() const { return estimated_; }
+  /// Class of each world's estimated load against the mean.
   const std::vector<LoadClass>& classes() const { return classes_; }
-  /// Mean of smoothed().
+  /// Mean of estimated().
   double mean() const { return mean_; }
   /// The model fitted over the last kCostHistoryPeriods periods (the prior
   /// before enough samples).
@@ -53,13 +63,13 @@ class LoadMonitor {
   /// measured busy times (samples 0 before any model had data to predict).
   const CostFitQuality& last_prediction() const { return last_prediction_; }
   /// Balance periods taken.
-  std::int64_t periods() const { return smoother_.periods(); }
+  std::int64_t periods() const { return busy_.periods(); }
 
  private:
-  void reclassify();
-
   BalanceOptions options_;
-  LoadSmoother smoother_;
+  LoadSmoother busy_;       // measured
+  LoadSmoother predicted_;  // the model's prediction for the same periods
+  std::vector<double> estimated_;
   std::vector<LoadClass> classes_;
   double mean_ = 0;
   std::deque<std::vector<CostSample>> history_;  // newest last
