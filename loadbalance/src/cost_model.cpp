@@ -57,6 +57,31 @@ bool solve(std::array<Row, kTerms> a, Row b, const std::array<bool, kTerms>& fre
   return true;
 }
 
+// Ridge pull towards the prior c0, relative to each term's own scale.
+void add_ridge(std::array<Row, kTerms>& a, Row& b, const Row& c0) {
+  for (int i = 0; i < kTerms; ++i) {
+    const double lambda = kRidge * std::max(a[i][i], 1.0);
+    a[i][i] += lambda;
+    b[i] += lambda * c0[i];
+  }
+}
+
+// Non-negativity by elimination: a term that comes out negative is fixed at
+// 0 and the rest solved again (at most kTerms rounds).
+bool solve_non_negative(const std::array<Row, kTerms>& a, const Row& b, Row& x) {
+  std::array<bool, kTerms> free{true, true, true, true};
+  for (int round = 0; round < kTerms; ++round) {
+    if (!solve(a, b, free, x)) return false;
+    int worst = -1;
+    for (int i = 0; i < kTerms; ++i)
+      if (free[i] && x[i] < 0 && (worst < 0 || x[i] < x[worst])) worst = i;
+    if (worst < 0) break;
+    free[worst] = false;
+    x[worst] = 0;
+  }
+  return true;
+}
+
 }  // namespace
 
 CostSample cost_sample(const WorldLoad& load) {
@@ -77,24 +102,9 @@ CostModel CostModel::fit(std::span<const CostSample> samples, const CostCoeffici
     }
   }
   const Row c0 = as_row(prior);
-  for (int i = 0; i < kTerms; ++i) {
-    const double lambda = kRidge * std::max(a[i][i], 1.0);
-    a[i][i] += lambda;
-    b[i] += lambda * c0[i];
-  }
-  // Non-negativity by elimination: a term that comes out negative is fixed
-  // at 0 and the rest solved again (at most kTerms rounds).
-  std::array<bool, kTerms> free{true, true, true, true};
+  add_ridge(a, b, c0);
   Row x{};
-  for (int round = 0; round < kTerms; ++round) {
-    if (!solve(a, b, free, x)) return CostModel(prior, false);
-    int worst = -1;
-    for (int i = 0; i < kTerms; ++i)
-      if (free[i] && x[i] < 0 && (worst < 0 || x[i] < x[worst])) worst = i;
-    if (worst < 0) break;
-    free[worst] = false;
-    x[worst] = 0;
-  }
+  if (!solve_non_negative(a, b, x)) return CostModel(prior, false);
   for (double& v : x) v = std::max(v, 0.0);
   return CostModel(as_coefficients(x), true);
 }

@@ -14,13 +14,29 @@ void LoadMonitor::update(const LoadView& view) {
     if (w.steps > 0) samples.push_back(cost_sample(w));
   last_prediction_ = model_.quality(samples);
 
-  history_.push_back(std::move(samples));
+  // The fit takes, per world, the sample of its last three periods whose
+  // busy time is the median (the smaller of two; the one of one) — a period
+  // really measured, with what the world held then: a one-period spike
+  // never enters the model.
+  busy_.update(view);
+  recent_.resize(view.worlds.size());
+  std::vector<CostSample> filtered;
+  for (std::size_t w = 0; w < view.worlds.size(); ++w) {
+    if (view.worlds[w].steps <= 0) continue;
+    std::deque<CostSample>& r = recent_[w];
+    r.push_back(cost_sample(view.worlds[w]));
+    if (r.size() > 3) r.pop_front();
+    std::vector<CostSample> sorted(r.begin(), r.end());
+    std::stable_sort(sorted.begin(), sorted.end(), [](const CostSample& a, const CostSample& b) { return a.busy < b.busy; });
+    filtered.push_back(sorted.size() == 3 ? sorted[1] : sorted[0]);
+  }
+  history_.push_back(std::move(filtered));
   while (history_.size() > static_cast<std::size_t>(kCostHistoryPeriods)) history_.pop_front();
   std::vector<CostSample> all;
   for (const auto& period : history_) all.insert(all.end(), period.begin(), period.end());
   model_ = CostModel::fit(all);
 
-  const std::vector<double>& busy = busy_.update(view);
+  const std::vector<double>& busy = busy_.smoothed();
   LoadView prediction = view;  // the same periods, busy replaced by the model's prediction
   for (WorldLoad& w : prediction.worlds) w.busy = model_.predict(w);
   const std::vector<double>& predicted = predicted_.update(prediction);

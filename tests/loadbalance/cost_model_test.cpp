@@ -118,3 +118,41 @@ TEST(LoadMonitor, ReportsHowWellTheModelPredicted) {
 
 }  // namespace
 }  // namespace soda
+
+namespace soda {
+namespace {
+
+// The estimate follows what a world holds now (no lag), at the scale the
+// measurements set (here twice the truth's: kappa = 2), and a spike in the
+// measurements leaves it where it was.
+TEST(LoadMonitor, EstimatesFollowFreshContentsAtTheMeasuredScale) {
+  const CellBox box{{0, 0, 0}, {3, 0, 0}};
+  const TerritoryMap map = test::make_map(box, 2, [](const CellCoord& c) { return c.x < 2 ? 0 : 1; });
+  LoadMonitor monitor(BalanceOptions{});
+  test::CellBodies bodies{{{0, 0, 0}, 100}, {{2, 0, 0}, 100}};
+  const auto measured = [&](const test::CellBodies& b, double factor) {
+    LoadView v = test::make_view(map, b, kTruth);
+    for (WorldLoad& w : v.worlds) w.busy *= factor;  // every world's thread is twice as slow as the model says
+    return v;
+  };
+  for (int period = 0; period < 6; ++period) {
+    bodies[{2, 0, 0}] = 150 - 20 * period;  // world 1 varies: the fit sees overhead and per-item cost apart
+    monitor.update(measured(bodies, 2.0));
+  }
+  const double before = monitor.estimated()[0];
+  bodies[{1, 0, 0}] = 100;  // world 0 doubles its bodies at once
+  monitor.update(measured(bodies, 2.0));
+  const CostModel truth(kTruth);
+  EXPECT_NEAR(monitor.estimated()[0] / before, truth.predict(200, 200, 200) / truth.predict(100, 100, 100), 0.1);
+  EXPECT_NEAR(monitor.estimated()[0], 2.0 * truth.predict(200, 200, 200), 0.05 * monitor.estimated()[0]);
+  EXPECT_LT(monitor.smoothed()[0], 0.6 * monitor.estimated()[0]);  // the measurement itself still lags
+  EXPECT_EQ(monitor.classes()[0], LoadClass::Overloaded);
+  LoadView spike = measured(bodies, 2.0);
+  spike.worlds[1].busy *= 10;
+  const double steady = monitor.estimated()[1];
+  monitor.update(spike);
+  EXPECT_NEAR(monitor.estimated()[1], steady, 0.05 * steady);
+}
+
+}  // namespace
+}  // namespace soda

@@ -35,9 +35,10 @@ class LoadMonitor {
   explicit LoadMonitor(const BalanceOptions& options);
 
   /// Takes one balance period: first measures how well the current model
-  /// predicts this period's busy times (out of sample), then refits the
-  /// model with this period's samples added, updates the smoothed measured
-  /// and predicted loads, the estimates and their classes.
+  /// predicts this period's busy times (out of sample), then updates the
+  /// smoothed loads, refits the model (each world's median sample of its
+  /// last three periods added: spike-free), and updates the smoothed
+  /// predictions, the estimates and their classes.
   void update(const LoadView& view);
 
   /// Smoothed measured busy time per world, s per internal step
@@ -72,7 +73,8 @@ class LoadMonitor {
   std::vector<double> estimated_;
   std::vector<LoadClass> classes_;
   double mean_ = 0;
-  std::deque<std::vector<CostSample>> history_;  // newest last
+  std::vector<std::deque<CostSample>> recent_;   // per world, its last three periods
+  std::deque<std::vector<CostSample>> history_;  // the fit's samples per period, newest last
   CostModel model_;
   CostFitQuality last_prediction_;
 };
