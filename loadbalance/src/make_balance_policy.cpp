@@ -2,6 +2,8 @@
 #include <string>
 
 #include "churn_policy.h"
+#include "diffusive_policy.h"
+#include "rcb_policy.h"
 #include "soda/loadbalance/policy.h"
 
 namespace soda {
@@ -31,6 +33,8 @@ std::unique_ptr<BalancePolicy> make_balance_policy(const BalanceOptions& options
   check_options(options);
   if (options.policy == "none") return std::make_unique<NoBalance>();
   if (options.policy == "churn") return std::make_unique<detail::ChurnPolicy>(options);
+  if (options.policy == "diffusive") return std::make_unique<detail::DiffusivePolicy>(options);
+  if (options.policy == "rcb") return std::make_unique<detail::RcbPolicy>(options);
   throw BalanceError("unknown balance policy '" + options.policy + "' (none, diffusive, rcb, churn)");
 }
 

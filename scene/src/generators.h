@@ -19,6 +19,14 @@ Scene make_chain(const SceneParams& params);
 // load_scenes.cpp: the cost moves between regions over time.
 Scene make_alternating_load(const SceneParams& params);
 
+// moving_load_scenes.cpp, rain_scene.cpp: load-balance experiments (the
+// load moves or grows in one region).
+Scene make_hotspot(const SceneParams& params);
+Scene make_avalanche(const SceneParams& params);
+Scene make_rain(const SceneParams& params);
+/// rain's later waves: add_body inputs at their steps (ids after the scene's).
+std::vector<UserInput> make_rain_inputs(const SceneParams& params);
+
 // soak_scenes.cpp: long runs of one mechanism.
 Scene make_border_shuttle(const SceneParams& params);
 

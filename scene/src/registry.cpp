@@ -45,6 +45,20 @@ const std::vector<SceneGenerator>& scene_registry() {
        "x = 0, launched upwards so that the load alternates between the halves every 150 steps: left "
        "columns land, right columns land, then small boxes wake the left, then the right columns",
        detail::make_alternating_load},
+      {"hotspot",
+       "N unit cubes (default 400) in a square block sliding together at 8 m/s along +x on a "
+       "low-friction ground, 0.25 m apart, into a catch row at the end of a track 3 block lengths "
+       "long, where they jam into a pile and sleep: the load travels across the grid",
+       detail::make_hotspot},
+      {"avalanche",
+       "N unit cubes (default 400) resting 0.25 m apart on a 30 degree slope (mu 0.4) slide down "
+       "and pile up on the run-out at its foot: the load flows downhill",
+       detail::make_avalanche},
+      {"rain",
+       "N unit cubes (default 400) falling into a bin at one end of a floor in 16 waves, 30 steps "
+       "apart; the first wave is in the scene, the others are add_body inputs (scene_inputs): the "
+       "load grows in one region",
+       detail::make_rain, detail::make_rain_inputs},
       // Soak scenes (one mechanism many times).
       {"border-shuttle",
        "N spheres (default 200, r 0.25 m) sliding frictionless at 4..8 m/s in a walled box 1 m long "
@@ -103,6 +117,12 @@ Scene make_scene(const std::string& name, const SceneParams& params) {
   Scene scene = g->make(params);
   validate_scene(scene, name);
   return scene;
+}
+
+std::vector<UserInput> scene_inputs(const std::string& name, const SceneParams& params) {
+  const SceneGenerator* g = find_scene_generator(name);
+  if (g == nullptr || !g->inputs) return {};
+  return g->inputs(params);
 }
 
 Scene load_or_make_scene(const std::string& name_or_file, const SceneParams& params) {

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "soda/scene/input_file.h"
 #include "soda/scene/scene.h"
 
 namespace soda {
@@ -22,6 +23,11 @@ struct SceneGenerator {
   std::string name;
   std::string description;
   std::function<Scene(const SceneParams&)> make;
+  /// The user inputs the scene is defined with (bodies added over time:
+  /// rain), sorted by step; empty (no function) for most scenes. A run of
+  /// the scene applies them through the embedding API (Simulation's
+  /// add_body, ...) or `soda run --inputs` (inputs_to_json writes the file).
+  std::function<std::vector<UserInput>(const SceneParams&)> inputs = {};
 };
 
 /// All registered generators, in a fixed order.
@@ -33,6 +39,11 @@ const SceneGenerator* find_scene_generator(const std::string& name);
 /// Generates the named scene. Throws SceneError for an unknown name (listing
 /// the known ones) or bad parameters (n < 0).
 Scene make_scene(const std::string& name, const SceneParams& params);
+
+/// The inputs of the named scene (SceneGenerator::inputs; empty for a scene
+/// without, for a file, and for an unknown name). The same parameters as
+/// make_scene; ids follow the scene's. Pure function.
+std::vector<UserInput> scene_inputs(const std::string& name, const SceneParams& params);
 
 /// A name from the registry, or else a path to a scene file (*.json).
 Scene load_or_make_scene(const std::string& name_or_file, const SceneParams& params);

@@ -1,0 +1,113 @@
+// CessionPlanner: plans one balance step's cessions on a working copy of the
+// map, keeping every world's estimated load up to date as cells are moved
+// (diffusive_policy.h lists the rules it keeps).
+//
+// Estimated loads start at LoadMonitor::estimated(). A cell's cost in world
+// w is kappa_w x the model's cost of the cell, kappa_w = the estimate / the
+// model's prediction for w (the monitor's calibration): the model says how
+// the cost splits over cells, the measurements how expensive a unit of it
+// is on that world's thread.
+//
+// Thread safety: one thread; lives for one decide() call.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "owner_grid.h"
+#include "soda/loadbalance/load_monitor.h"
+#include "soda/loadbalance/policy.h"
+
+namespace soda::detail {
+
+/// Weights of the cell score (docs/loadbalance.md, "Policies"): cost
+/// delivered (0..1: of what is still wanted, relative to the most an
+/// eligible cell delivers) counts most; perimeter change of
+/// both territories (-1..1, per face of the six) half as much, so a cell
+/// that delivers a third more of the load may bend a border by two faces;
+/// foreign neighbours (0..1 of 26) a quarter, as a tie-breaker among
+/// similar cells.
+inline constexpr double kGainWeight = 1.0;
+inline constexpr double kShapeWeight = 0.5;
+inline constexpr double kForeignWeight = 0.25;
+/// A cell costing less than this share of the mean world load counts as
+/// empty (no body, or only sleeping ones: 0.05 µs each against a world's
+/// tens to thousands of µs): it is moved only if it shortens the border (a
+/// filler that keeps the territories compact) or to advance a border
+/// towards the load (cede()).
+inline constexpr double kEmptyShare = 1e-3;
+/// Weights of the recipient priority (lower is first), on top of the
+/// recipient's load over the mean: fewer neighbours and a smaller territory
+/// first (§3.3.5), weighted so that they only decide between recipients
+/// loaded within a few percent of each other.
+inline constexpr double kNeighbourWeight = 0.05;
+inline constexpr double kSurfaceWeight = 0.05;
+
+class CessionPlanner {
+ public:
+  enum class Role { None, Giver, Recipient };
+
+  CessionPlanner(const LoadView& view, const LoadMonitor& monitor, const BalanceOptions& options);
+
+  /// World w's estimated load, s per internal step.
+  double load(WorldId w) const { return load_[static_cast<std::size_t>(w)]; }
+  /// Every world's estimated load, by id.
+  const std::vector<double>& loads() const { return load_; }
+  double mean() const { return mean_; }
+  Role role(WorldId w) const { return role_[static_cast<std::size_t>(w)]; }
+  int given(WorldId w) const { return given_[static_cast<std::size_t>(w)]; }
+  const OwnerGrid& grid() const { return grid_; }
+
+  /// Neighbours of g that may receive from it now (not givers, less loaded
+  /// than g), highest priority first.
+  std::vector<WorldId> recipients_of(WorldId g) const;
+  /// Moves cells of g adjacent to r's territory to r, best first, until
+  /// `want` (s per step, in g's units) is given, g's cap is reached or no
+  /// cell qualifies. When no loaded cell of g touches r, g's load lies
+  /// deeper in its territory: g then gives r the empty cells nearest its
+  /// load (fewest face steps through g's cells; then the shorter border),
+  /// so that r's border advances towards the load and loaded cells can
+  /// follow at the next balance step. Returns the estimated cost given.
+  double cede(WorldId g, WorldId r, double want);
+  /// Famine: u's cells all go to the worlds around them, and u takes a
+  /// connected piece of h's territory worth up to the excess of h over the
+  /// mean. Nothing is changed (false) if h has no cell u could take or u's
+  /// cells cannot all be handed to a world next to them.
+  bool relocate(WorldId u, WorldId h);
+
+  /// The planned moves, in canonical cell order.
+  std::vector<CellMove> moves() const;
+
+ private:
+  double cell_model_cost(const CellCoord& c) const { return cost_[box_index(c)]; }
+  double cost_in(WorldId w, const CellCoord& c) const {
+    return kappa_[static_cast<std::size_t>(w)] * cell_model_cost(c);
+  }
+  std::size_t box_index(const CellCoord& c) const { return grid_.box().index(c); }
+  /// True if c may go from g to r now: not moved yet, g's, touching r,
+  /// removable (rule b) and not reversing the imbalance (rule c).
+  bool eligible(const CellCoord& c, WorldId g, WorldId r) const;
+  /// Score of giving c from g to r when `want` is still wanted and the
+  /// eligible loaded cells deliver at most `scale` (header comment weights).
+  double score(const CellCoord& c, WorldId g, WorldId r, double want, double scale) const;
+  /// True if c's cost in w is above kEmptyShare of the mean load.
+  bool loaded(WorldId w, const CellCoord& c) const { return cost_in(w, c) > kEmptyShare * mean_; }
+  void move(const CellCoord& c, WorldId from, WorldId to);
+  /// Face steps from each of g's cells to g's nearest loaded cell, by box
+  /// index; -1 for cells not g's or not reached.
+  std::vector<int> distance_to_load(WorldId g) const;
+
+  const LoadView& view_;
+  BalanceOptions options_;
+  OwnerGrid grid_;
+  std::vector<double> cost_;   // model cost per box cell (box index)
+  std::vector<double> load_;   // estimated load per world
+  std::vector<double> kappa_;  // calibration per world
+  std::vector<Role> role_;
+  std::vector<int> given_;
+  std::vector<char> moved_;    // per box cell
+  std::vector<CellMove> moves_;
+  double mean_ = 0;
+};
+
+}  // namespace soda::detail

@@ -1,0 +1,161 @@
+// diffusive: cession between neighbours on synthetic loads — it evens out
+// estimated loads within the cell cap, keeps territories connected, stops
+// once balanced, ignores a spike, and relocates a starving world (famine).
+#include <gtest/gtest.h>
+
+#include <map>
+#include <vector>
+
+#include "diffusive_policy.h"
+#include "loadbalance/synthetic_load.h"
+#include "soda/grid/partition.h"
+
+namespace soda {
+namespace {
+
+constexpr CostCoefficients kTruth{20e-6, 0.3e-6, 0.6e-6, 1.2e-6};
+
+struct CessionRun {
+  TerritoryMap map;
+  test::CellBodies bodies;
+  std::unique_ptr<BalancePolicy> policy;
+  std::vector<std::vector<CellMove>> history;
+  int bestowals = 0;  // worlds that gave all their cells (famine)
+
+  // One balance step: measure, decide, check the rules every decision
+  // keeps, apply.
+  double step(std::int64_t at, const BalanceOptions& options) {
+    const LoadView view = test::make_view(map, bodies, kTruth, at);
+    const std::vector<CellMove> moves = policy->decide(view);
+    std::map<WorldId, int> given;
+    for (const CellMove& m : moves) ++given[m.from];
+    // The cap holds for every world but one bestowing all its cells (famine).
+    for (const auto& [w, n] : given)
+      if (n == map.cell_count(w)) ++bestowals;
+      else EXPECT_LE(n, options.max_cells_per_move) << "world " << w << " at " << at;
+    map = test::apply(map, moves);
+    for (WorldId w = 0; w < map.world_count(); ++w) {
+      EXPECT_GE(map.cell_count(w), 1) << "world " << w << " at " << at;
+      EXPECT_EQ(territory_pieces(map, w), 1) << "world " << w << " at " << at;
+    }
+    history.push_back(moves);
+    return test::busy_imbalance(test::make_view(map, bodies, kTruth, at));
+  }
+};
+
+// Two slabs of 4 x 1 x 4 cells; world 0's cells hold 50 bodies each, world
+// 1's 5: busy 0.97 ms against 0.13 ms (imbalance 1.76).
+CessionRun two_slabs(const BalanceOptions& options) {
+  const CellBox box{{0, 0, 0}, {7, 0, 3}};
+  CessionRun run{test::make_map(box, 2, [](const CellCoord& c) { return c.x < 4 ? 0 : 1; }), {},
+          make_balance_policy(options), {}, 0};
+  for (std::size_t i = 0; i < static_cast<std::size_t>(box.count()); ++i) {
+    const CellCoord c = box.cell_at(i);
+    run.bodies[c] = c.x < 4 ? 50 : 5;
+  }
+  return run;
+}
+
+TEST(Diffusive, EvensOutTheLoadWithinTheCapAndThenStops) {
+  BalanceOptions options;
+  options.policy = "diffusive";
+  CessionRun run = two_slabs(options);
+  EXPECT_STREQ(run.policy->name(), "diffusive");
+  EXPECT_GT(test::busy_imbalance(test::make_view(run.map, run.bodies, kTruth)), 1.7);
+  double imbalance = 0;
+  for (int s = 0; s < 12; ++s) imbalance = run.step(20 * (s + 1), options);
+  EXPECT_LT(imbalance, options.overload) << "balanced to the threshold";
+  // Once balanced, nothing moves (no back and forth).
+  int late_moves = 0;
+  for (int s = 12; s < 24; ++s) {
+    run.step(20 * (s + 1), options);
+    late_moves += static_cast<int>(run.history.back().size());
+  }
+  EXPECT_EQ(late_moves, 0);
+  // Every move went from the loaded world 0 to world 1: never back.
+  for (const auto& moves : run.history)
+    for (const CellMove& m : moves) EXPECT_EQ(m.from, 0);
+}
+
+TEST(Diffusive, GivesLoadedCellsNotJustCells) {
+  // World 0 has its load in the column next to the border (x = 3) only:
+  // the first cells given are loaded ones.
+  BalanceOptions options;
+  options.policy = "diffusive";
+  CessionRun run = two_slabs(options);
+  for (auto& [c, n] : run.bodies) n = c.x == 3 ? 200 : (c.x < 4 ? 0 : 5);
+  const double before = test::busy_imbalance(test::make_view(run.map, run.bodies, kTruth));
+  const double after = run.step(20, options);
+  ASSERT_FALSE(run.history[0].empty());
+  for (const CellMove& m : run.history[0]) EXPECT_EQ(m.cell.x, 3);
+  EXPECT_LT(after, before);
+}
+
+TEST(Diffusive, ASingleSpikeMovesNothing) {
+  BalanceOptions options;
+  options.policy = "diffusive";
+  CessionRun run = two_slabs(options);
+  for (auto& [c, n] : run.bodies) n = 20;  // even
+  auto policy = make_balance_policy(options);
+  for (int s = 0; s < 8; ++s) {
+    LoadView view = test::make_view(run.map, run.bodies, kTruth, 20 * s);
+    if (s == 4) view.worlds[0].busy *= 5;  // one expensive period
+    EXPECT_TRUE(policy->decide(view).empty()) << "period " << s;
+  }
+}
+
+TEST(Diffusive, SameViewsSameDecisions) {
+  BalanceOptions options;
+  options.policy = "diffusive";
+  options.seed = 7;
+  CessionRun a = two_slabs(options), b = two_slabs(options);
+  for (int s = 0; s < 6; ++s) {
+    a.step(20 * s, options);
+    b.step(20 * s, options);
+  }
+  EXPECT_EQ(a.history, b.history);
+  EXPECT_EQ(a.map, b.map);
+}
+
+TEST(Diffusive, NeverGivesAWorldsLastCell) {
+  BalanceOptions options;
+  options.policy = "diffusive";
+  const CellBox box{{0, 0, 0}, {4, 0, 0}};
+  CessionRun run{test::make_map(box, 2, [](const CellCoord& c) { return c.x == 0 ? 0 : 1; }), {{{0, 0, 0}, 500}},
+          make_balance_policy(options), {}};
+  for (int s = 0; s < 5; ++s) run.step(20 * s, options);
+  EXPECT_EQ(run.map.cell_count(0), 1);
+}
+
+// Four slabs in a row, all the load in the last: worlds 0 and 1 have only
+// underloaded neighbours (nothing to ask for) — famine. After kFaminePeriods
+// balance steps one of them gives its cells to its neighbours and takes
+// over part of world 3's territory; in the end every world has load.
+TEST(Diffusive, AStarvingWorldRelocates) {
+  BalanceOptions options;
+  options.policy = "diffusive";
+  const CellBox box{{0, 0, 0}, {15, 0, 3}};
+  CessionRun run{test::make_map(box, 4, [](const CellCoord& c) { return c.x / 4; }), {}, make_balance_policy(options), {}};
+  for (int x = 12; x < 16; ++x)
+    for (int z = 0; z < 4; ++z) run.bodies[{x, 0, z}] = 40;
+  EXPECT_GT(test::busy_imbalance(test::make_view(run.map, run.bodies, kTruth)), 3.0);
+  double imbalance = 0;
+  for (int s = 0; s < 60; ++s) imbalance = run.step(20 * s, options);
+  EXPECT_GE(run.bestowals, 1);
+  const LoadView end = test::make_view(run.map, run.bodies, kTruth);
+  for (const WorldLoad& w : end.worlds) EXPECT_GT(w.bodies, 0) << "world " << w.world;
+  EXPECT_LT(imbalance, 1.5);  // 16 loaded cells for 4 worlds: a cell is 24 % of a world's share
+}
+
+TEST(Diffusive, UnknownNamesAndBadOptionsAreRefused) {
+  BalanceOptions options;
+  options.policy = "diffusive";
+  options.max_cells_per_move = 0;
+  EXPECT_THROW(make_balance_policy(options), BalanceError);
+  options.max_cells_per_move = 4;
+  options.policy = "difusive";
+  EXPECT_THROW(make_balance_policy(options), BalanceError);
+}
+
+}  // namespace
+}  // namespace soda
