@@ -8,6 +8,7 @@
 
 #include "body_factory.h"
 #include "canonical_dynamics_world.h"
+#include "pair_cache.h"
 #include "soda/worlds/canonical_world.h"
 #include "world_teardown.h"
 
@@ -25,7 +26,8 @@ struct CanonicalWorldParts {
 
   btDefaultCollisionConfiguration config;
   btCollisionDispatcher dispatcher{&config};
-  btDbvtBroadphase broadphase;
+  PairCache pairs;  // before the broadphase, which uses it (pair_cache.h)
+  btDbvtBroadphase broadphase{&pairs};
   btSequentialImpulseConstraintSolver solver;
   CanonicalDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
 };

@@ -12,6 +12,7 @@
 #include <btBulletDynamicsCommon.h>
 
 #include "body_factory.h"
+#include "pair_cache.h"
 #include "soda/worlds/territory_world.h"
 #include "world_teardown.h"
 
@@ -65,7 +66,8 @@ struct TerritoryWorld::Parts {
   Parts& operator=(const Parts&) = delete;
   std::shared_ptr<btDefaultCollisionConfiguration> config;  // first: outlives every user of its pools
   Dispatcher dispatcher;
-  btDbvtBroadphase broadphase;
+  PairCache pairs;  // before the broadphase, which uses it (pair_cache.h)
+  btDbvtBroadphase broadphase{&pairs};
   btSequentialImpulseConstraintSolver solver;
   btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, config.get()};
   btManifoldArray scratch;  // near callback
