@@ -15,6 +15,7 @@
 #include <spdlog/spdlog.h>
 
 #include "soda/bench/accuracy.h"
+#include "soda/bench/solver_variant.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/scene/registry.h"
 #include "soda/worlds/canonical_world.h"
@@ -129,12 +130,16 @@ Observed observe(W& world, const Scene& scene, int steps) {
 
 Observed run_case_world(const Scene& scene, const StressCase& c) {
   if (c.world == WorldKind::Stock) {
+    std::unique_ptr<btConstraintSolver> variant_solver;  // outlives the world
     StockWorld w(scene);
+    apply_solver_variant(w.bullet(), c.variant, variant_solver);
     if (c.ccd) enable_ccd(w.bullet(), scene);
     return observe(w, scene, c.steps);
   }
   if (c.ccd) throw std::invalid_argument("CCD is outside the canonical world's contract");
+  std::unique_ptr<btConstraintSolver> variant_solver;  // outlives the world
   CanonicalWorld w(scene);
+  apply_solver_variant(w.bullet(), c.variant, variant_solver);
   return observe(w, scene, c.steps);
 }
 
@@ -185,6 +190,7 @@ Scene case_scene(const StressCase& c, const std::string& name, int n) {
   Scene scene = make_scene(name, {n, 1, false});
   if (c.dt > 0) scene.settings.dt = c.dt;
   if (c.iterations > 0) scene.settings.iterations = c.iterations;
+  if (c.substeps > 0) scene.settings.substeps = c.substeps;
   return scene;
 }
 
