@@ -45,7 +45,9 @@ void expect_stands_on_every_map(const std::string& name, int n, int steps) {
     world.step(steps);
     EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(one.state_hash())) << name << " " << partition;
     if (world.state_hash() != one.state_hash()) ADD_FAILURE() << test::first_divergence(s, map, steps);
-    EXPECT_GT(test::total(world.metrics()).merged_islands, 0u) << partition;  // solved as border islands
+    if (partition == "grid:2x1x2") {  // the corner: solved as border islands over four worlds
+      EXPECT_GT(test::total(world.metrics()).merged_islands, 0u) << name;
+    }
   }
 }
 
