@@ -22,6 +22,7 @@
 #include "soda/scene/registry.h"
 #include "soda/worlds/canonical_world.h"
 #include "soda/worlds/stock_world.h"
+#include "soda/worlds/watchdog.h"
 
 namespace soda {
 namespace {
@@ -56,6 +57,8 @@ struct Observed {
   double max_speed_end = 0;
   PenetrationStats penetration;
   std::int64_t nonfinite_step = -1;
+  std::int64_t watchdog_step = -1;  // canonical world: first step the watchdog (default limits, stop) objected to
+  std::string watchdog_text;
   int steps_run = 0;
   double wall_seconds = 0;
   std::size_t sleeping = 0;
@@ -90,6 +93,17 @@ Observed observe(W& world, const Scene& scene, int steps) {
     if (!std::all_of(raw.begin(), raw.end(), is_finite)) {
       o.nonfinite_step = k;  // the defined response: stop here and fail the case
       break;
+    }
+    if constexpr (requires { world.watchdog_findings(WatchdogLimits{}); }) {
+      // The watchdog runs in every case, as `soda run` does by default
+      // (stop); the stock world is not checked (docs/watchdog.md).
+      const WatchdogLimits limits;
+      const std::vector<WatchdogFinding> findings = world.watchdog_findings(limits);
+      if (!findings.empty()) {
+        o.watchdog_step = k;
+        o.watchdog_text = describe(findings.front(), limits);
+        break;
+      }
     }
     o.penetration.add(manifold_penetration(dispatcher));
     now = to_samples(scene, raw);
@@ -327,6 +341,11 @@ StressResult run_stress_case(const StressCase& c) {
     r.wall_seconds = o.wall_seconds;
     r.sleeping = o.sleeping;
     r.state_hash = hash_hex(o.hash);
+    if (o.watchdog_step >= 0) {
+      verdict(r, false, std::numeric_limits<double>::quiet_NaN(), 0,
+              "watchdog: step " + std::to_string(o.watchdog_step) + ": " + o.watchdog_text + ": stopped");
+      return r;
+    }
     if (o.nonfinite_step >= 0) {
       verdict(r, false, std::numeric_limits<double>::quiet_NaN(), 0,
               "non-finite state at step " + std::to_string(o.nonfinite_step) + ": stopped");
