@@ -8,17 +8,10 @@ namespace {
 
 constexpr double kGroundMargin = 10.0;  // as generators.cpp
 
-Scene start(const char* name, const SceneParams& params) {
-  Scene scene;
-  scene.name = name;
-  scene.seed = params.seed;
-  return scene;
-}
-
 }  // namespace
 
 Scene make_card_house(const SceneParams& params) {
-  Scene scene = start("card-house", params);
+  Scene scene = start_scene("card-house", params);
   const int storeys = count_or_default(params, 5, 20);
   // Each storey: two upright planks 0.1 x 1 x 1 m standing on their 0.1 m
   // edge at x = +-0.45, and a lid plank 1.2 x 0.1 x 1 m on them; the next
@@ -39,7 +32,7 @@ Scene make_card_house(const SceneParams& params) {
 }
 
 Scene make_heavy_drop(const SceneParams& params) {
-  Scene scene = start("heavy-drop", params);
+  Scene scene = start_scene("heavy-drop", params);
   const int k = count_or_default(params, 10, 50);
   constexpr double kHeavyMass = 100.0;  // kg, on 1 kg boxes
   constexpr double kDropHeight = 1.0;   // m between the top box and the heavy box's bottom face
@@ -52,7 +45,7 @@ Scene make_heavy_drop(const SceneParams& params) {
 }
 
 Scene make_sphere_chain(const SceneParams& params) {
-  Scene scene = start("sphere-chain", params);
+  Scene scene = start_scene("sphere-chain", params);
   const int n = count_or_default(params, 100, 1000);
   constexpr double kRadius = 0.5;
   constexpr double kPush = 5.0;  // m/s along +x, the first sphere
@@ -68,7 +61,7 @@ Scene make_sphere_chain(const SceneParams& params) {
 }
 
 Scene make_mixed_sizes(const SceneParams& params) {
-  Scene scene = start("mixed-sizes", params);
+  Scene scene = start_scene("mixed-sizes", params);
   const int per_side = count_or_default(params, 5, 20);  // small boxes per row, on the big box and around it
   constexpr double kBigHalf = 5.0;     // a 10 m box, 1000 kg
   constexpr double kSmallHalf = 0.025; // 0.05 m boxes, 0.1 kg (a 1:10,000 mass ratio)

@@ -9,12 +9,7 @@
 namespace soda {
 namespace {
 
-GridOptions border_grid() {
-  GridOptions g;
-  g.cell_size = 2.0;
-  g.origin = Vec3::Zero();
-  return g;
-}
+using test::border_grid;
 
 struct Outcome {
   std::uint64_t reference = 0, partitioned = 0;

@@ -10,12 +10,7 @@
 namespace soda {
 namespace {
 
-GridOptions border_grid() {
-  GridOptions g;
-  g.cell_size = 2.0;
-  g.origin = Vec3::Zero();
-  return g;
-}
+using test::border_grid;
 
 // Largest distance any dynamic body moved from where it started.
 double max_displacement(const Scene& s, const std::vector<BodyState>& end) {
