@@ -15,15 +15,20 @@
 #include <spdlog/spdlog.h>
 
 #include "soda/bench/accuracy.h"
+#include "soda/bench/solver_variant.h"
+#include "soda/grid/partition.h"
 #include "soda/loadbalance/thread_clock.h"
+#include "soda/runtime/partitioned_world.h"
 #include "soda/scene/registry.h"
 #include "soda/worlds/canonical_world.h"
 #include "soda/worlds/stock_world.h"
+#include "soda/worlds/watchdog.h"
 
 namespace soda {
 namespace {
 
 constexpr double kStandTolerance = 0.1;  // m: a tenth of the unit box's edge
+constexpr double kSmallStandTolerance = 0.025;  // m: half the edge of mixed-sizes' small boxes
 constexpr int kEarlySteps = 30;          // far-origin: 0.5 s of trajectory compared with the origin pile
 
 std::string fmt(const char* f, double v) {
@@ -52,6 +57,8 @@ struct Observed {
   double max_speed_end = 0;
   PenetrationStats penetration;
   std::int64_t nonfinite_step = -1;
+  std::int64_t watchdog_step = -1;  // canonical world: first step the watchdog (default limits, stop) objected to
+  std::string watchdog_text;
   int steps_run = 0;
   double wall_seconds = 0;
   std::size_t sleeping = 0;
@@ -86,6 +93,17 @@ Observed observe(W& world, const Scene& scene, int steps) {
     if (!std::all_of(raw.begin(), raw.end(), is_finite)) {
       o.nonfinite_step = k;  // the defined response: stop here and fail the case
       break;
+    }
+    if constexpr (requires { world.watchdog_findings(WatchdogLimits{}); }) {
+      // The watchdog runs in every case, as `soda run` does by default
+      // (stop); the stock world is not checked (docs/watchdog.md).
+      const WatchdogLimits limits;
+      const std::vector<WatchdogFinding> findings = world.watchdog_findings(limits);
+      if (!findings.empty()) {
+        o.watchdog_step = k;
+        o.watchdog_text = describe(findings.front(), limits);
+        break;
+      }
     }
     o.penetration.add(manifold_penetration(dispatcher));
     now = to_samples(scene, raw);
@@ -129,12 +147,16 @@ Observed observe(W& world, const Scene& scene, int steps) {
 
 Observed run_case_world(const Scene& scene, const StressCase& c) {
   if (c.world == WorldKind::Stock) {
+    std::unique_ptr<btConstraintSolver> variant_solver;  // outlives the world
     StockWorld w(scene);
+    apply_solver_variant(w.bullet(), c.variant, variant_solver);
     if (c.ccd) enable_ccd(w.bullet(), scene);
     return observe(w, scene, c.steps);
   }
   if (c.ccd) throw std::invalid_argument("CCD is outside the canonical world's contract");
+  std::unique_ptr<btConstraintSolver> variant_solver;  // outlives the world
   CanonicalWorld w(scene);
+  apply_solver_variant(w.bullet(), c.variant, variant_solver);
   return observe(w, scene, c.steps);
 }
 
@@ -150,12 +172,12 @@ std::string energy_text(const Observed& o) {
 }
 
 // Stands: no box moves more than kStandTolerance from where it started.
-void stands(StressResult& r, const Observed& o) {
+void stands(StressResult& r, const Observed& o, double tolerance = kStandTolerance) {
   const auto it = std::max_element(o.max_displacement.begin(), o.max_displacement.end());
   const double worst = *it;
   const std::size_t i = static_cast<std::size_t>(it - o.max_displacement.begin());
   const Vec3 top_shift = pos(o.final.back()) - pos(o.initial.back());
-  verdict(r, worst <= kStandTolerance, worst, kStandTolerance,
+  verdict(r, worst <= tolerance, worst, tolerance,
           "max displacement " + fmt("%.4g", worst) + " m (body " + std::to_string(o.initial[i].id) +
               "); top body moved (" + fmt("%.3g", top_shift.x()) + ", " + fmt("%.3g", top_shift.y()) + ", " +
               fmt("%.3g", top_shift.z()) + ") m; max penetration " + fmt("%.3g", o.penetration.max) + " m; " +
@@ -185,6 +207,7 @@ Scene case_scene(const StressCase& c, const std::string& name, int n) {
   Scene scene = make_scene(name, {n, 1, false});
   if (c.dt > 0) scene.settings.dt = c.dt;
   if (c.iterations > 0) scene.settings.iterations = c.iterations;
+  if (c.substeps > 0) scene.settings.substeps = c.substeps;
   return scene;
 }
 
@@ -225,6 +248,20 @@ std::vector<StressCase> stress_suite(bool quick) {
   for (int k : {10, 100, 1000})
     s.push_back({"mass-ratio-1:" + std::to_string(k), "mass-ratio", "mass-ratio", k, stand_steps,
                  WorldKind::Canonical, false, false, stands_text});
+  s.push_back({"tower-50", "tower", "tower", 50, stand_steps, WorldKind::Canonical, false, false, stands_text});
+  s.push_back({"card-house-5", "card-house", "card-house", 5, stand_steps, WorldKind::Canonical, false, false,
+               stands_text});
+  s.push_back({"heavy-drop-10", "heavy-drop", "heavy-drop", 10, quick ? 120 : 600, WorldKind::Canonical, false, false,
+               "a 100 kg box dropped 1 m onto a tower of ten 1 kg boxes: no tower box moves more than 0.1 m "
+               "sideways, the heavy box ends on top (centre within 0.1 m of 10.5 m)"});
+  s.push_back({"sphere-chain-100", "sphere-chain", "sphere-chain", 100, quick ? 120 : 600, WorldKind::Canonical,
+               false, false,
+               "100 touching spheres, the first pushed at 5 m/s: no energy gain (E never above E_0), max "
+               "penetration < 0.05 m (a tenth of the radius), every sphere stays on the ground and on the line "
+               "(centre y >= 0.45 m, |z| < 0.1 m)"});
+  s.push_back({"mixed-sizes-5", "mixed-sizes", "mixed-sizes", 5, stand_steps, WorldKind::Canonical, false, false,
+               "a 10 m box with 25 boxes of 0.05 m on it and 25 beside it: no body moves more than 0.025 m (half "
+               "the small edge) from its start"});
   const std::string wall_text = "the sphere is stopped by the wall: its centre never passes x = 0 (the wall's mid-plane)";
   for (int v : {50, 200, 500}) {
     const std::string base = "bullet-" + std::to_string(v);
@@ -235,6 +272,9 @@ std::vector<StressCase> stress_suite(bool quick) {
     s.push_back({base + "-stock-ccd", "bullet-vs-wall", "bullet-vs-wall", v, 120, WorldKind::Stock, true, false,
                  wall_text});
   }
+  s.push_back({"bullet-border-200", "bullet-border", "bullet-vs-wall", 200, 120, WorldKind::Canonical, false, false,
+               "bullet-vs-wall at 200 m/s on grid:Kx1x1 maps of 2 m cells (the wall's mid-plane on a border), K = "
+               "1, 2, 4, 8: stopped by the wall (as bullet-vs-wall) and the same state hash for every K"});
   const std::string far_text =
       "settles as the same pile at the origin does (cube-pile n=50, same precision): every cube still on the "
       "ground asleep within 20 s, mean penetration at most 2x the origin pile's + 1 mm";
@@ -252,6 +292,38 @@ std::vector<StressCase> stress_suite(bool quick) {
   return s;
 }
 
+// bullet-border: the same scene on grid:Kx1x1 maps, K = 1, 2, 4, 8.
+void run_bullet_border(StressResult& r, const Scene& scene, const StressCase& c) {
+  GridOptions grid;
+  grid.cell_size = 2.0;  // the wall's mid-plane x = 0 is a border for every K
+  grid.origin = Vec3::Zero();
+  grid.box = CellBox{{-8, 0, -1}, {7, 1, 0}};  // x in [-16, 16]: slabs of 16 / K cells
+  double max_x = -std::numeric_limits<double>::infinity();
+  std::string hashes;
+  std::uint64_t first = 0;
+  bool same = true;
+  const BodyId sphere = scene.bodies.back().id;
+  for (int k : {1, 2, 4, 8}) {
+    PartitionedWorld w(scene, make_partition("grid:" + std::to_string(k) + "x1x1", scene, k, grid));
+    const std::int64_t a = wall_ns();
+    for (int t = 0; t < c.steps; ++t) {
+      w.step(1);
+      for (const BodyState& b : w.body_states())
+        if (b.id == sphere) max_x = std::max(max_x, double(b.origin[0]));
+    }
+    r.wall_seconds += static_cast<double>(wall_ns() - a) * 1e-9;
+    const std::uint64_t h = w.state_hash();
+    if (k == 1) first = h;
+    same = same && h == first;
+    hashes += (hashes.empty() ? "" : ", ") + std::string("K=") + std::to_string(k) + " " + hash_hex(h);
+  }
+  r.steps_run = c.steps;
+  r.state_hash = hash_hex(first);
+  verdict(r, max_x < 0.0 && same, max_x, 0.0,
+          "sphere max x " + fmt("%.4g", max_x) + " m" + (max_x < 0.0 ? " (stopped)" : " (passed through)") +
+              "; state hashes " + (same ? "equal" : "DIFFER") + " (" + hashes + ")");
+}
+
 StressResult run_stress_case(const StressCase& c) {
   StressResult r;
   r.c = c;
@@ -260,18 +332,50 @@ StressResult run_stress_case(const StressCase& c) {
     const Scene scene = case_scene(c, c.scene, c.n);
     r.c.dt = scene.settings.dt;  // report the settings used
     r.c.iterations = scene.settings.iterations;
+    if (c.group == "bullet-border") {
+      run_bullet_border(r, scene, c);
+      return r;
+    }
     const Observed o = run_case_world(scene, c);
     r.steps_run = o.steps_run;
     r.wall_seconds = o.wall_seconds;
     r.sleeping = o.sleeping;
     r.state_hash = hash_hex(o.hash);
+    if (o.watchdog_step >= 0) {
+      verdict(r, false, std::numeric_limits<double>::quiet_NaN(), 0,
+              "watchdog: step " + std::to_string(o.watchdog_step) + ": " + o.watchdog_text + ": stopped");
+      return r;
+    }
     if (o.nonfinite_step >= 0) {
       verdict(r, false, std::numeric_limits<double>::quiet_NaN(), 0,
               "non-finite state at step " + std::to_string(o.nonfinite_step) + ": stopped");
       return r;
     }
-    if (c.group == "tower" || c.group == "pyramid" || c.group == "mass-ratio") {
+    if (c.group == "tower" || c.group == "pyramid" || c.group == "mass-ratio" || c.group == "card-house") {
       stands(r, o);
+    } else if (c.group == "mixed-sizes") {
+      stands(r, o, kSmallStandTolerance);
+    } else if (c.group == "heavy-drop") {
+      double sideways = 0;
+      for (std::size_t i = 0; i + 1 < o.final.size(); ++i) {
+        const Vec3 d = pos(o.final[i]) - pos(o.initial[i]);
+        sideways = std::max(sideways, std::hypot(d.x(), d.z()));
+      }
+      const double top = o.final.back().position[1], want = c.n + 0.5;
+      verdict(r, sideways <= kStandTolerance && std::abs(top - want) <= kStandTolerance, sideways, kStandTolerance,
+              "largest sideways move of a tower box " + fmt("%.4g", sideways) + " m; heavy box ends at y " +
+                  fmt("%.4g", top) + " m (on top: " + fmt("%.4g", want) + "); max penetration " +
+                  fmt("%.3g", o.penetration.max) + " m; " + std::to_string(o.sleeping) + "/" +
+                  std::to_string(o.dynamic) + " asleep");
+    } else if (c.group == "sphere-chain") {
+      double off_line = 0;
+      for (const BodySample& b : o.final) off_line = std::max(off_line, std::abs(b.position[2]));
+      const bool pass = o.energy_max <= o.energy0 && o.penetration.max < 0.05 && o.min_y >= 0.45 && off_line < 0.1;
+      verdict(r, pass, o.penetration.max, 0.05,
+              "max penetration " + fmt("%.3g", o.penetration.max) + " m; " + energy_text(o) +
+                  "; lowest centre " + fmt("%.4g", o.min_y) + " m; largest |z| at the end " + fmt("%.3g", off_line) +
+                  " m; first sphere at x " + fmt("%.4g", o.final.front().position[0]) + " m, last at x " +
+                  fmt("%.4g", o.final.back().position[0]) + " m");
     } else if (c.group == "bullet-vs-wall") {
       const double x = o.max_x.back();  // the sphere is the only dynamic body
       verdict(r, x < 0.0, x, 0.0,

@@ -31,6 +31,9 @@ struct StressOptions {
   std::string json;
   std::string dt;      // "" : each scene's own
   int iterations = 0;  // 0 : each scene's own
+  int substeps = 0;    // 0 : each scene's own
+  std::string variant;  // diagnosis: solver_variant.h
+  bool stock = false;   // run every case in Bullet's stock world
 };
 
 void write_text(const std::string& path, const std::string& text) {
@@ -56,7 +59,12 @@ int run_stress(StressOptions& o) {
     } catch (const std::invalid_argument& e) {
       throw std::invalid_argument(std::string("--dt: ") + e.what());
     }
-  for (StressCase& c : suite) c = with_settings(c, dt, o.iterations);
+  for (StressCase& c : suite) {
+    c = with_settings(c, dt, o.iterations);
+    if (o.substeps > 0) c.substeps = o.substeps;
+    c.variant = o.variant;
+    if (o.stock) c.world = WorldKind::Stock;
+  }
   std::vector<StressResult> results;
   std::vector<std::string> other;  // cases to run in the other precision too
   for (const StressCase& c : suite) {
@@ -144,6 +152,11 @@ Command add_stress_command(CLI::App& app) {
   cmd->add_flag("--quick", o->quick, "Short versions of every case (smoke test)");
   cmd->add_option("--dt", o->dt, "Override every scene's step (1/120 or seconds); steps scale to the same time");
   cmd->add_option("--iterations", o->iterations, "Override every scene's solver iterations");
+  cmd->add_option("--substeps", o->substeps, "Override every scene's substeps per step");
+  cmd->add_option("--variant", o->variant,
+                  "Diagnosis: solver settings to change, e.g. ws=1,erp2=0.8,nosleep (bench/include/soda/bench/"
+                  "solver_variant.h)");
+  cmd->add_flag("--stock", o->stock, "Run every case in Bullet's stock world (the comparison column)");
   cmd->add_option("--sibling", o->sibling, "The other precision's binary (default: next to this one)");
   cmd->add_flag("--no-sibling", o->no_sibling, "Do not run the two-precision cases in the other build");
   cmd->add_option("--csv", o->csv, "Output CSV ('' for none)")->capture_default_str();

@@ -38,6 +38,10 @@ Scene make_mass_ratio(const SceneParams& params);
 Scene make_bullet_vs_wall(const SceneParams& params);
 Scene make_far_origin(const SceneParams& params);
 Scene make_dense_pile(const SceneParams& params);
+Scene make_card_house(const SceneParams& params);
+Scene make_heavy_drop(const SceneParams& params);
+Scene make_sphere_chain(const SceneParams& params);
+Scene make_mixed_sizes(const SceneParams& params);
 Scene make_free_fall(const SceneParams& params);
 Scene make_incline(const SceneParams& params);
 Scene make_resting_stack(const SceneParams& params);
@@ -52,6 +56,8 @@ int count_or_default(const SceneParams& params, int default_n, int max_n);
 /// n when n >= 1, else default_n: scenes whose n is a magnitude (a speed, a
 /// distance, a mass ratio) take any positive n, the CLI's 1000 included.
 int magnitude_or_default(const SceneParams& params, int default_n);
+/// An empty scene with this name and the params' seed (stress scenes).
+Scene start_scene(const char* name, const SceneParams& params);
 /// Static ground box, id 0, top face at y = 0, centred under (centre_x, 0),
 /// half_footprint in x and z.
 Body flat_ground(double half_footprint, double friction, double centre_x = 0.0,

@@ -83,6 +83,21 @@ const std::vector<SceneGenerator>& scene_registry() {
       {"dense-pile",
        "N cubes of edge 0.5 m (0 for the default 1000) tilted slightly, dropped into a 4 x 4 m bin",
        detail::make_dense_pile},
+      {"card-house",
+       "N storeys (default 5, N <= 20) of two upright planks 0.1 x 1 x 1 m on their thin edge under a lid "
+       "plank 1.2 x 0.1 x 1 m, each resting exactly on the one below",
+       detail::make_card_house},
+      {"heavy-drop",
+       "a tower of N unit boxes of 1 kg (default 10, N <= 50) and a 100 kg unit box dropped on it from 1 m",
+       detail::make_heavy_drop},
+      {"sphere-chain",
+       "N touching spheres of radius 0.5 m in a row along x (default 100, N <= 1000); the first pushed "
+       "into the others at 5 m/s",
+       detail::make_sphere_chain},
+      {"mixed-sizes",
+       "a 10 m box of 1000 kg with N x N boxes of 0.05 m and 0.1 kg resting on it and N x N on the "
+       "ground beside it (default N 5, N <= 20)",
+       detail::make_mixed_sizes},
       // Analytic scenes (closed-form answers; N ignored).
       {"free-fall", "one sphere falling from y = 100 m; 180 steps of free flight",
        detail::make_free_fall},

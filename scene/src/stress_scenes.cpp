@@ -14,14 +14,14 @@ namespace {
 constexpr double kGroundMargin = 10.0;  // as generators.cpp
 const Vec3 kUnitHalf = Vec3::Constant(0.5);
 
+}  // namespace
+
 Scene start_scene(const char* name, const SceneParams& params) {
   Scene scene;
   scene.name = name;
   scene.seed = params.seed;
   return scene;
 }
-
-}  // namespace
 
 // ---- Stress scenes --------------------------------------------------------
 

@@ -19,7 +19,8 @@ TEST(Stress, SuiteListsEveryDocumentedCase) {
   for (const char* n : {"tower-10", "tower-20", "tower-30", "pyramid-20", "pyramid-30", "mass-ratio-1:10",
                         "mass-ratio-1:100", "mass-ratio-1:1000", "bullet-50-canonical", "bullet-200-stock",
                         "bullet-500-stock-ccd", "far-origin-1e3", "far-origin-1e4", "far-origin-1e5",
-                        "dense-pile-1000", "long-run"})
+                        "dense-pile-1000", "long-run", "tower-50", "card-house-5", "heavy-drop-10",
+                        "sphere-chain-100", "mixed-sizes-5", "bullet-border-200"})
     EXPECT_TRUE(names.count(n)) << n;
   for (const StressCase& c : suite)
     if (c.name == "long-run") { EXPECT_EQ(c.steps, 100000); }

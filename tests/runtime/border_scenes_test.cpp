@@ -9,12 +9,7 @@
 namespace soda {
 namespace {
 
-GridOptions border_grid() {
-  GridOptions g;
-  g.cell_size = 2.0;
-  g.origin = Vec3::Zero();
-  return g;
-}
+using test::border_grid;
 
 struct Outcome {
   std::uint64_t reference = 0, partitioned = 0;
@@ -62,10 +57,18 @@ TEST(BorderScenes, BoxesSlidingAcrossBorders) {
 TEST(BorderScenes, FastSphereCrossingTerritories) {
   // It leaves the corner x = z = 0 at 20 m/s (1/3 m per step), hits a box,
   // bounces off the walls: with 2 m cells it crosses borders often.
-  for (const auto& [partition, k] : {std::pair<std::string, int>{"grid:4x1x4", 16}, {"kmeans", 8}}) {
-    const Outcome o = run("projectile", 0, partition, k, border_grid(), 400);
+  // Migrations (measured): 8 on the grid, 2 with k-means since the
+  // canonical world's two fixed friction directions (#17; 3 before).
+  struct Case {
+    std::string partition;
+    int k;
+    std::size_t migrations;
+  };
+  for (const Case& c : {Case{"grid:4x1x4", 16, 3}, Case{"kmeans", 8, 2}}) {
+    const std::string& partition = c.partition;
+    const Outcome o = run("projectile", 0, partition, c.k, border_grid(), 400);
     EXPECT_EQ(hash_hex(o.partitioned), hash_hex(o.reference));
-    EXPECT_GE(o.total.migrations_out, 3u) << partition;
+    EXPECT_GE(o.total.migrations_out, c.migrations) << partition;
     EXPECT_GT(o.total.ghosts_sent, 0u) << partition;
   }
 }

@@ -19,6 +19,15 @@
 
 namespace soda::test {
 
+/// 2 m cells from the origin: borders at x, y, z = 0 (and every 2 m), where
+/// the border and stress scenes put their contacts.
+inline GridOptions border_grid() {
+  GridOptions g;
+  g.cell_size = 2.0;
+  g.origin = Vec3::Zero();
+  return g;
+}
+
 inline Scene scene(const std::string& name, int n, std::uint64_t seed = 1) {
   return make_scene(name, SceneParams{n, seed, false});
 }

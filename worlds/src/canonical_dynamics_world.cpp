@@ -1,5 +1,7 @@
 #include "canonical_dynamics_world.h"
 
+#include "island_solver_settings.h"
+
 #include <algorithm>
 #include <numeric>
 #include <stdexcept>
@@ -224,9 +226,11 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
       continue;
     }
     stats_.solved_manifolds += static_cast<std::size_t>(manifold_count);
-    solver->solveGroup(&island_bodies_[body_begin], body_count,
-                       manifold_count ? &manifold_ptrs_[m_begin] : nullptr, manifold_count, nullptr, 0,
-                       solver_info, getDebugDrawer(), dispatcher);
+    btPersistentManifold** manifolds = manifold_count ? &manifold_ptrs_[m_begin] : nullptr;
+    solver->solveGroup(&island_bodies_[body_begin], body_count, manifolds, manifold_count, nullptr, 0,
+                       island_solver_info(solver_info, island_info_, &island_bodies_[body_begin], body_count,
+                                          manifolds, manifold_count),
+                       getDebugDrawer(), dispatcher);
   }
   stats_.lone_bodies = lone_bodies_.size();
   if (!lone_bodies_.empty())

@@ -93,6 +93,7 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
   std::vector<IslandManifold> island_manifolds_;   // by island, then (id0, id1)
   std::vector<btPersistentManifold*> manifold_ptrs_;
   std::vector<btCollisionObject*> lone_bodies_;
+  btContactSolverInfo island_info_;  // an island's own settings (island_solver_settings.h)
 };
 
 }  // namespace soda

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "canonical_world_parts.h"
+#include "island_solver_settings.h"
 #include "soda/worlds/bullet_allocator.h"
 #include "soda/worlds/bullet_bodies.h"
 
@@ -53,7 +54,7 @@ void CanonicalWorld::build(const SceneSettings& settings) {
   install_bullet_allocator();
   parts_ = std::make_unique<CanonicalWorldParts>();
   parts_->world.setGravity(to_bt(settings_.gravity));
-  parts_->world.getSolverInfo().m_numIterations = settings_.iterations;
+  configure_canonical_solver(parts_->world.getSolverInfo(), settings_);
 }
 
 // As make_rigid_body, but with a raw start transform when restoring: the

@@ -14,6 +14,7 @@
 #include "canonical_dynamics_world.h"
 #include "soda/worlds/bullet_bodies.h"
 #include "soda/worlds/value_codec.h"
+#include "island_solver_settings.h"
 #include "territory_world_parts.h"
 
 namespace soda {
@@ -198,9 +199,11 @@ void TerritoryWorld::solve_local(const std::vector<int>& components) {
       lone.push_back(bodies[0]);
       continue;
     }
-    solver.solveGroup(bodies, body_count,
-                      manifold_count ? &held_ptrs_[static_cast<std::size_t>(held_begin_[uk])] : nullptr,
-                      manifold_count, nullptr, 0, info, nullptr, &parts_->dispatcher);
+    btPersistentManifold** manifolds =
+        manifold_count ? &held_ptrs_[static_cast<std::size_t>(held_begin_[uk])] : nullptr;
+    solver.solveGroup(bodies, body_count, manifolds, manifold_count, nullptr, 0,
+                      island_solver_info(info, parts_->island_info, bodies, body_count, manifolds, manifold_count),
+                      nullptr, &parts_->dispatcher);
   }
   // Lone bodies have no solver rows: one call for all is exact (as in the
   // canonical world).
@@ -402,9 +405,12 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
       write_manifold_points(*m.state, *copies.back());
       ptrs.push_back(copies.back().get());
     }
-    parts_->solver.solveGroup(bodies.data(), static_cast<int>(bodies.size()), ptrs.empty() ? nullptr : ptrs.data(),
-                              static_cast<int>(ptrs.size()), nullptr, 0, parts_->world.getSolverInfo(), nullptr,
-                              &parts_->dispatcher);
+    btPersistentManifold** manifold_ptrs = ptrs.empty() ? nullptr : ptrs.data();
+    const int body_count = static_cast<int>(bodies.size()), manifold_count = static_cast<int>(ptrs.size());
+    parts_->solver.solveGroup(bodies.data(), body_count, manifold_ptrs, manifold_count, nullptr, 0,
+                              island_solver_info(parts_->world.getSolverInfo(), parts_->island_info, bodies.data(),
+                                                 body_count, manifold_ptrs, manifold_count),
+                              nullptr, &parts_->dispatcher);
     for (std::size_t i = 0; i < copies.size(); ++i) result.manifolds[i] = read_manifold_state(*copies[i]);
   }
   result.bodies.reserve(bodies.size());

@@ -9,6 +9,7 @@
 #include "canonical_dynamics_world.h"
 #include "soda/worlds/bullet_allocator.h"
 #include "soda/worlds/bullet_bodies.h"
+#include "island_solver_settings.h"
 #include "territory_world_parts.h"
 
 namespace soda {
@@ -70,7 +71,7 @@ void TerritoryWorld::init_world(const TerritoryWorld* share_pools_of) {
   install_bullet_allocator();
   parts_ = std::make_unique<Parts>(this, share_pools_of ? share_pools_of->parts_->config : nullptr);
   parts_->world.setGravity(to_bt(settings_.gravity));
-  parts_->world.getSolverInfo().m_numIterations = settings_.iterations;
+  configure_canonical_solver(parts_->world.getSolverInfo(), settings_);
 }
 
 void TerritoryWorld::check_contract(const Entry& e) const {

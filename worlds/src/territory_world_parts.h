@@ -71,6 +71,7 @@ struct TerritoryWorld::Parts {
   btSequentialImpulseConstraintSolver solver;
   btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, config.get()};
   btManifoldArray scratch;  // near callback
+  btContactSolverInfo island_info;  // an island's own settings (island_solver_settings.h)
 };
 
 /// A component of this world's contact graph that waits for glue (it holds

@@ -29,6 +29,8 @@ struct StressCase {
   std::string criterion;  // the pass criterion, in words
   double dt = 0;          // > 0: override the scene's step (steps are then scaled to keep the simulated time)
   int iterations = 0;     // > 0: override the scene's solver iterations
+  int substeps = 0;       // > 0: override the scene's substeps
+  std::string variant{};  // diagnosis: solver_variant.h (canonical world only)
 };
 
 /// The case with dt and iterations overridden (0: unchanged); steps are

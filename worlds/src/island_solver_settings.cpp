@@ -1,0 +1,99 @@
+// Solver settings of the canonical step (island_solver_settings.h).
+#include "island_solver_settings.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace soda {
+
+void configure_canonical_solver(btContactSolverInfo& info, const SceneSettings& settings) {
+  info.m_numIterations = settings.iterations;
+  info.m_solverMode |= SOLVER_USE_2_FRICTION_DIRECTIONS | SOLVER_ENABLE_FRICTION_DIRECTION_CACHING |
+                       SOLVER_DISABLE_VELOCITY_DEPENDENT_FRICTION_DIRECTION;
+}
+
+IslandProfile profile_island(btCollisionObject* const* bodies, int body_count,
+                             btPersistentManifold* const* manifolds, int manifold_count) {
+  IslandProfile p;
+  if (manifold_count == 0) return p;
+  for (int i = 0; i < body_count; ++i) bodies[i]->setCompanionId(i);
+  auto index_of = [&](const btCollisionObject* o) {
+    if (o->isStaticOrKinematicObject()) return -1;
+    const int i = o->getCompanionId();
+    return i >= 0 && i < body_count && bodies[i] == o ? i : -2;
+  };
+  // Breadth-first levels from the statics over the contact graph (CSR).
+  thread_local std::vector<int> level, degree, adjacency, queue;
+  level.assign(static_cast<std::size_t>(body_count), 0);
+  degree.assign(static_cast<std::size_t>(body_count) + 1, 0);
+  queue.clear();
+  for (int k = 0; k < manifold_count; ++k) {
+    const btPersistentManifold* m = manifolds[k];
+    if (m->getNumContacts() == 0) continue;
+    const int a = index_of(m->getBody0()), b = index_of(m->getBody1());
+    if (a >= 0 && b >= 0) {
+      ++degree[static_cast<std::size_t>(a) + 1];
+      ++degree[static_cast<std::size_t>(b) + 1];
+      const btScalar ia = static_cast<const btRigidBody*>(m->getBody0())->getInvMass();
+      const btScalar ib = static_cast<const btRigidBody*>(m->getBody1())->getInvMass();
+      if (ia > 0 && ib > 0) p.mass_ratio = std::max(p.mass_ratio, double(std::max(ia / ib, ib / ia)));
+    } else if (a >= 0 && b == -1 && level[static_cast<std::size_t>(a)] == 0) {
+      level[static_cast<std::size_t>(a)] = 1;
+      queue.push_back(a);
+    } else if (b >= 0 && a == -1 && level[static_cast<std::size_t>(b)] == 0) {
+      level[static_cast<std::size_t>(b)] = 1;
+      queue.push_back(b);
+    }
+  }
+  for (int i = 0; i < body_count; ++i) degree[static_cast<std::size_t>(i) + 1] += degree[static_cast<std::size_t>(i)];
+  adjacency.resize(static_cast<std::size_t>(degree.back()));
+  thread_local std::vector<int> cursor;
+  cursor.assign(degree.begin(), degree.end() - 1);
+  for (int k = 0; k < manifold_count; ++k) {
+    const btPersistentManifold* m = manifolds[k];
+    if (m->getNumContacts() == 0) continue;
+    const int a = index_of(m->getBody0()), b = index_of(m->getBody1());
+    if (a < 0 || b < 0) continue;
+    adjacency[static_cast<std::size_t>(cursor[static_cast<std::size_t>(a)]++)] = b;
+    adjacency[static_cast<std::size_t>(cursor[static_cast<std::size_t>(b)]++)] = a;
+  }
+  for (std::size_t q = 0; q < queue.size(); ++q) {
+    const int i = queue[q];
+    const int next = level[static_cast<std::size_t>(i)] + 1;
+    p.height = std::max(p.height, next - 1);
+    for (int e = degree[static_cast<std::size_t>(i)]; e < degree[static_cast<std::size_t>(i) + 1]; ++e) {
+      const int j = adjacency[static_cast<std::size_t>(e)];
+      if (level[static_cast<std::size_t>(j)] == 0) {
+        level[static_cast<std::size_t>(j)] = next;
+        queue.push_back(j);
+      }
+    }
+  }
+  for (int i = 0; i < body_count; ++i) bodies[i]->setCompanionId(-1);
+  return p;
+}
+
+int island_iterations(int base, const IslandProfile& profile) {
+  double factor = 1.0;
+  if (profile.height > kPlainHeight) {
+    const double h = profile.height / kHeightScale;
+    factor = std::max(factor, h * h);
+  }
+  if (profile.mass_ratio > kPlainMassRatio) factor = std::max(factor, std::sqrt(profile.mass_ratio));
+  factor = std::min(factor, kMaxIterationFactor);
+  return static_cast<int>(std::ceil(base * factor));
+}
+
+const btContactSolverInfo& island_solver_info(const btContactSolverInfo& base, btContactSolverInfo& scratch,
+                                              btCollisionObject* const* bodies, int body_count,
+                                              btPersistentManifold* const* manifolds, int manifold_count) {
+  const int iterations =
+      island_iterations(base.m_numIterations, profile_island(bodies, body_count, manifolds, manifold_count));
+  if (iterations == base.m_numIterations) return base;
+  scratch = base;
+  scratch.m_numIterations = iterations;
+  return scratch;
+}
+
+}  // namespace soda

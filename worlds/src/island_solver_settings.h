@@ -1,0 +1,70 @@
+// Internal: the solver settings of the canonical step — the defaults every
+// exact world (CanonicalWorld, TerritoryWorld) starts from, and the settings
+// chosen per island from the island's contents alone. One place, shared by
+// every solveGroup call of an island (canonical_dynamics_world.cpp,
+// territory_islands.cpp), so that an island is solved the same way whichever
+// world holds it: N territories still equal one (DESIGN.md §2).
+//
+// Why these settings (measured, docs/stress.md "Why each case fails at the
+// defaults"):
+//  - two friction directions per contact point, fixed by the contact normal
+//    (btPlaneSpace1) and cached in the manifold point: Bullet's default is
+//    one friction row along the slip velocity, so a resting stack has no
+//    friction across it and its boxes creep sideways; awake, a 10-box tower
+//    explodes within a minute (9 km) at any iteration count tried. With the
+//    fixed pair it stands (5.5 cm).
+//  - iterations grow with the island's stack height and mass ratio
+//    (island_iterations): sequential impulses carry a load down a chain of
+//    contacts one link per iteration, so tall stacks and heavy-on-light
+//    pairs need more of them. Islands lower than kPlainHeight with equal
+//    masses keep the scene's iterations (piles of cubes cost the same).
+#pragma once
+
+#include <btBulletDynamicsCommon.h>
+
+#include "soda/scene/scene.h"
+
+namespace soda {
+
+/// Islands whose stack height (island_height) is at most this keep the
+/// scene's iterations: a 10-box tower stands at 10 iterations (measured).
+constexpr int kPlainHeight = 10;
+/// Above kPlainHeight, iterations = scene's x (height / kHeightScale)^2:
+/// 20 boxes -> x11, 30 boxes -> x25 (the least that keeps a 30-box tower
+/// standing at 1/60 s was x25; x15 let it lean 0.16 m).
+constexpr double kHeightScale = 6.0;
+/// Mass ratios above this keep the scene's iterations only if the height
+/// allows: 1:10 stands at 10 iterations (measured).
+constexpr double kPlainMassRatio = 10.0;
+/// Above kPlainMassRatio, iterations = scene's x sqrt(ratio) (1:100 -> x10,
+/// 1:1000 -> x31.6; 1:1000 stands from x15 up, 1:100 from x2).
+/// Upper bound of either factor: the cost of one island stays bounded.
+constexpr double kMaxIterationFactor = 40.0;
+
+/// Sets the canonical defaults on a world's solver info: scene iterations,
+/// two fixed, cached friction directions. Called once when a world is built.
+void configure_canonical_solver(btContactSolverInfo& info, const SceneSettings& settings);
+
+/// What island_iterations reads from an island: a pure function of its
+/// bodies and manifolds (the same in every world that solves it).
+struct IslandProfile {
+  int height = 0;          // longest chain of touching dynamic bodies from a static one (1: rests on one)
+  double mass_ratio = 1;   // largest m_a / m_b over touching dynamic pairs (>= 1)
+};
+
+/// Reads the island's profile. `bodies` are the island's dynamic bodies,
+/// `manifolds` its manifolds (any order; those without points are ignored).
+/// Uses the bodies' companion ids as scratch and leaves them at -1.
+IslandProfile profile_island(btCollisionObject* const* bodies, int body_count,
+                             btPersistentManifold* const* manifolds, int manifold_count);
+
+/// The iterations of an island of this profile, from the scene's `base`.
+int island_iterations(int base, const IslandProfile& profile);
+
+/// The solver info to solve one island with: `base` itself when nothing
+/// differs, else `scratch` (a copy of base with the island's iterations).
+const btContactSolverInfo& island_solver_info(const btContactSolverInfo& base, btContactSolverInfo& scratch,
+                                              btCollisionObject* const* bodies, int body_count,
+                                              btPersistentManifold* const* manifolds, int manifold_count);
+
+}  // namespace soda
