@@ -278,6 +278,7 @@ void SimulationEngine::rollback_locked(std::int64_t scene_step) {
 // World w's thread, at the boundary it was held at.
 void SimulationEngine::rewind_world(WorldId w, const WorldSnapshot& state) {
   auto fresh = std::make_unique<TerritoryWorld>(state, w, world->world(w).map());
+  fresh->set_solver_pool(world->world(w).solver_pool());
   core->buffers[static_cast<std::size_t>(w)]->invalidate_from(state.steps_done + 1);
   parts().process(w).rewind(*fresh, state.steps_done);
   parts().worlds[static_cast<std::size_t>(w)] = std::move(fresh);

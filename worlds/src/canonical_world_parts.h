@@ -8,6 +8,7 @@
 
 #include "body_factory.h"
 #include "canonical_dynamics_world.h"
+#include "coloured_solver.h"
 #include "soda/worlds/canonical_world.h"
 #include "world_teardown.h"
 
@@ -26,7 +27,7 @@ struct CanonicalWorldParts {
   btDefaultCollisionConfiguration config;
   btCollisionDispatcher dispatcher{&config};
   btDbvtBroadphase broadphase;
-  btSequentialImpulseConstraintSolver solver;
+  ColouredSolver solver;  // docs/coloured-solve.md
   CanonicalDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
 };
 

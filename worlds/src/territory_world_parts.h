@@ -12,6 +12,7 @@
 #include <btBulletDynamicsCommon.h>
 
 #include "body_factory.h"
+#include "coloured_solver.h"
 #include "soda/worlds/territory_world.h"
 #include "world_teardown.h"
 
@@ -66,7 +67,7 @@ struct TerritoryWorld::Parts {
   std::shared_ptr<btDefaultCollisionConfiguration> config;  // first: outlives every user of its pools
   Dispatcher dispatcher;
   btDbvtBroadphase broadphase;
-  btSequentialImpulseConstraintSolver solver;
+  ColouredSolver solver;  // docs/coloured-solve.md
   btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, config.get()};
   btManifoldArray scratch;  // near callback
 };

@@ -80,6 +80,10 @@ struct RunConfig {
   /// stock world, watchdog heal, SyncTest or a shuffle seed.
   std::optional<std::vector<UserInput>> inputs;
   std::string inputs_source = "inputs";  // names the inputs in messages (the file)
+  /// Threads that solve the colours of a large island (docs/coloured-solve.md):
+  /// K = 1, the canonical world's pool; K > 1, PartitionedOptions::solver_threads.
+  /// Results never depend on it. 1: none. >= 1. Not with the stock world.
+  int solver_threads = 1;
 };
 
 /// Summary statistics of per-step times, in milliseconds.
@@ -122,6 +126,8 @@ struct RunResult {
   std::vector<WorldMetrics> world_metrics;  // one per world, by id
   std::vector<std::int64_t> healed_steps;   // watchdog Heal: steps re-simulated with substeps
   std::uint64_t sync_rollbacks = 0;         // SyncTest: rollbacks checked bit-identical
+  int solver_threads = 1;                   // RunConfig::solver_threads
+  std::uint64_t coloured_islands = 0;       // islands solved coloured, summed over steps (and worlds)
 };
 
 /// Insertion order of the scene's bodies for a shuffle seed (0: scene order).
