@@ -96,7 +96,7 @@ bool ColouredSolver::colour(const btContactSolverInfo& info) {
   // Small colours join the overflow; the rest are numbered in order.
   std::vector<int> rank(kMaxColours + 1, 0);
   int colours = 0;
-  for (int c = 0; c < kMaxColours; ++c) rank[static_cast<std::size_t>(c)] = size[static_cast<std::size_t>(c)] >= kMinRunsPerColour ? colours++ : -1;
+  for (std::size_t c = 0; c < kMaxColours; ++c) rank[c] = size[c] >= kMinRunsPerColour ? colours++ : -1;
   colour_begin_.assign(static_cast<std::size_t>(colours) + 2, 0);
   for (std::size_t r = 0; r < runs_.size(); ++r) {
     int k = rank[static_cast<std::size_t>(colour_of_run_[r])];
@@ -104,7 +104,7 @@ bool ColouredSolver::colour(const btContactSolverInfo& info) {
     colour_of_run_[r] = k;
     ++colour_begin_[static_cast<std::size_t>(k) + 1];
   }
-  for (int k = 0; k <= colours; ++k) colour_begin_[static_cast<std::size_t>(k) + 1] += colour_begin_[static_cast<std::size_t>(k)];
+  for (std::size_t k = 0; k <= static_cast<std::size_t>(colours); ++k) colour_begin_[k + 1] += colour_begin_[k];
   colour_runs_.resize(runs_.size());
   std::vector<int> cursor(colour_begin_.begin(), colour_begin_.end() - 1);
   for (std::size_t r = 0; r < runs_.size(); ++r)
