@@ -36,6 +36,7 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
   if (c.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument("SimulationConfig: watchdog heal is not supported by a Simulation (off or stop)");
   o.reach_speed = c.reach_speed;
+  o.solver_threads = c.solver_threads;
   if (c.past_inputs && c.validate)
     throw std::invalid_argument("SimulationConfig: past_inputs with validate is not supported (the validator "
                                 "cannot follow a rollback yet)");

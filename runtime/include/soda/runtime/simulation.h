@@ -96,6 +96,9 @@ struct SimulationConfig {
   /// Speed (m/s) the worlds' neighbourhoods are sized for
   /// (PartitionedOptions::reach_speed; 0: from the scene).
   double reach_speed = 0;
+  /// Threads that solve the colours of a large island
+  /// (PartitionedOptions::solver_threads, docs/coloured-solve.md). >= 1.
+  int solver_threads = 1;
 };
 
 /// A world failed. world(): the world whose thread threw (kNoWorld if no
