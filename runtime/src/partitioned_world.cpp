@@ -70,8 +70,6 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.rollback_cpu_seconds += m.rollback_cpu_seconds;
   t.lead_max = std::max(t.lead_max, m.lead_max);
   t.kept_states_max = std::max(t.kept_states_max, m.kept_states_max);
-  t.coloured_islands += m.coloured_islands;
-  t.solver_threads = std::max(t.solver_threads, m.solver_threads);
 }
 
 }  // namespace
@@ -128,12 +126,7 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   if (hooks.fuzz_seed) in.transport = make_fuzzing_transport(std::move(in.transport), hooks.fuzz_seed);
   if (options_.validate && !scene) throw std::logic_error("PartitionedWorld::build: validation needs the scene");
   in.validator = options_.validate ? std::make_unique<Validator>(*scene, k) : nullptr;
-  if (options_.solver_threads < 1) throw std::invalid_argument("PartitionedWorld: solver_threads must be >= 1");
-  if (options_.solver_threads > 1) in.solver_pool = std::make_shared<SolverPool>(options_.solver_threads);
-  for (WorldId w = 0; w < k; ++w) {
-    in.worlds.push_back(make_world(w));
-    in.worlds.back()->set_solver_pool(in.solver_pool);
-  }
+  for (WorldId w = 0; w < k; ++w) in.worlds.push_back(make_world(w));
   const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
   in.horizon = std::make_unique<SharedMemoryHorizon>(k, steps_done_ * substeps_);
   // Speculation: a world waiting for the horizon, or told to roll back
