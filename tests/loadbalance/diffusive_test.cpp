@@ -134,6 +134,9 @@ TEST(Diffusive, NeverGivesAWorldsLastCell) {
 TEST(Diffusive, AStarvingWorldRelocates) {
   BalanceOptions options;
   options.policy = "diffusive";
+  // Step-by-step cession (4 cells per move): at 16 the load diffuses along
+  // the row through worlds 2 and 1 before any world starves.
+  options.max_cells_per_move = 4;
   const CellBox box{{0, 0, 0}, {15, 0, 3}};
   CessionRun run{test::make_map(box, 4, [](const CellCoord& c) { return c.x / 4; }), {}, make_balance_policy(options), {}};
   for (int x = 12; x < 16; ++x)
