@@ -91,7 +91,11 @@ LbExperimentResult run_lb_experiment(const Scene& scene, const LbExperimentConfi
   std::vector<std::optional<RunResult>> best(config.policies.size());
   r.runs.resize(config.policies.size());
   std::optional<RunResult> stock;
-  const int runs = static_cast<int>(config.policies.size()) + (config.baseline ? 1 : 0);
+  // The stock world takes no inputs: a scene with inputs has no baseline.
+  const bool baseline = config.baseline && !config.run.inputs;
+  if (config.baseline && !baseline)
+    spdlog::warn("soda lb: no stock baseline for a scene with inputs (the stock world does not take them)");
+  const int runs = static_cast<int>(config.policies.size()) + (baseline ? 1 : 0);
   for (int rep = 0; rep < config.repeat; ++rep) {
     for (int k = 0; k < runs; ++k) {
       const int i = rep % 2 == 0 ? k : runs - 1 - k;  // interleaved: drift of the machine hits every run alike

@@ -90,6 +90,13 @@ int run_lb(LbOptions& o) {
   if (o.steps) scene.settings.steps = *o.steps;
   validate_scene(scene, o.scene);
   o.experiment.run.steps = scene.settings.steps;
+  // A registry scene's own inputs (rain's later waves), applied by the
+  // PartitionedWorld under every policy.
+  if (std::vector<UserInput> own = scene_inputs(o.scene, o.params); !own.empty()) {
+    o.experiment.run.inputs = std::move(own);
+    o.experiment.run.inputs_source = "scene '" + o.scene + "' (its inputs)";
+    o.experiment.run.inputs_via_simulation = false;
+  }
   if (o.experiment.run.partition.empty())
     o.experiment.run.partition = "grid:" + std::to_string(o.experiment.run.territories) + "x1x1";
   o.experiment.policies = split(o.policies);

@@ -244,9 +244,23 @@ void print_summary(const soda::RunResult& r) {
 
 int cmd_run(Options& o) {
   const soda::Scene scene = resolve_scene(o);
+  // A registry scene's own inputs (rain's later waves) are part of the
+  // scene; an input file on top of them is refused rather than merged (the
+  // two lists' ids and orders are nobody's to reconcile; write the scene's
+  // with inputs_to_json and edit that file instead).
+  std::vector<soda::UserInput> own = soda::scene_inputs(o.scene, o.params);
   if (!o.inputs_path.empty()) {
+    if (!own.empty())
+      throw std::invalid_argument("--inputs " + o.inputs_path + ": scene '" + o.scene + "' has " +
+                                  std::to_string(own.size()) +
+                                  " inputs of its own (docs/scenes.md), applied by themselves; an input file "
+                                  "cannot be added to them (write them out with inputs_to_json, edit that file and "
+                                  "run the scene without them, or use a scene without inputs)");
     o.config.inputs = soda::load_input_file(o.inputs_path);
     o.config.inputs_source = o.inputs_path;
+  } else if (!own.empty()) {
+    o.config.inputs = std::move(own);
+    o.config.inputs_source = "scene '" + o.scene + "' (its inputs)";
   }
   const soda::RunResult r = soda::run_scene(scene, o.config);
   print_summary(r);

@@ -34,6 +34,14 @@ class InputQueue {
       if (i.step == step) out.push_back(i);
     return out;
   }
+  /// The inputs at boundary `step` and after, in (step, sequence) order.
+  std::vector<UserInput> from(std::int64_t step) const {
+    std::lock_guard lock(mutex_);
+    std::vector<UserInput> out;
+    for (const UserInput& i : inputs_)
+      if (i.step >= step) out.push_back(i);
+    return out;
+  }
 
  private:
   mutable std::mutex mutex_;

@@ -8,6 +8,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include "input_ledger.h"
+#include "input_queue.h"
 #include "partitioned_internals.h"
 #include "soda/worlds/world_snapshot.h"
 #include "testing_hooks.h"
@@ -77,6 +79,7 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
 PartitionedWorld::PartitionedWorld(const Scene& scene, TerritoryMap map, PartitionedOptions options)
     : options_(std::move(options)), substeps_(scene.settings.substeps), base_substeps_(substeps_) {
   init_balance();
+  init_inputs(scene);
   map = map_with_reach(scene, map, options_.reach_speed);
   build(&scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(scene, w, map); });
 }
@@ -89,8 +92,37 @@ PartitionedWorld::PartitionedWorld(const WorldSnapshot& state, TerritoryMap map,
   if (state.steps_done < 0) throw std::invalid_argument("PartitionedWorld: a snapshot with a negative step count");
   init_balance();
   const Scene scene = scene_of(state);
+  init_inputs(scene);
   map = map_with_reach(scene, map, options_.reach_speed);
   build(&scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
+}
+
+// PartitionedOptions::inputs: checked in order of step, then of the list,
+// as a Simulation's input calls check them, and queued for every world.
+void PartitionedWorld::init_inputs(const Scene& scene) {
+  if (options_.inputs.empty()) return;
+  std::vector<std::size_t> order(options_.inputs.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return options_.inputs[a].step < options_.inputs[b].step;
+  });
+  InputLedger ledger(scene);
+  inputs_ = std::make_unique<InputQueue>();
+  std::uint64_t sequence = 0;
+  for (std::size_t i : order) {
+    UserInput in = options_.inputs[i];
+    const std::string what = "PartitionedOptions::inputs: input " + std::to_string(i) + " (" + describe(in) + ")";
+    if (in.step < steps_done_)
+      throw std::invalid_argument(what + ": before the world's first step " + std::to_string(steps_done_));
+    try {
+      ledger.check(in);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(what + ": " + e.what());
+    }
+    ledger.record(in);
+    in.sequence = sequence++;
+    inputs_->add(std::move(in));
+  }
 }
 
 // The processes' counts are carried (metrics()); the worlds are returned,
@@ -126,6 +158,9 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   if (hooks.fuzz_seed) in.transport = make_fuzzing_transport(std::move(in.transport), hooks.fuzz_seed);
   if (options_.validate && !scene) throw std::logic_error("PartitionedWorld::build: validation needs the scene");
   in.validator = options_.validate ? std::make_unique<Validator>(*scene, k) : nullptr;
+  // The inputs still to come (those of earlier steps are in the scene).
+  if (in.validator && inputs_)
+    for (const UserInput& input : inputs_->from(steps_done_)) in.validator->expect(input, substeps_);
   for (WorldId w = 0; w < k; ++w) in.worlds.push_back(make_world(w));
   const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
   in.horizon = std::make_unique<SharedMemoryHorizon>(k, steps_done_ * substeps_);
@@ -176,6 +211,7 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
     in.add_process(std::make_unique<Process>(*in.worlds[static_cast<std::size_t>(w)], *in.transport, *in.graph,
                                              in.validator.get(), w == 0 ? options_.progress : nullptr, substeps_,
                                              hooks.solve_everywhere, safety));
+    if (inputs_) in.process(w).attach(Process::Output{.inputs = inputs_.get()});
   }
 }
 

@@ -17,6 +17,7 @@
 #include "soda/grid/partition.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/memory_estimate.h"
+#include "soda/scene/validate.h"
 #include "soda/worlds/canonical_world.h"
 #include "soda/worlds/stock_world.h"
 
@@ -119,13 +120,17 @@ RunResult build_run_destroy(const Scene& scene, const RunConfig& config, const S
 
 // K > 1: all steps in one call (the worlds run without a barrier between
 // steps); progress and step times come from world 0's thread. Every world
-// inserts its bodies in the order of config.shuffle_seed.
+// inserts its bodies in the order of config.shuffle_seed. Inputs (when not
+// through a Simulation: inputs_through_simulation) go to the PartitionedWorld.
 RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   const Scene scene = in_insertion_order(scene_in, config.shuffle_seed);
   if (config.world != WorldKind::Canonical)
     throw std::invalid_argument(config.territories > 1
                                     ? "--territories > 1 runs the canonical world only (not --world stock)"
-                                    : "--watchdog heal and --sync-test run the canonical world only (not --world stock)");
+                                    : "--watchdog heal, --sync-test, --lb and inputs run the canonical world only "
+                                      "(not --world stock)");
+  if (config.inputs && config.shuffle_seed != 0)
+    throw std::invalid_argument("inputs cannot be combined with --shuffle-seed");
   RunResult r;
   r.world = config.world;
   r.bodies = scene.bodies.size();
@@ -161,6 +166,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   options.eager_bets = config.eager_bets;
   options.reach_speed = config.reach_speed;
   options.balance = config.balance;
+  if (config.inputs) options.inputs = *config.inputs;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
   step_ends.reserve(static_cast<std::size_t>(config.steps));
   std::int64_t t0 = 0;
@@ -181,7 +187,15 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
     }
   };
   const Stamp start;
-  auto owned_world = std::make_unique<PartitionedWorld>(scene, map, options);
+  std::unique_ptr<PartitionedWorld> owned_world;
+  try {
+    owned_world = std::make_unique<PartitionedWorld>(scene, map, options);
+  } catch (const std::invalid_argument& e) {
+    // A bad input (PartitionedOptions::inputs): name where the inputs came from.
+    if (config.inputs && std::string(e.what()).starts_with("PartitionedOptions::inputs"))
+      throw SceneError(config.inputs_source + ": " + e.what());
+    throw;
+  }
   PartitionedWorld& world = *owned_world;
   const Stamp built;
   r.setup_seconds = built.wall_since(start);
@@ -205,6 +219,10 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.message_bytes = world.bytes_sent();
   r.state_hash = world.state_hash();
   r.sleeping_bodies = world.sleeping_count();
+  if (config.inputs) {  // at the end: the inputs added and removed bodies
+    r.bodies = world.body_count();
+    r.dynamic_bodies = r.bodies - (scene.bodies.size() - scene.dynamic_count());
+  }
   r.healed_steps = world.healed_steps();
   r.sync_rollbacks = world.sync_rollbacks();
   r.balance_log = world.balance_log();
@@ -305,8 +323,9 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   const SleepingSwitch sleeping(config.sleeping);
   const Stamp start;
   check_run_memory(scene, config);
-  if (config.inputs) return run_with_inputs(scene, config);
-  if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0)
+  if (config.inputs && inputs_through_simulation(config)) return run_with_inputs(scene, config);
+  if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0 ||
+      config.inputs)
     return run_partitioned(scene, config);
   const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), config.shuffle_seed);
   switch (config.world) {

@@ -18,9 +18,6 @@ namespace {
 void check_supported(const RunConfig& config) {
   if (config.world != WorldKind::Canonical)
     throw std::invalid_argument("--inputs runs the canonical world only (not --world stock)");
-  if (config.watchdog.response == WatchdogResponse::Heal)
-    throw std::invalid_argument("--inputs cannot be combined with --watchdog heal (use stop or off)");
-  if (config.sync_test > 0) throw std::invalid_argument("--inputs cannot be combined with --sync-test");
   if (config.shuffle_seed != 0) throw std::invalid_argument("--inputs cannot be combined with --shuffle-seed");
 }
 
@@ -36,6 +33,11 @@ void give(Simulation& sim, const UserInput& in) {
 }
 
 }  // namespace
+
+bool inputs_through_simulation(const RunConfig& config) {
+  return config.inputs_via_simulation && config.balance.policy == "none" && config.sync_test == 0 &&
+         config.watchdog.response != WatchdogResponse::Heal;
+}
 
 RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   check_supported(config);
@@ -98,11 +100,7 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   r.state_hash = sim.state_hash();
   r.sleeping_bodies = sim.sleeping_count();
   r.bodies = sim.body_count();
-  r.dynamic_bodies = scene.dynamic_count();
-  for (const UserInput& in : *config.inputs) {
-    if (in.kind == UserInput::Kind::AddBody) ++r.dynamic_bodies;
-    if (in.kind == UserInput::Kind::RemoveBody) --r.dynamic_bodies;
-  }
+  r.dynamic_bodies = r.bodies - (scene.bodies.size() - scene.dynamic_count());  // at the end
   r.world_metrics = sim.metrics();
   for (const WorldMetrics& m : r.world_metrics) r.cpu_seconds += m.cpu_seconds;
   sim.stop();

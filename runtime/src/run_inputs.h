@@ -6,9 +6,18 @@
 
 namespace soda {
 
-/// run_scene when config.inputs is set (validated there first). Throws
-/// std::invalid_argument for a configuration a Simulation does not run
-/// (stock world, watchdog heal, SyncTest, shuffle seed) and SceneError
+/// Whether run_scene replays config.inputs through a Simulation (the
+/// embedding API's calls): yes unless config.inputs_via_simulation is
+/// false or the run balances load (a policy other
+/// than "none"), runs SyncTest or heals, which a Simulation does not do;
+/// those runs give the inputs to the PartitionedWorld
+/// (PartitionedOptions::inputs), which ends on the same hash.
+bool inputs_through_simulation(const RunConfig& config);
+
+/// run_scene when config.inputs is set and inputs_through_simulation
+/// (validated there first). Throws std::invalid_argument for a
+/// configuration a Simulation does not run (stock world, shuffle seed) and
+/// SceneError
 /// naming the input file, the entry and what is wrong for an input the
 /// Simulation refuses (unknown id, id in use, bad body, ...).
 RunResult run_with_inputs(const Scene& scene, const RunConfig& config);

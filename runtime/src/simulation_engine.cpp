@@ -7,7 +7,6 @@
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/transport.h"
 #include "soda/rollback/commit_horizon.h"
-#include "soda/scene/validate.h"
 #include "thread_pinning.h"
 
 namespace soda {
@@ -57,14 +56,12 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
 }  // namespace
 
 SimulationEngine::SimulationEngine(const Scene& scene, TerritoryMap map, SimulationConfig config)
-    : config_(std::move(config)), substeps_(scene.settings.substeps) {
+    : config_(std::move(config)), substeps_(scene.settings.substeps), ledger_(scene) {
   const int k = map.world_count();
   const PartitionedOptions options = partitioned_options(config_, k);
   schedule = options.schedule;
   threads = schedule == Schedule::ThreadPerWorld ? k : schedule == Schedule::Pool ? options.threads : 1;
   world = std::make_unique<PartitionedWorld>(scene, std::move(map), options);
-  for (const Body& b : scene.bodies) lives_[b.id] = Life{b.is_static};
-  settings_ = scene.settings;
   core = std::make_shared<SimulationCore>(k, substeps_, scene.settings.dt, scene.dynamic_count(),
                                           config_.buffer_capacity);
   for (WorldId w = 0; w < k; ++w) {
@@ -177,51 +174,18 @@ void SimulationEngine::launch_locked() {
 
 // --- input -------------------------------------------------------------------
 
-void SimulationEngine::check_input_locked(const UserInput& in) const {
-  const std::string what = describe(in);
-  if (in.step < 0) throw std::invalid_argument(what + ": the step must be >= 0");
-  if (in.kind == UserInput::Kind::AddBody) {
-    if (lives_.count(in.body.id)) throw std::invalid_argument(what + ": id " + std::to_string(in.body.id) + " is in use");
-    if (in.body.is_static) throw std::invalid_argument(what + ": only dynamic bodies can be added to a running scene");
-    Scene one;
-    one.settings = settings_;
-    one.bodies.push_back(in.body);
-    try {
-      validate_scene(one, "added body", kDoublePrecision ? Precision::Double : Precision::Float);
-    } catch (const SceneError& e) {
-      throw std::invalid_argument(what + ": " + e.what());
-    }
-    return;
-  }
-  auto it = lives_.find(in.id);
-  if (it == lives_.end()) throw std::invalid_argument(what + ": no body has that id");
-  const Life& life = it->second;
-  if (life.is_static) throw std::invalid_argument(what + ": the body is static");
-  if (in.step < life.added || in.step >= life.removed)
-    throw std::invalid_argument(what + ": the body is not in the scene then (added at step " +
-                                std::to_string(life.added) +
-                                (life.removed == INT64_MAX ? "" : ", removed at step " + std::to_string(life.removed)) +
-                                ")");
-  if (in.kind == UserInput::Kind::RemoveBody && life.last_input > in.step)
-    throw std::invalid_argument(what + ": the body has an input at the later step " + std::to_string(life.last_input));
-  if (!in.linear.allFinite() || !in.angular.allFinite())
-    throw std::invalid_argument(what + ": velocities and impulses must be finite");
-}
-
 void SimulationEngine::input(UserInput in) {
   std::lock_guard lock(lifecycle_);
   core->control.rethrow_if_failed();
   if (stopped_) throw std::logic_error("Simulation: input after stop()");
-  check_input_locked(in);
+  ledger_.check(in);
   in.sequence = next_sequence_++;
-  auto record = [&] {
-    const BodyId id = in.kind == UserInput::Kind::AddBody ? in.body.id : in.id;
-    Life& life = lives_[id];
-    if (in.kind == UserInput::Kind::AddBody) life.added = in.step;
-    if (in.kind == UserInput::Kind::RemoveBody) life.removed = in.step;
-    life.last_input = std::max(life.last_input, in.step);
-  };
-  if (core->control.run_if_future(in.step * substeps_, [&] { inputs_.add(in); })) {
+  auto record = [&] { ledger_.record(in); };
+  // The validator learns of the input before any world can begin its step.
+  if (core->control.run_if_future(in.step * substeps_, [&] {
+        if (parts().validator) parts().validator->expect(in, substeps_);
+        inputs_.add(in);
+      })) {
     record();
     return;
   }

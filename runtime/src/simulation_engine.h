@@ -13,6 +13,7 @@
 #include <mutex>
 #include <vector>
 
+#include "input_ledger.h"
 #include "input_queue.h"
 #include "partitioned_internals.h"
 #include "scheduler.h"
@@ -47,7 +48,6 @@ class SimulationEngine {
   void launch_locked();
   void fail(WorldId world, std::exception_ptr error);
   PartitionedWorld::Internals& parts() { return world->internals(); }
-  void check_input_locked(const UserInput& input) const;
   void rollback_locked(std::int64_t scene_step);
   void rewind_world(WorldId w, const WorldSnapshot& state);
 
@@ -58,14 +58,7 @@ class SimulationEngine {
   bool stopped_ = false;
   std::unique_ptr<Scheduler> scheduler_;  // from the first start
   // Input (under lifecycle_).
-  struct Life {
-    bool is_static = false;
-    std::int64_t added = 0;                // present from this boundary on
-    std::int64_t removed = INT64_MAX;      // gone from this boundary on
-    std::int64_t last_input = -1;          // newest step of an input naming it
-  };
-  std::map<BodyId, Life> lives_;
-  SceneSettings settings_;
+  InputLedger ledger_;
   InputQueue inputs_;
   std::uint64_t next_sequence_ = 0;
   std::uint64_t rollbacks_ = 0;

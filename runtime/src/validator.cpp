@@ -12,10 +12,16 @@ Validator::Validator(const Scene& scene, int world_count) : world_count_(world_c
     if (b.is_static) {
       ++static_count_;
     } else {
-      dynamic_ids_.push_back(b.id);
+      lives_[b.id] = Life{};
     }
   }
-  std::sort(dynamic_ids_.begin(), dynamic_ids_.end());
+}
+
+void Validator::expect(const UserInput& in, int substeps) {
+  std::lock_guard lock(lives_mutex_);
+  const std::int64_t boundary = in.step * substeps;
+  if (in.kind == UserInput::Kind::AddBody) lives_[in.body.id] = Life{boundary, INT64_MAX};
+  if (in.kind == UserInput::Kind::RemoveBody) lives_[in.id].removed = boundary;
 }
 
 void Validator::report(WorldStepReport r) {
@@ -50,17 +56,26 @@ void Validator::check(std::int64_t step, const std::vector<WorldStepReport>& rep
   std::map<BodyId, std::vector<WorldId>> owners;
   for (const WorldStepReport& r : reports)
     for (BodyId id : r.owned) owners[id].push_back(r.world);
-  for (const auto& [id, ws] : owners) {
-    if (!std::binary_search(dynamic_ids_.begin(), dynamic_ids_.end(), id)) {
-      err << "body " << id << " is owned but is not a dynamic body of the scene; ";
-    } else if (ws.size() > 1) {
-      err << "body " << id << " is owned by worlds";
-      for (WorldId w : ws) err << " " << w;
-      err << "; ";
+  {
+    std::lock_guard lock(lives_mutex_);
+    for (const auto& [id, ws] : owners) {
+      auto life = lives_.find(id);
+      if (life == lives_.end()) {
+        err << "body " << id << " is owned but is not a dynamic body of the scene or of an input; ";
+      } else if (!expected(life->second, step)) {
+        err << "body " << id << " is owned but is not in the scene then (";
+        if (life->second.added >= step) err << "added by an input at internal step boundary " << life->second.added;
+        else err << "removed by an input at internal step boundary " << life->second.removed;
+        err << "); ";
+      } else if (ws.size() > 1) {
+        err << "body " << id << " is owned by worlds";
+        for (WorldId w : ws) err << " " << w;
+        err << "; ";
+      }
     }
+    for (const auto& [id, life] : lives_)
+      if (expected(life, step) && !owners.count(id)) err << "body " << id << " has no owner (lost); ";
   }
-  for (BodyId id : dynamic_ids_)
-    if (!owners.count(id)) err << "body " << id << " has no owner; ";
   std::map<std::pair<BodyId, BodyId>, std::vector<WorldId>> holders;
   for (const WorldStepReport& r : reports)
     for (const auto& p : r.held_pairs) holders[p].push_back(r.world);

@@ -3,7 +3,12 @@
 // together (no barrier: the reporting world that completes a step checks it):
 //  1. per world, Bullet objects = owned + ghosts + statics, statics = the
 //     scene's;
-//  2. every dynamic body has exactly one owner;
+//  2. every dynamic body in the scene at that step has exactly one owner,
+//     and nothing else is owned: the expected bodies are the scene's
+//     dynamic ones, plus those added and minus those removed by the user
+//     inputs the validator was told of (expect()) — a body an input added
+//     is expected after its step, one it removed is not, and a body lost
+//     or owned twice is a failure;
 //  3. every pair's live contact state has exactly one holder.
 // A failure throws ValidationError naming the step, ids and worlds.
 #pragma once
@@ -15,6 +20,7 @@
 #include <vector>
 
 #include "soda/grid/territory_map.h"
+#include "soda/runtime/user_input.h"
 #include "soda/scene/scene.h"
 
 namespace soda {
@@ -32,15 +38,29 @@ struct WorldStepReport {
 class Validator {
  public:
   Validator(const Scene& scene, int world_count);
+  /// An input that will be applied at scene step boundary input.step
+  /// (`substeps` internal steps per scene step): AddBody makes its body
+  /// expected in the reports of later steps, RemoveBody unexpected; other
+  /// kinds change nothing. Before any world reports a step after that
+  /// boundary. Thread-safe.
+  void expect(const UserInput& input, int substeps);
   /// Thread-safe. Throws ValidationError when the step it completes is wrong.
   void report(WorldStepReport report);
   std::int64_t steps_checked() const;
 
  private:
   void check(std::int64_t step, const std::vector<WorldStepReport>& reports) const;
+  // A dynamic body is expected in the report of internal step r (steps
+  // done) iff added < r <= removed (internal step boundaries).
+  struct Life {
+    std::int64_t added = -1;
+    std::int64_t removed = INT64_MAX;
+  };
+  bool expected(const Life& life, std::int64_t step) const { return life.added < step && step <= life.removed; }
 
   int world_count_;
-  std::vector<BodyId> dynamic_ids_;  // ascending
+  mutable std::mutex lives_mutex_;
+  std::map<BodyId, Life> lives_;  // every dynamic body of the scene or of an input
   std::size_t static_count_ = 0;
   mutable std::mutex mutex_;
   std::map<std::int64_t, std::vector<WorldStepReport>> pending_;

@@ -55,15 +55,38 @@ TEST_F(CliTest, BadBalanceOptionsExitTwoNamingThem) {
   }
 }
 
-// `--inputs` runs through a Simulation, which cannot balance yet: refused,
-// not ignored.
-TEST_F(CliTest, InputsWithABalancePolicyAreRefused) {
+// Inputs under a balance policy go to the PartitionedWorld
+// (PartitionedOptions::inputs): the hash of the Simulation's replay.
+TEST_F(CliTest, InputsWithABalancePolicyGiveTheSimulationHash) {
   const std::string inputs = write("inputs.json", R"({"format": "soda-inputs", "version": 1, "inputs": [
     {"type": "apply_impulse", "step": 3, "id": 3, "impulse": [1, 0, 0]}]})");
-  const Outcome o =
-      run_cli("run --scene falling-cubes --n 30 --steps 5 --territories 2 --lb churn --inputs " + inputs);
-  EXPECT_EQ(o.exit_code, 2) << o.output;
-  EXPECT_NE(o.output.find("not supported by a Simulation"), std::string::npos) << o.output;
+  const std::string run = "run --scene falling-cubes --n 30 --steps 20 --inputs " + inputs;
+  const Outcome api = run_cli(run + " --territories 2");
+  ASSERT_EQ(api.exit_code, 0) << api.output;
+  const Outcome lb = run_cli(run + " --territories 2 --lb churn --lb-period 4 --validate");
+  ASSERT_EQ(lb.exit_code, 0) << lb.output;
+  EXPECT_EQ(hash_of(lb), hash_of(api)) << lb.output;
+  EXPECT_NE(hash_of(lb), hash_of(run_cli("run --scene falling-cubes --n 30 --steps 20"))) << "the input does something";
+}
+
+// rain's later waves are inputs of the scene (scene_inputs): `soda run`
+// applies them itself, balanced or not, validated, with one hash; an input
+// file on top of them is refused.
+TEST_F(CliTest, RainAppliesItsOwnInputsUnderEveryPolicy) {
+  const std::string rain = "run --scene rain --n 64 --steps 120 ";
+  const Outcome one = run_cli(rain);
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  EXPECT_NE(one.output.find("33 bodies"), std::string::npos) << "two waves added by inputs\n" << one.output;
+  for (const char* args : {"--territories 4 --lb churn --validate", "--territories 4 --lb diffusive --anticipation 8",
+                           "--territories 2 --lb churn --sync-test 1 --validate", "--territories 4 --validate"}) {
+    const Outcome o = run_cli(rain + args);
+    ASSERT_EQ(o.exit_code, 0) << args << "\n" << o.output;
+    EXPECT_EQ(hash_of(o), hash_of(one)) << args << "\n" << o.output;
+  }
+  const std::string inputs = write("inputs.json", R"({"format": "soda-inputs", "version": 1, "inputs": []})");
+  const Outcome both = run_cli(rain + "--inputs " + inputs);
+  EXPECT_EQ(both.exit_code, 2) << both.output;
+  EXPECT_NE(both.output.find("has 60 inputs of its own"), std::string::npos) << both.output;
 }
 
 }  // namespace

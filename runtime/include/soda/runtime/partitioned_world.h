@@ -31,6 +31,7 @@
 #include "soda/runtime/balance_log.h"
 #include "soda/runtime/stage.h"
 #include "soda/runtime/world_graph.h"
+#include "soda/scene/input_file.h"
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
 #include "soda/worlds/territory_world.h"
@@ -41,6 +42,7 @@ namespace soda {
 namespace detail {
 struct TestingHooks;  // internal (runtime/src/testing_hooks.h)
 }
+class InputQueue;  // internal (runtime/src/input_queue.h)
 
 /// How the worlds' steps are scheduled onto threads. Results never depend
 /// on it (tests check); speed does.
@@ -144,6 +146,18 @@ struct PartitionedOptions {
   /// experiments); balance.period still sets the balance steps. Called from
   /// step()'s thread only; give one PartitionedWorld its own.
   std::shared_ptr<BalancePolicy> balance_policy = {};
+  /// User inputs known before the run (scene/input_file.h, docs/inputs.md):
+  /// each applied at its scene step boundary (after step `step`, before
+  /// step + 1; every step >= the step the world starts at) by the world
+  /// that owns the body (or a new body's home cell), in order of step and
+  /// then of this list (`sequence` is ignored). The result equals a
+  /// Simulation given the same inputs in the same order (the embedding
+  /// API's hash) for every K, every policy, with speculation (the inputs are
+  /// known ahead: a re-run step applies them again), SyncTest and heal.
+  /// Checked as the Simulation's input calls check them: a bad input throws
+  /// std::invalid_argument from the constructor naming it (its index,
+  /// describe()) and what is wrong. Validation follows the inputs.
+  std::vector<UserInput> inputs = {};
 };
 
 /// Thrown when the validation mode finds a broken invariant; the message names
@@ -291,6 +305,7 @@ class PartitionedWorld {
   void build(const Scene* scene, const TerritoryMap& map,
              const std::function<std::unique_ptr<TerritoryWorld>(WorldId)>& make_world);
   void restore(WorldSnapshot state);
+  void init_inputs(const Scene& scene);
   void run_to(std::int64_t scene_step);
   void sync_test_step();
   void restore_before(const WatchdogError& error);
@@ -323,6 +338,7 @@ class PartitionedWorld {
   std::vector<BalanceRecord> balance_log_;
   std::vector<StepLoads> step_loads_;
   std::int64_t first_step_ = 0;            // scene step step_loads_ starts after
+  std::unique_ptr<InputQueue> inputs_;     // options_.inputs, checked and ordered; null: none
 };
 
 }  // namespace soda

@@ -73,18 +73,26 @@ struct RunConfig {
   /// its steps (a slow world, as in the thesis' strip with world 0 slowed
   /// down). 0: none.
   double slow_world0_ms = 0;
-  /// User inputs to replay (`soda run --inputs FILE`, scene/input_file.h;
-  /// docs/inputs.md). Given, the run goes through a Simulation (any K, 1
-  /// included) and makes the embedding API's input calls with them in
-  /// order, so it ends on the hash the API gives, for every K. Not with the
-  /// stock world, watchdog heal, SyncTest or a shuffle seed.
+  /// User inputs to replay (`soda run --inputs FILE` or a registry scene's
+  /// own, scene_inputs; scene/input_file.h, docs/inputs.md). Given, the run
+  /// goes through a Simulation making the embedding API's input calls with
+  /// them in order, or through the PartitionedWorld's inputs
+  /// (inputs_via_simulation), and ends on the hash the API gives, for every
+  /// K. Not with the stock world or a shuffle seed.
   std::optional<std::vector<UserInput>> inputs;
   std::string inputs_source = "inputs";  // names the inputs in messages (the file)
+  /// With inputs: true (the default) replays them through a Simulation
+  /// unless the run balances load, runs SyncTest or heals (which a
+  /// Simulation does not do: those give them to the PartitionedWorld,
+  /// PartitionedOptions::inputs, with the same hash). false: always the
+  /// PartitionedWorld (`soda lb`: every policy, "none" included, measured
+  /// by the same runtime, with its per-step loads).
+  bool inputs_via_simulation = true;
   /// K > 1: load balancing (PartitionedOptions::balance; `--lb`,
   /// docs/loadbalance.md). Checked for every K (BalanceError, a
   /// std::invalid_argument); with one territory there is nothing to balance
-  /// (accepted, no balance step). Not with inputs (a Simulation cannot
-  /// balance yet).
+  /// (accepted, no balance step). With inputs, the PartitionedWorld applies
+  /// them (inputs_via_simulation).
   BalanceOptions balance = {};
 };
 
@@ -129,7 +137,7 @@ struct RunResult {
   std::vector<std::int64_t> healed_steps;   // watchdog Heal: steps re-simulated with substeps
   std::uint64_t sync_rollbacks = 0;         // SyncTest: rollbacks checked bit-identical
   std::vector<BalanceRecord> balance_log;   // K > 1: PartitionedWorld::balance_log()
-  std::vector<StepLoads> step_loads;        // K > 1 (not with inputs): PartitionedWorld::step_loads()
+  std::vector<StepLoads> step_loads;        // K > 1 (not through a Simulation): PartitionedWorld::step_loads()
 };
 
 /// Insertion order of the scene's bodies for a shuffle seed (0: scene order).
