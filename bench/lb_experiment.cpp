@@ -15,12 +15,6 @@
 namespace soda {
 namespace {
 
-std::string hex(std::uint64_t v) {
-  char text[17];
-  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(v));
-  return text;
-}
-
 void check_config(const LbExperimentConfig& config) {
   if (config.policies.empty()) throw std::invalid_argument("soda lb: no policy to run (--policies)");
   std::set<std::string> seen;
@@ -113,7 +107,7 @@ LbExperimentResult run_lb_experiment(const Scene& scene, const LbExperimentConfi
       out.policy = policy;
       out.walls.push_back(run.wall_seconds);
       out.hashes.push_back(run.state_hash);
-      spdlog::info("soda lb: policy {}: {:.3f} s, state hash {}", policy, run.wall_seconds, hex(run.state_hash));
+      spdlog::info("soda lb: policy {}: {:.3f} s, state hash {}", policy, run.wall_seconds, hash_hex(run.state_hash));
       keep_best(best[static_cast<std::size_t>(i)], std::move(run));
     }
   }
@@ -208,10 +202,10 @@ nlohmann::json lb_summary_json(const RunDescription& d, const LbExperimentConfig
   };
   j["repeat"] = config.repeat;
   j["hashes_equal"] = r.hashes_equal;
-  j["state_hash"] = hex(r.runs.front().best.state_hash);
+  j["state_hash"] = hash_hex(r.runs.front().best.state_hash);
   if (r.stock) {
     j["baseline"] = {{"world", "stock"}, {"wall_seconds", r.stock->wall_seconds}, {"walls", r.stock_walls},
-                     {"state_hash", hex(r.stock->state_hash)}, {"sleeping_bodies", r.stock->sleeping_bodies}};
+                     {"state_hash", hash_hex(r.stock->state_hash)}, {"sleeping_bodies", r.stock->sleeping_bodies}};
   }
   const LbPolicyRun* none = nullptr;
   for (const LbPolicyRun& run : r.runs)
@@ -221,13 +215,11 @@ nlohmann::json lb_summary_json(const RunDescription& d, const LbExperimentConfig
     const RunResult& b = run.best;
     const Imbalance im = imbalance_of(b.step_loads);
     const BalanceTotals t = balance_totals(b.balance_log);
-    double busy = 0;
-    for (const WorldMetrics& m : b.world_metrics) busy += m.cpu_seconds;
     nlohmann::json p = {{"policy", run.policy},
                         {"wall_seconds", b.wall_seconds},
                         {"walls", run.walls},
                         {"makespan_seconds", b.wall_seconds},
-                        {"busy_cpu_seconds", busy},
+                        {"busy_cpu_seconds", b.cpu_seconds},  // run_scene sums the worlds' cpu_seconds
                         {"imbalance_mean", im.mean},
                         {"imbalance_weighted", im.weighted},
                         {"imbalance_max", im.max},
@@ -241,7 +233,7 @@ nlohmann::json lb_summary_json(const RunDescription& d, const LbExperimentConfig
                         {"lb_apply_cpu_seconds", t.apply_cpu_seconds},
                         {"lb_wall_seconds", t.wall_seconds},
                         {"lb_overhead_share", b.wall_seconds > 0 ? t.wall_seconds / b.wall_seconds : 0.0},
-                        {"state_hash", hex(b.state_hash)}};
+                        {"state_hash", hash_hex(b.state_hash)}};
     if (r.stock && b.wall_seconds > 0) p["ratio_vs_baseline"] = r.stock->wall_seconds / b.wall_seconds;
     if (none && b.wall_seconds > 0) p["speedup_vs_none"] = none->best.wall_seconds / b.wall_seconds;
     policies.push_back(std::move(p));
