@@ -147,21 +147,7 @@ Command add_lb_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--policies", o->policies, "Comma-separated policies: none, diffusive, rcb, churn")
       ->capture_default_str();
-  cmd->add_option("--lb-period", o->experiment.run.balance.period, "Scene steps between balance steps (>= 1)")
-      ->check(CLI::Range(1, 1 << 30))
-      ->capture_default_str();
-  cmd->add_option("--lb-seed", o->experiment.run.balance.seed, "Seed of tie-breaks and churn's draws")
-      ->capture_default_str();
-  cmd->add_option("--lb-smoothing", o->experiment.run.balance.smoothing, "Weight of the newest period, (0, 1]")
-      ->capture_default_str();
-  cmd->add_option("--lb-overload", o->experiment.run.balance.overload, "Overloaded above this x the mean (> 1)")
-      ->capture_default_str();
-  cmd->add_option("--lb-underload", o->experiment.run.balance.underload, "Underloaded below this x the mean, (0, 1)")
-      ->capture_default_str();
-  cmd->add_option("--lb-max-cells", o->experiment.run.balance.max_cells_per_move,
-                  "Most cells one world gives away at one balance step (>= 1)")
-      ->check(CLI::Range(1, 1 << 30))
-      ->capture_default_str();
+  add_balance_options(*cmd, o->experiment.run.balance);
   cmd->add_option("--anticipation", o->experiment.run.anticipation, "Speculation: steps past the commit horizon")
       ->check(CLI::Range(0, 1 << 20))
       ->capture_default_str();

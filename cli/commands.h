@@ -8,6 +8,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "soda/loadbalance/policy.h"
+
 namespace soda::cli {
 
 struct Command {
@@ -32,6 +34,11 @@ Command add_speculation_command(CLI::App& bench);
 
 /// `stress`: the numerical-stability suite. cmd_stress.cpp; docs/stress.md.
 Command add_stress_command(CLI::App& app);
+
+/// The knobs of BalanceOptions but the policy (--lb-period, --lb-seed,
+/// --lb-smoothing, --lb-overload, --lb-underload, --lb-max-cells), shared by
+/// `run` and `lb`. main.cpp.
+void add_balance_options(CLI::App& cmd, BalanceOptions& balance);
 
 /// `lb`: a load-balance experiment, one scene under each balance policy.
 /// cmd_lb.cpp; docs/loadbalance.md.

@@ -136,26 +136,7 @@ void add_run_options(CLI::App& cmd, Options& o) {
                  "Load balancing by cell cession (territories > 1): none | diffusive | rcb | churn (random cells, "
                  "to exercise the machinery); results are identical under every policy; docs/loadbalance.md")
       ->capture_default_str();
-  cmd.add_option("--lb-period", o.config.balance.period,
-                 "Scene steps between balance steps (every world stops there while cells change owner; >= 1)")
-      ->check(CLI::Range(1, 1 << 30))
-      ->capture_default_str();
-  cmd.add_option("--lb-seed", o.config.balance.seed, "Seed of the policy's tie-breaks and of churn's draws (>= 0)")
-      ->check(kUnsigned)
-      ->capture_default_str();
-  cmd.add_option("--lb-smoothing", o.config.balance.smoothing,
-                 "Weight of the newest period in the smoothed load, in (0, 1] (1: no history)")
-      ->capture_default_str();
-  cmd.add_option("--lb-overload", o.config.balance.overload,
-                 "A world is overloaded above this x the mean smoothed busy time (> 1)")
-      ->capture_default_str();
-  cmd.add_option("--lb-underload", o.config.balance.underload,
-                 "A world is underloaded below this x the mean smoothed busy time (in (0, 1))")
-      ->capture_default_str();
-  cmd.add_option("--lb-max-cells", o.config.balance.max_cells_per_move,
-                 "Most cells one world gives away at one balance step (>= 1)")
-      ->check(CLI::Range(1, 1 << 30))
-      ->capture_default_str();
+  soda::cli::add_balance_options(cmd, o.config.balance);
   cmd.add_option("--json", o.json_path, "Write results as JSON to this path ('-': stdout)");
 }
 
@@ -338,6 +319,33 @@ int cmd_scenes() {
 }
 
 }  // namespace
+
+namespace soda::cli {
+
+void add_balance_options(CLI::App& cmd, BalanceOptions& balance) {
+  cmd.add_option("--lb-period", balance.period,
+                 "Scene steps between balance steps (every world stops there while cells change owner; >= 1)")
+      ->check(CLI::Range(1, 1 << 30))
+      ->capture_default_str();
+  cmd.add_option("--lb-seed", balance.seed, "Seed of the policy's tie-breaks and of churn's draws (>= 0)")
+      ->check(kUnsigned)
+      ->capture_default_str();
+  cmd.add_option("--lb-smoothing", balance.smoothing,
+                 "Weight of the newest period in the smoothed load, in (0, 1] (1: no history)")
+      ->capture_default_str();
+  cmd.add_option("--lb-overload", balance.overload,
+                 "A world is overloaded above this x the mean smoothed busy time (> 1)")
+      ->capture_default_str();
+  cmd.add_option("--lb-underload", balance.underload,
+                 "A world is underloaded below this x the mean smoothed busy time (in (0, 1))")
+      ->capture_default_str();
+  cmd.add_option("--lb-max-cells", balance.max_cells_per_move,
+                 "Most cells one world gives away at one balance step (>= 1)")
+      ->check(CLI::Range(1, 1 << 30))
+      ->capture_default_str();
+}
+
+}  // namespace soda::cli
 
 int main(int argc, char** argv) {
   CLI::App app{"soda: one rigid-body scene, many Bullet worlds (" + std::string(soda::kPrecisionName) +
