@@ -55,12 +55,12 @@ double CessionPlanner::score(const CellCoord& c, WorldId g, WorldId r, double wa
   return kGainWeight * gain + kShapeWeight * shape + kForeignWeight * foreign;
 }
 
-void CessionPlanner::move(const CellCoord& c, WorldId from, WorldId to) {
+void CessionPlanner::move(const CellCoord& c, WorldId from, WorldId to, bool counted) {
   load_[static_cast<std::size_t>(from)] -= cost_in(from, c);
   load_[static_cast<std::size_t>(to)] += cost_in(to, c);
   grid_.set(c, to);
   moved_[box_index(c)] = 1;
-  ++given_[static_cast<std::size_t>(from)];
+  if (counted) ++given_[static_cast<std::size_t>(from)];
   role_[static_cast<std::size_t>(from)] = Role::Giver;
   role_[static_cast<std::size_t>(to)] = Role::Recipient;
   moves_.push_back({c, from, to});
@@ -121,6 +121,7 @@ double CessionPlanner::cede(WorldId g, WorldId r, double want) {
     if (!found) break;
     given_cost += cost_in(g, best);
     move(best, g, r);
+    follow(best, g, r, candidates);
     for (const CellCoord& d : kFaceOffsets) {
       const CellCoord n = offset(best, d);
       if (grid_.owner(n) == g && std::find(candidates.begin(), candidates.end(), n) == candidates.end())
@@ -128,6 +129,24 @@ double CessionPlanner::cede(WorldId g, WorldId r, double want) {
     }
   }
   return given_cost;
+}
+
+bool CessionPlanner::near_load(const CellCoord& c, WorldId g) const {
+  for (const CellCoord& d : kFaceOffsets) {
+    const CellCoord n = offset(c, d);
+    if (grid_.owner(n) == g && loaded(g, n)) return true;
+  }
+  return false;
+}
+
+void CessionPlanner::follow(const CellCoord& c, WorldId g, WorldId r, std::vector<CellCoord>& candidates) {
+  for (const CellCoord& d : kFaceOffsets) {
+    const CellCoord e = offset(c, d);
+    if (grid_.owner(e) != g || moved_[box_index(e)] || loaded(g, e) || near_load(e, g) || !grid_.removable(e, g))
+      continue;
+    move(e, g, r, false);
+    candidates.erase(std::remove(candidates.begin(), candidates.end(), e), candidates.end());
+  }
 }
 
 std::vector<int> CessionPlanner::distance_to_load(WorldId g) const {

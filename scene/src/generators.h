@@ -22,6 +22,7 @@ Scene make_alternating_load(const SceneParams& params);
 // moving_load_scenes.cpp, rain_scene.cpp: load-balance experiments (the
 // load moves or grows in one region).
 Scene make_hotspot(const SceneParams& params);
+Scene make_drift(const SceneParams& params);
 Scene make_avalanche(const SceneParams& params);
 Scene make_rain(const SceneParams& params);
 /// rain's later waves: add_body inputs at their steps (ids after the scene's).

@@ -42,55 +42,111 @@ int steps_for(double seconds, double dt) { return static_cast<int>(std::ceil(sec
 
 }  // namespace
 
-// hotspot — a block of unit cubes (seeded yaws within +-0.1 rad, so 0.25 m
-// gaps hold: a yawed face reaches 0.547 m) slides along +x on a ground of low
-// friction at kSlideSpeed, all together (same speed, same deceleration: the
-// gaps stay), and runs into the catch, a row of cubes resting against a
-// wall at the far end of a track three block lengths long, where it jams
-// into a pile and falls asleep. The ground's friction is chosen so that the
-// block reaches the catch at kArrivalSpeed.
+// The sliding block shared by hotspot and drift: n unit cubes, lanes across
+// z by rows along x at kPitch, seeded yaws within +-kMaxYaw (so 0.25 m gaps
+// hold: a yawed face reaches 0.547 m), cube friction 1.0 (mu = the
+// ground's), all at kSlideSpeed along +x with the back row at x = 0: they
+// all decelerate alike, so the gaps stay until something stops the front.
+struct SlidingBlock {
+  static constexpr double kSlideSpeed = 8.0;  // m/s: 0.13 m per step, the block crosses a 1.73 m cell in 13 steps
+  static constexpr double kMaxYaw = 0.1;      // rad
+  int lanes = 0, rows = 0;
+  double length = 0, half_width = 0;
+  double front = 0;  // x of the front row's centres
+
+  explicit SlidingBlock(int n)
+      : lanes(static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))))),
+        rows((n + lanes - 1) / lanes),
+        length(rows * kPitch),
+        half_width(0.5 * lanes * kPitch),
+        front(length - 0.5 * kPitch) {}
+
+  double lane_z(int lane) const { return (lane + 0.5) * kPitch - half_width; }
+
+  // Cubes front row first, lane by lane from -z; a partial row is the last.
+  void add(Scene& scene, BodyId& id, int n, SceneRandom& rng) const {
+    for (int k = 0; k < n; ++k) {
+      const int row = k / lanes, lane = k % lanes;
+      const Vec3 p(front - row * kPitch, 0.5, lane_z(lane));
+      Body cube = dynamic_box(id++, kUnitHalf, 1.0, p, yaw(rng.uniform(-kMaxYaw, kMaxYaw)));
+      cube.friction = 1.0;
+      cube.linear_velocity = Vec3(kSlideSpeed, 0.0, 0.0);
+      scene.bodies.push_back(cube);
+    }
+  }
+};
+
+// hotspot — the sliding block on a ground of low friction runs into the
+// catch, a row of cubes resting against a wall at the far end of a track
+// three block lengths long, where it jams into a pile and falls asleep.
+// The ground's friction is chosen so that the block reaches the catch at
+// kArrivalSpeed.
 Scene make_hotspot(const SceneParams& params) {
   Scene scene;
   scene.name = "hotspot";
   scene.seed = params.seed;
   SceneRandom rng(params.seed);
   const double g = -scene.settings.gravity.y();
-  constexpr double kSlideSpeed = 8.0;    // m/s: 0.13 m per step, the block crosses a 1.73 m cell in 13 steps
   constexpr double kArrivalSpeed = 4.0;  // m/s at the catch: a jam, not a crash
-  constexpr double kMaxYaw = 0.1;        // rad
   constexpr double kWallFriction = 1.0;  // cube 1.0 x wall 1.0: the pile holds
   constexpr double kSettleSeconds = 4.0; // jam, come to rest, 2 s below the sleeping thresholds
   const int n = count_or_default(params, 400, 20000);
-  const int lanes = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));  // across z
-  const int rows = (n + lanes - 1) / lanes;                                           // along x
-  const double block_length = rows * kPitch;
-  const double track = 3.0 * block_length;  // the wall's inner face at x = track; the block's back at x = 0
-  const double half_width = 0.5 * lanes * kPitch;
-  const double front = block_length - 0.5 * kPitch;  // x of the front row's centres
+  const SlidingBlock block(n);
+  const double v0 = SlidingBlock::kSlideSpeed;
+  const double track = 3.0 * block.length;  // the wall's inner face at x = track; the block's back at x = 0
   const double catch_x = track - 0.5 - kRestGap;
-  const double distance = (catch_x - 0.5) - (front + 0.5);  // front faces' travel to the catch
-  const double deceleration = (kSlideSpeed * kSlideSpeed - kArrivalSpeed * kArrivalSpeed) / (2.0 * distance);
+  const double distance = (catch_x - 0.5) - (block.front + 0.5);  // front faces' travel to the catch
+  const double deceleration = (v0 * v0 - kArrivalSpeed * kArrivalSpeed) / (2.0 * distance);
 
   Body ground = flat_ground(0.5 * track + kGroundMargin, deceleration / g, 0.5 * track);
   scene.bodies.push_back(ground);  // id 0; cube friction 1.0, so mu = the ground's
-  scene.bodies.push_back(wall(1, Vec3(0.5, 1.0, half_width + 1.0), Vec3(track + 0.5, 1.0, 0.0), kWallFriction));
+  scene.bodies.push_back(
+      wall(1, Vec3(0.5, 1.0, block.half_width + 1.0), Vec3(track + 0.5, 1.0, 0.0), kWallFriction));
   BodyId id = 2;
-  // Cubes front row first, lane by lane from -z; a partial row is the last.
-  for (int k = 0; k < n; ++k) {
-    const int row = k / lanes, lane = k % lanes;
-    const Vec3 p(front - row * kPitch, 0.5, (lane + 0.5) * kPitch - half_width);
-    Body cube = dynamic_box(id++, kUnitHalf, 1.0, p, yaw(rng.uniform(-kMaxYaw, kMaxYaw)));
-    cube.friction = 1.0;
-    cube.linear_velocity = Vec3(kSlideSpeed, 0.0, 0.0);
-    scene.bodies.push_back(cube);
-  }
-  for (int lane = 0; lane < lanes; ++lane) {
-    Body cube = dynamic_box(id++, kUnitHalf, 1.0, Vec3(catch_x, 0.5, (lane + 0.5) * kPitch - half_width));
+  block.add(scene, id, n, rng);
+  for (int lane = 0; lane < block.lanes; ++lane) {
+    Body cube = dynamic_box(id++, kUnitHalf, 1.0, Vec3(catch_x, 0.5, block.lane_z(lane)));
     cube.friction = 1.0;
     scene.bodies.push_back(cube);
   }
-  const double arrival = (kSlideSpeed - kArrivalSpeed) / deceleration;
+  const double arrival = (v0 - kArrivalSpeed) / deceleration;
   scene.settings.steps = steps_for(arrival + kSettleSeconds, scene.settings.dt);
+  return scene;
+}
+
+// drift — hotspot without the pile: the sliding block comes to rest by
+// friction alone, its gaps kept (every cube its own island to the end), with
+// its front face kStopGap short of two marker cubes resting at x = 3 L - 0.5
+// (one at each side lane: they hold the map box over the whole track).
+// With grid:2x1x1 the block starts wholly in the first half and stops wholly
+// in the second (its back at 2 L - kStopGap > 1.5 L from 7 rows on): the load
+// drifts from one half to the other and no island ever grows past one cube.
+Scene make_drift(const SceneParams& params) {
+  Scene scene;
+  scene.name = "drift";
+  scene.seed = params.seed;
+  SceneRandom rng(params.seed);
+  const double g = -scene.settings.gravity.y();
+  constexpr double kStopGap = 2.0;        // m between the stopped front faces and the markers
+  constexpr double kSettleSeconds = 3.0;  // come to rest, 2 s below the sleeping thresholds, 1 s asleep
+  const int n = count_or_default(params, 400, 20000);
+  const SlidingBlock block(n);
+  const double v0 = SlidingBlock::kSlideSpeed;
+  const double track = 3.0 * block.length;
+  const double marker_x = track - 0.5;
+  const double distance = (marker_x - 0.5 - kStopGap) - (block.front + 0.5);  // front faces' travel
+  const double deceleration = v0 * v0 / (2.0 * distance);
+
+  scene.bodies.push_back(flat_ground(0.5 * track + kGroundMargin, deceleration / g, 0.5 * track));  // id 0
+  BodyId id = 1;
+  block.add(scene, id, n, rng);
+  for (int lane : {0, block.lanes - 1}) {
+    Body cube = dynamic_box(id++, kUnitHalf, 1.0, Vec3(marker_x, 0.5, block.lane_z(lane)));
+    cube.friction = 1.0;
+    scene.bodies.push_back(cube);
+    if (block.lanes == 1) break;
+  }
+  scene.settings.steps = steps_for(v0 / deceleration + kSettleSeconds, scene.settings.dt);
   return scene;
 }
 

@@ -50,6 +50,11 @@ const std::vector<SceneGenerator>& scene_registry() {
        "low-friction ground, 0.25 m apart, into a catch row at the end of a track 3 block lengths "
        "long, where they jam into a pile and sleep: the load travels across the grid",
        detail::make_hotspot},
+      {"drift",
+       "N unit cubes (default 400) in a square block sliding together at 8 m/s along +x, 0.25 m "
+       "apart, coming to rest by friction alone two block lengths on, gaps kept: with grid:2x1x1 "
+       "the load drifts from one half to the other, every cube its own island",
+       detail::make_drift},
       {"avalanche",
        "N unit cubes (default 400) resting 0.25 m apart on a 30 degree slope (mu 0.4) slide down "
        "and pile up on the run-out at its foot: the load flows downhill",
