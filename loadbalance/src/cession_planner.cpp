@@ -55,12 +55,12 @@ double CessionPlanner::score(const CellCoord& c, WorldId g, WorldId r, double wa
   return kGainWeight * gain + kShapeWeight * shape + kForeignWeight * foreign;
 }
 
-void CessionPlanner::move(const CellCoord& c, WorldId from, WorldId to, bool counted) {
+void CessionPlanner::move(const CellCoord& c, WorldId from, WorldId to) {
   load_[static_cast<std::size_t>(from)] -= cost_in(from, c);
   load_[static_cast<std::size_t>(to)] += cost_in(to, c);
   grid_.set(c, to);
   moved_[box_index(c)] = 1;
-  if (counted) ++given_[static_cast<std::size_t>(from)];
+  ++given_[static_cast<std::size_t>(from)];
   role_[static_cast<std::size_t>(from)] = Role::Giver;
   role_[static_cast<std::size_t>(to)] = Role::Recipient;
   moves_.push_back({c, from, to});
@@ -121,7 +121,6 @@ double CessionPlanner::cede(WorldId g, WorldId r, double want) {
     if (!found) break;
     given_cost += cost_in(g, best);
     move(best, g, r);
-    follow(best, g, r, candidates);
     for (const CellCoord& d : kFaceOffsets) {
       const CellCoord n = offset(best, d);
       if (grid_.owner(n) == g && std::find(candidates.begin(), candidates.end(), n) == candidates.end())
@@ -131,21 +130,27 @@ double CessionPlanner::cede(WorldId g, WorldId r, double want) {
   return given_cost;
 }
 
-bool CessionPlanner::near_load(const CellCoord& c, WorldId g) const {
-  for (const CellCoord& d : kFaceOffsets) {
-    const CellCoord n = offset(c, d);
-    if (grid_.owner(n) == g && loaded(g, n)) return true;
-  }
-  return false;
-}
-
-void CessionPlanner::follow(const CellCoord& c, WorldId g, WorldId r, std::vector<CellCoord>& candidates) {
-  for (const CellCoord& d : kFaceOffsets) {
-    const CellCoord e = offset(c, d);
-    if (grid_.owner(e) != g || moved_[box_index(e)] || loaded(g, e) || near_load(e, g) || !grid_.removable(e, g))
-      continue;
-    move(e, g, r, false);
-    candidates.erase(std::remove(candidates.begin(), candidates.end(), e), candidates.end());
+void CessionPlanner::tidy() {
+  const CellBox& box = grid_.box();
+  for (std::size_t i = 0, n = static_cast<std::size_t>(box.count()); i < n; ++i) {
+    const CellCoord e = box.cell_at(i);
+    const WorldId g = grid_.owner(e);
+    if (moved_[i] || loaded(g, e)) continue;
+    WorldId r = kNoWorld;  // the one world whose loaded cells e touches
+    bool single = true;
+    for (const CellCoord& d : kFaceOffsets) {
+      const CellCoord f = offset(e, d);
+      const WorldId o = grid_.owner(f);
+      if (o == kNoWorld || !loaded(o, f)) continue;
+      if (r == kNoWorld) r = o;
+      else if (o != r) single = false;
+    }
+    if (r == kNoWorld || r == g || !single || load(r) > load(g) || !grid_.removable(e, g)) continue;
+    load_[static_cast<std::size_t>(g)] -= cost_in(g, e);
+    load_[static_cast<std::size_t>(r)] += cost_in(r, e);
+    grid_.set(e, r);
+    moved_[i] = 1;
+    moves_.push_back({e, g, r});
   }
 }
 

@@ -82,6 +82,9 @@ std::vector<CellMove> DiffusivePolicy::decide(const LoadView& view) {
     int& periods = famine_periods_[static_cast<std::size_t>(u)];
     periods = starving ? periods + 1 : 0;
   }
+  // 4. Empty cells go with the load they border (after the famine counters:
+  //    tidying is no cession obtained).
+  plan.tidy();
   return plan.moves();
 }
 
