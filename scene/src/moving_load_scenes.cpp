@@ -115,12 +115,13 @@ Scene make_hotspot(const SceneParams& params) {
 }
 
 // drift — hotspot without the pile: the sliding block comes to rest by
-// friction alone, its gaps kept (every cube its own island to the end), with
-// its front face kStopGap short of two marker cubes resting at x = 3 L - 0.5
-// (one at each side lane: they hold the map box over the whole track).
-// With grid:2x1x1 the block starts wholly in the first half and stops wholly
-// in the second (its back at 2 L - kStopGap > 1.5 L from 7 rows on): the load
-// drifts from one half to the other and no island ever grows past one cube.
+// friction alone, its gaps kept (every cube its own island to the end), its
+// front faces at x = 3 L - 1, kStopGap short of two marker cubes resting at
+// the side lanes' ends (they hold the map box over the whole track). With
+// grid:2x1x1 the block starts wholly in the first half of the box and stops
+// wholly in the second (its back at 2 L - 1 > the cut at about 1.5 L + 0.75
+// from 3 rows on): the load drifts from one half to the other and no island
+// ever grows past one cube.
 Scene make_drift(const SceneParams& params) {
   Scene scene;
   scene.name = "drift";
@@ -132,7 +133,7 @@ Scene make_drift(const SceneParams& params) {
   const int n = count_or_default(params, 400, 20000);
   const SlidingBlock block(n);
   const double v0 = SlidingBlock::kSlideSpeed;
-  const double track = 3.0 * block.length;
+  const double track = 3.0 * block.length + kStopGap;  // the markers' far faces
   const double marker_x = track - 0.5;
   const double distance = (marker_x - 0.5 - kStopGap) - (block.front + 0.5);  // front faces' travel
   const double deceleration = v0 * v0 / (2.0 * distance);

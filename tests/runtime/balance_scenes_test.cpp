@@ -1,4 +1,4 @@
-// Every load scene (hotspot, avalanche, rain; docs/scenes.md) under every
+// Every load scene (hotspot, avalanche, rain, drift; docs/scenes.md) under every
 // balance policy (none, diffusive, rcb, churn) for K = 2, 4, 8, with
 // anticipation 0 and 8, SyncTest and validation on, ends on the one-territory
 // hash: load balancing decides speed, never physics (#15, acceptance 1).
@@ -91,7 +91,9 @@ std::vector<Case> cases() {
   for (const char* policy : {"diffusive", "rcb", "churn"}) {
     out.push_back({"hotspot", policy, 2, 8});
     out.push_back({"avalanche", policy, 8, 8});
+    out.push_back({"drift", policy, 2, 0});  // the 2-world benchmark's scene
   }
+  out.push_back({"drift", "diffusive", 4, 8});
   return out;
 }
 

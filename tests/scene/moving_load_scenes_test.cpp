@@ -31,7 +31,7 @@ double closest_xz(const Scene& s, Pred selected) {
 }
 
 TEST(LoadScenes, SeededAndValid) {
-  for (const char* name : {"hotspot", "avalanche", "rain"}) {
+  for (const char* name : {"hotspot", "avalanche", "rain", "drift"}) {
     const std::string a = scene_to_json(make_scene(name, {64, 2, false}));
     EXPECT_EQ(a, scene_to_json(make_scene(name, {64, 2, false}))) << name;
     const bool seeded = std::string_view(name) != "avalanche";  // avalanche draws nothing from the seed
@@ -72,6 +72,33 @@ TEST(LoadScenes, HotspotMatchesDefinition) {
   const double mu = s.bodies[0].friction, d = (wall_face - 1.001) - (9.375 + 0.5);
   EXPECT_NEAR(64.0 - 2.0 * mu * 9.81 * d, 16.0, 1e-9);
   EXPECT_GT(s.settings.steps, 300);
+}
+
+TEST(LoadScenes, DriftMatchesDefinition) {
+  const Scene s = make_scene("drift", {64, 1, false});
+  ASSERT_EQ(s.static_count(), 1u);         // the ground
+  ASSERT_EQ(s.dynamic_count(), 64u + 2u);  // 8 x 8 block, two markers
+  int moving = 0;
+  double marker_x = 0;
+  for (const Body& b : s.bodies) {
+    if (b.is_static) continue;
+    EXPECT_DOUBLE_EQ(b.position.y(), 0.5);
+    if (b.linear_velocity.x() != 0) {
+      ++moving;
+      EXPECT_EQ(b.linear_velocity, Vec3(8.0, 0.0, 0.0));
+      EXPECT_GE(b.position.x(), 0.0);
+      EXPECT_LE(b.position.x(), 10.0);
+    } else {
+      marker_x = b.position.x();
+      EXPECT_DOUBLE_EQ(std::abs(b.position.z()), 4.375);  // the side lanes
+    }
+  }
+  EXPECT_EQ(moving, 64);
+  EXPECT_DOUBLE_EQ(marker_x, 31.5);  // 3 block lengths + 2 m, less half a cube
+  // Friction alone stops the front faces at 3 L - 1 = 29 m: v0^2 = 2 mu g d.
+  const double mu = s.bodies[0].friction, d = 29.0 - (9.375 + 0.5);
+  EXPECT_NEAR(64.0, 2.0 * mu * 9.81 * d, 1e-9);
+  EXPECT_GT(s.settings.steps, 8.0 / (mu * 9.81) * 60.0);  // at rest before the end
 }
 
 TEST(LoadScenes, AvalancheMatchesDefinition) {

@@ -88,11 +88,14 @@ struct BalanceOptions {
   double overload = 1.15;
   double underload = 0.85;
   /// Most cells one world gives away at one balance step (diffusive, churn).
-  /// 16, not the thesis' few: a moving load brings a front of cells into a
-  /// world each period (hotspot 400 on 8 worlds, period 10, on the runtime:
-  /// mean imbalance 2.36 at 4 cells, 1.57 at 16, 1.54 at 32, 1.61 at 64;
-  /// docs/loadbalance.md "Measured").
-  int max_cells_per_move = 16;
+  /// diffusive counts loaded cells only: the empty cells that go with them
+  /// (CessionPlanner::tidy) are free. 64, not the thesis' few: a moving load
+  /// brings a front of cells into a world each period, and with two worlds
+  /// half a block's footprint must change hands (docs/loadbalance.md
+  /// "Options and defaults": drift 900 on 2 worlds, mean imbalance 1.52 at
+  /// 16 cells, 1.14 at 64, 1.13 at 256; hotspot 400 on 8 worlds, period 10,
+  /// 1.49 at 16, 1.42 at 64).
+  int max_cells_per_move = 64;
   /// Seed of tie-breaks and of churn's choices.
   std::uint64_t seed = 1;
 };
