@@ -119,9 +119,11 @@ void CanonicalDynamicsWorld::performDiscreteCollisionDetection() {
   for (int i = 0; i < pairs.size(); ++i) {
     const btBroadphasePair& pair = pairs[i];
     if (!pair.m_algorithm) continue;
-    if (!is_fast(*static_cast<const btCollisionObject*>(pair.m_pProxy0->m_clientObject)) &&
-        !is_fast(*static_cast<const btCollisionObject*>(pair.m_pProxy1->m_clientObject)))
-      continue;
+    const auto* obj0 = static_cast<const btCollisionObject*>(pair.m_pProxy0->m_clientObject);
+    const auto* obj1 = static_cast<const btCollisionObject*>(pair.m_pProxy1->m_clientObject);
+    if (!is_fast(*obj0) && !is_fast(*obj1)) continue;
+    // As the near callback (here and in the territory world): pairs it skipped get none.
+    if (!m_dispatcher1->needsCollision(obj0, obj1)) continue;
     manifolds.resize(0);
     pair.m_algorithm->getAllContactManifolds(manifolds);
     if (manifolds.size() == 1 && add_speculative_contact(*manifolds[0])) speculative_.push_back(manifolds[0]);
