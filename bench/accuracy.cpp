@@ -138,17 +138,6 @@ bool is_finite(const BodyState& s) {
 }
 
 // Smallest distance from a shape's centre to its surface: CCD's natural scale.
-double inner_radius(const Shape& shape) {
-  switch (shape.kind) {
-    case ShapeKind::Box: return shape.half_extents.minCoeff();
-    case ShapeKind::Sphere: return shape.radius;
-    case ShapeKind::Capsule: return shape.radius;
-    case ShapeKind::Cylinder: return std::min(shape.half_extents.x(), shape.half_extents.y());
-    case ShapeKind::ConvexHull: return 0.5 * shape.local_half_extents().minCoeff();
-  }
-  return shape.bounding_radius();
-}
-
 void enable_ccd(btDiscreteDynamicsWorld& world, const Scene& scene) {
   std::map<BodyId, const Body*> by_id;
   for (const Body& b : scene.bodies) by_id[b.id] = &b;

@@ -3,6 +3,8 @@
 
 #include <BulletCollision/CollisionDispatch/btCollisionWorld.h>
 
+#include "soda/worlds/bullet_bodies.h"
+
 namespace soda {
 namespace {
 
@@ -132,6 +134,7 @@ std::unique_ptr<btRigidBody> make_body_from_state(const Body& description, btCol
   auto body = std::make_unique<btRigidBody>(info);
   btRigidBody& rb = *body;
   rb.setUserIndex(static_cast<int>(description.id));
+  if (!description.is_static) rb.setCcdSweptSphereRadius(btScalar(inner_radius(description.shape)));  // as make_rigid_body
   rb.setInterpolationWorldTransform(interpolation_transform_of(s));
   rb.setLinearVelocity(get3(s.linear_velocity));
   rb.setAngularVelocity(get3(s.angular_velocity));

@@ -1,5 +1,6 @@
 #include "soda/worlds/bullet_bodies.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace soda {
@@ -34,6 +35,17 @@ std::unique_ptr<btCollisionShape> make_collision_shape(const Shape& shape) {
   throw std::invalid_argument("make_collision_shape: unknown shape kind");
 }
 
+double inner_radius(const Shape& shape) {
+  switch (shape.kind) {
+    case ShapeKind::Box: return shape.half_extents.minCoeff();
+    case ShapeKind::Sphere: return shape.radius;
+    case ShapeKind::Capsule: return shape.radius;
+    case ShapeKind::Cylinder: return std::min(shape.half_extents.x(), shape.half_extents.y());
+    case ShapeKind::ConvexHull: return 0.5 * shape.local_half_extents().minCoeff();
+  }
+  return 0.0;
+}
+
 std::unique_ptr<btRigidBody> make_rigid_body(const Body& body, btCollisionShape& shape) {
   const btScalar mass = body.is_static ? btScalar(0) : btScalar(body.mass);
   btVector3 inertia(0, 0, 0);
@@ -44,6 +56,9 @@ std::unique_ptr<btRigidBody> make_rigid_body(const Body& body, btCollisionShape&
   info.m_restitution = btScalar(body.restitution);
   auto rb = std::make_unique<btRigidBody>(info);
   rb->setUserIndex(static_cast<int>(body.id));
+  // Read by soda's speculative contacts only (Bullet's CCD stays off: its
+  // motion threshold is 0; the stock world's --ccd sets both itself).
+  if (!body.is_static) rb->setCcdSweptSphereRadius(btScalar(inner_radius(body.shape)));
   if (!body.is_static) {
     rb->setLinearVelocity(to_bt(body.linear_velocity));
     rb->setAngularVelocity(to_bt(body.angular_velocity));

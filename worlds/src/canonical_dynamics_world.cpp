@@ -1,6 +1,7 @@
 #include "canonical_dynamics_world.h"
 
 #include "island_solver_settings.h"
+#include "speculative_contact.h"
 
 #include <algorithm>
 #include <numeric>
@@ -106,6 +107,34 @@ void CanonicalDynamicsWorld::sort_dynamic_bodies() {
 void CanonicalDynamicsWorld::computeOverlappingPairs() {
   btCollisionWorld::computeOverlappingPairs();
   stats_.broadphase_pairs = remove_stale_pairs(*broadphase_, m_dispatcher1);
+}
+
+void CanonicalDynamicsWorld::performDiscreteCollisionDetection() {
+  btDiscreteDynamicsWorld::performDiscreteCollisionDetection();
+  // Each pair's point is a function of its two bodies alone: the pairs' order
+  // does not matter.
+  speculative_.clear();
+  btBroadphasePairArray& pairs = broadphase_->getOverlappingPairCache()->getOverlappingPairArray();
+  btManifoldArray manifolds;
+  for (int i = 0; i < pairs.size(); ++i) {
+    const btBroadphasePair& pair = pairs[i];
+    if (!pair.m_algorithm) continue;
+    const auto* obj0 = static_cast<const btCollisionObject*>(pair.m_pProxy0->m_clientObject);
+    const auto* obj1 = static_cast<const btCollisionObject*>(pair.m_pProxy1->m_clientObject);
+    if (!is_fast(*obj0) && !is_fast(*obj1)) continue;
+    // As the near callback (here and in the territory world): pairs it skipped get none.
+    if (!m_dispatcher1->needsCollision(obj0, obj1)) continue;
+    manifolds.resize(0);
+    pair.m_algorithm->getAllContactManifolds(manifolds);
+    if (manifolds.size() == 1 && add_speculative_contact(*manifolds[0])) speculative_.push_back(manifolds[0]);
+  }
+  stats_.speculative_contacts = speculative_.size();
+}
+
+void CanonicalDynamicsWorld::integrateTransforms(btScalar time_step) {
+  for (btPersistentManifold* m : speculative_) clear_speculative_contact(*m);
+  speculative_.clear();
+  btDiscreteDynamicsWorld::integrateTransforms(time_step);
 }
 
 int CanonicalDynamicsWorld::find(int i) {

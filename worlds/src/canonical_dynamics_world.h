@@ -6,9 +6,11 @@
 //     updateAabbs                    (stock: per body)
 //     computeOverlappingPairs        OVERRIDDEN: + full stale-pair sweep
 //     dispatchAllCollisionPairs      (stock: per pair; body0 = lower id)
+//     + speculative contacts         ADDED: per pair with a fast body (docs/ccd.md)
 //   calculateSimulationIslands       OVERRIDDEN: no-op (Bullet's unites broadphase pairs)
 //   solveConstraints                 OVERRIDDEN: IslandStage (below)
-//   integrateTransforms              (stock: per body; CCD off)
+//   integrateTransforms              (stock: per body; CCD off), after
+//                                    the speculative points are removed
 //   updateActivationState            (stock: per body timers)
 //
 // IslandStage, every step:
@@ -63,6 +65,11 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
   const StepStats& stats() const { return stats_; }
 
   void computeOverlappingPairs() override;
+  /// Bullet's discrete collision detection, then a speculative contact for
+  /// every pair with a fast body and no point (speculative_contact.h).
+  void performDiscreteCollisionDetection() override;
+  /// Removes the step's speculative points, then integrates as Bullet does.
+  void integrateTransforms(btScalar time_step) override;
   void calculateSimulationIslands() override {}
   void solveConstraints(btContactSolverInfo& solver_info) override;
 
@@ -93,6 +100,7 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
   std::vector<IslandManifold> island_manifolds_;   // by island, then (id0, id1)
   std::vector<btPersistentManifold*> manifold_ptrs_;
   std::vector<btCollisionObject*> lone_bodies_;
+  std::vector<btPersistentManifold*> speculative_;  // manifolds given a speculative point this step
   btContactSolverInfo island_info_;  // an island's own settings (island_solver_settings.h)
 };
 

@@ -20,6 +20,7 @@
 
 #include "canonical_dynamics_world.h"
 #include "pair_manifold.h"
+#include "speculative_contact.h"
 #include "territory_world_parts.h"
 
 namespace soda {
@@ -65,6 +66,7 @@ void TerritoryWorld::collide() {
   info.m_debugDraw = nullptr;
   world.getSolverInfo().m_timeStep = h;
   update_aabbs();
+  parts_->speculative.clear();
   world.computeOverlappingPairs();
   remove_stale_pairs(parts_->broadphase, &parts_->dispatcher);
   parts_->dispatcher.dispatchAllCollisionPairs(parts_->broadphase.getOverlappingPairCache(), info,
@@ -120,6 +122,14 @@ void TerritoryWorld::near_callback(void* pair_ptr) {
   if (!pair.m_algorithm) return;
   btManifoldResult result(&w0, &w1);
   pair.m_algorithm->processCollision(&w0, &w1, parts_->world.getDispatchInfo(), &result);
+  // Fast bodies: as CanonicalDynamicsWorld::performDiscreteCollisionDetection,
+  // for the pairs held here (docs/ccd.md).
+  if (is_fast(*obj0) || is_fast(*obj1)) {
+    btManifoldArray& ms = parts_->scratch;
+    ms.resize(0);
+    pair.m_algorithm->getAllContactManifolds(ms);
+    if (ms.size() == 1 && add_speculative_contact(*ms[0])) parts_->speculative.push_back(ms[0]);
+  }
 }
 
 // The pair's manifold takes the points of a value, in their order.

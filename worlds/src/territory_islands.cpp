@@ -15,6 +15,7 @@
 #include "soda/worlds/bullet_bodies.h"
 #include "soda/worlds/value_codec.h"
 #include "island_solver_settings.h"
+#include "speculative_contact.h"
 #include "territory_world_parts.h"
 
 namespace soda {
@@ -454,7 +455,8 @@ void TerritoryWorld::apply_island_result(const IslandResult& result) {
     auto held = held_by_key_.find(key);
     if (held != held_by_key_.end()) {
       write_manifold_points(m, *static_cast<btPersistentManifold*>(held->second));
-    } else if (owns(key_of(key.first, key.second))) {
+    } else if (owns(key_of(key.first, key.second)) && !is_speculative(m)) {
+      // A speculative point is no contact state: it ends with the solve.
       kept_next_[key] = m;
       ++counters_.manifolds_returned;
     }

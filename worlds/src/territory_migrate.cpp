@@ -11,6 +11,7 @@
 #include <set>
 #include <string>
 
+#include "speculative_contact.h"
 #include "territory_world_parts.h"
 
 namespace soda {
@@ -26,6 +27,10 @@ bool by_pair(const ManifoldState& a, const ManifoldState& b) {
 // updateActivationState, for owned bodies; then clearForces.
 void TerritoryWorld::integrate() {
   const btScalar h = btScalar(settings_.dt / settings_.substeps);
+  // The step's speculative points end with its solve (docs/ccd.md); results
+  // of border islands do not keep them (apply_island_result).
+  for (btPersistentManifold* m : parts_->speculative) clear_speculative_contact(*m);
+  parts_->speculative.clear();
   for (Entry* e : owned_) {
     btRigidBody& body = *e->body;
     body.setHitFraction(btScalar(1));

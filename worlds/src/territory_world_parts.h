@@ -71,6 +71,7 @@ struct TerritoryWorld::Parts {
   btSequentialImpulseConstraintSolver solver;
   btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, config.get()};
   btManifoldArray scratch;  // near callback
+  std::vector<btPersistentManifold*> speculative;  // held manifolds given a speculative point this step
   btContactSolverInfo island_info;  // an island's own settings (island_solver_settings.h)
 };
 

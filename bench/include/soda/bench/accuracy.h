@@ -48,10 +48,6 @@ PenetrationStats manifold_penetration(btDispatcher& dispatcher);
 /// Every field of a raw state is finite (no NaN, no Inf).
 bool is_finite(const BodyState& state);
 
-/// Smallest distance from a shape's centre to its surface (box: smallest half
-/// extent; sphere, capsule: radius).
-double inner_radius(const Shape& shape);
-
 /// Turns continuous collision detection on for every dynamic body of a stock
 /// world: motion threshold = inner radius, swept sphere radius = 0.9 x inner
 /// radius (Bullet's CcdPhysicsDemo settings). Not for canonical worlds.

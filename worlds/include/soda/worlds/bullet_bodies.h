@@ -15,13 +15,25 @@ namespace soda {
 /// Creates the collision shape of `shape` (Bullet's default margins).
 std::unique_ptr<btCollisionShape> make_collision_shape(const Shape& shape);
 
+/// Radius of a sphere about the shape's local origin that stays inside it
+/// (metres): sphere and capsule: the radius; box: the smallest half extent;
+/// cylinder: the smaller of radius and half height; convex hull: half the
+/// smallest half extent of its local AABB (a guess that holds for hulls
+/// about their centre). The sphere swept by continuous collision detection:
+/// make_rigid_body stores it as a dynamic body's ccd swept sphere radius for
+/// the canonical world's speculative contacts (docs/ccd.md); Bullet's own CCD
+/// reads it only when a motion threshold is set (the stock world's --ccd).
+double inner_radius(const Shape& shape);
+
 /// Scene pose -> Bullet transform (rounded to btScalar).
 btTransform to_bt_transform(const Vec3& position, const Quat& orientation);
 btVector3 to_bt(const Vec3& v);
 
 /// Creates a rigid body for `body` with its start transform and velocities in
 /// the construction info (so its world-space inertia is right from the first
-/// step), friction and restitution set. The body's user index is its id.
+/// step), friction and restitution set. The body's user index is its id; a
+/// dynamic body's ccd swept sphere radius is inner_radius(shape) (its CCD
+/// motion threshold stays 0: Bullet's CCD off).
 /// The shape must outlive the body.
 std::unique_ptr<btRigidBody> make_rigid_body(const Body& body, btCollisionShape& shape);
 

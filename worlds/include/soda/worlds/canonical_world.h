@@ -46,6 +46,7 @@ struct StepStats {
   std::size_t contact_manifolds = 0; // manifolds with points, all islands
   std::size_t solved_manifolds = 0;  // manifolds handed to the solver
   std::size_t broadphase_pairs = 0;  // after the full stale-pair sweep
+  std::size_t speculative_contacts = 0;  // pairs given a speculative point (fast bodies; docs/ccd.md)
 };
 
 class CanonicalWorld {
