@@ -4,7 +4,7 @@ interleaved (off, on, off, on, ...), side by side in one invocation.
 
 Per run it reads `soda run --json` (run_json; with --record its "record"
 object: frames, bytes, the recording thread's CPU seconds, bytes per 1,000
-bodies per simulated second). Prints one JSON object: every run, and the
+bodies per simulated second). Writes one JSON object (--out): every run, and the
 medians' ratios on/off of wall seconds and of CPU seconds (the worlds' CPU
 plus, when recording, the recording thread's). The state hashes must agree
 (exit 1 otherwise). Wall times on a shared machine are noise; the CPU ratio
@@ -12,6 +12,7 @@ is the figure to quote (docs/replay-format.md, "Cost").
 
 Usage: bench/record_cost.py [--soda build/bin/soda] [--scene falling-cubes]
        [--n 2000] [--territories 4] [--steps 600] [--repeat 3] [--level 1]
+       [--out record_cost.json]
 """
 import argparse
 import json
@@ -21,17 +22,8 @@ import subprocess
 import sys
 import tempfile
 
-
-def run(soda, args):
-    with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as f:
-        path = f.name
-    try:
-        subprocess.run([soda, "run", *args, "--json", path, "--log-level", "warn"], check=True,
-                       stdout=subprocess.DEVNULL)
-        with open(path) as f:
-            return json.load(f)
-    finally:
-        os.unlink(path)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from scalability import run  # noqa: E402  (soda run --json, the parsed JSON)
 
 
 def main():
@@ -43,6 +35,7 @@ def main():
     p.add_argument("--steps", type=int, default=600)
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--level", type=int, default=1)
+    p.add_argument("--out", default="record_cost.json")
     a = p.parse_args()
     base = ["--scene", a.scene, "--n", str(a.n), "--territories", str(a.territories), "--steps", str(a.steps)]
     replay = tempfile.NamedTemporaryFile(suffix=".replay", delete=False).name
@@ -70,8 +63,10 @@ def main():
         "bytes_per_1000_bodies_per_simulated_second":
             med(r["record"]["bytes_per_1000_bodies_per_simulated_second"] for r in on),
     }
-    json.dump(out, sys.stdout, indent=2)
-    print()
+    with open(a.out, "w") as f:
+        json.dump(out, f, indent=2)
+        f.write("\n")
+    print(json.dumps({k: v for k, v in out.items() if k not in ("off", "on")}, indent=2))
     return 0 if out["state_hash_equal"] else 1
 
 
