@@ -174,6 +174,16 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"eager_bets", d.config.eager_bets},
       {"balance", balance_json(d.config.balance, r.balance_log)},
   };
+  if (!d.config.record_path.empty()) {  // soda run --record: the replay file's cost (docs/replay-format.md)
+    const double per_kbody_second =
+        simulated > 0 && r.dynamic_bodies ? static_cast<double>(r.record_bytes) / (r.dynamic_bodies / 1000.0) / simulated
+                                          : 0.0;
+    j["record"] = {{"path", d.config.record_path},
+                   {"frames", r.record_frames},
+                   {"bytes", r.record_bytes},
+                   {"cpu_seconds", r.record_cpu_seconds},
+                   {"bytes_per_1000_bodies_per_simulated_second", per_kbody_second}};
+  }
   if (r.territories > 1) {
     j["schedule"] = r.schedule;
     j["threads"] = r.threads;

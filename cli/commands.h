@@ -44,4 +44,8 @@ void add_balance_options(CLI::App& cmd, BalanceOptions& balance);
 /// cmd_lb.cpp; docs/loadbalance.md.
 Command add_lb_command(CLI::App& app);
 
+/// `replay-info FILE`: a replay file's header, frames and size.
+/// cmd_replay_info.cpp; docs/replay-format.md.
+Command add_replay_info_command(CLI::App& app);
+
 }  // namespace soda::cli

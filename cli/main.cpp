@@ -18,6 +18,7 @@
 #include "soda/bench/bench.h"
 #include "soda/bench/result_json.h"
 #include "soda/grid/partition.h"
+#include "soda/replay/replay_error.h"
 #include "soda/scene/input_file.h"
 #include "soda/runtime/memory_estimate.h"
 #include "soda/scene/registry.h"
@@ -245,6 +246,10 @@ int cmd_run(Options& o) {
   }
   const soda::RunResult r = soda::run_scene(scene, o.config);
   print_summary(r);
+  if (!o.config.record_path.empty())
+    std::printf("  recorded %llu frames, %llu bytes to %s (recording thread CPU %.3f s)\n",
+                static_cast<unsigned long long>(r.record_frames), static_cast<unsigned long long>(r.record_bytes),
+                o.config.record_path.c_str(), r.record_cpu_seconds);
   if (!o.json_path.empty())
     soda::write_json(soda::run_json({o.scene, o.params, &scene, o.config}, r), o.json_path);
   return 0;
@@ -364,6 +369,17 @@ int main(int argc, char** argv) {
                   "Replay user inputs (add/remove bodies, set velocities, impulses at scene steps) from this JSON "
                   "file (docs/inputs.md): the same calls as the embedding API, the same hash for every territory "
                   "count");
+  run->add_option("--record", run_o.config.record_path,
+                  "Write a replay file of every committed frame (docs/replay-format.md), read through a SceneReader "
+                  "while the worlds run; the state hash is unchanged. Inspect it with 'soda replay-info FILE'");
+  run->add_option("--record-keyframes", run_o.config.record_keyframe_every,
+                  "--record: frames from one keyframe to the next")
+      ->check(CLI::Range(1, 1 << 20))
+      ->capture_default_str();
+  run->add_option("--record-level", run_o.config.record_compression_level,
+                  "--record: zlib level, 1 (fastest) .. 9 (smallest)")
+      ->check(CLI::Range(1, 9))
+      ->capture_default_str();
   CLI::App* bench = app.add_subcommand("bench", "Run a scene and a stock Bullet baseline side by side");
   bench->add_option("scene", bench_o.scene, "Registry scene name or .json file (same as --scene)");
   add_run_options(*bench, bench_o);
@@ -389,6 +405,7 @@ int main(int argc, char** argv) {
   more.push_back(soda::cli::add_speculation_command(*bench));
   more.push_back(soda::cli::add_stress_command(app));
   more.push_back(soda::cli::add_lb_command(app));
+  more.push_back(soda::cli::add_replay_info_command(app));
 
   try {
     app.parse(argc, argv);
@@ -410,6 +427,9 @@ int main(int argc, char** argv) {
     if (*exp) return cmd_export(export_o, export_path);
     if (*scenes) return cmd_scenes();
     if (*part) return cmd_partition(part_o, cell_size);
+  } catch (const soda::replay::ReplayFormatError& e) {  // a file that is not a readable replay: bad input
+    std::fprintf(stderr, "soda: error: %s\n", e.what());
+    return kExitBadInput;
   } catch (const soda::SceneError& e) {
     std::fprintf(stderr, "soda: error: %s\n", e.what());
     return kExitBadInput;

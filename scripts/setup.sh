@@ -9,6 +9,7 @@ packages=(
   libeigen3-dev libspdlog-dev
   libcli11-dev nlohmann-json3-dev
   libgtest-dev
+  zlib1g-dev             # replay files (replay/: zlib chunks)
   python3-matplotlib     # bench/plot_accuracy.py (plots only; the C++ never needs it)
 )
 

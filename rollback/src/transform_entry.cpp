@@ -48,6 +48,7 @@ BodyPose<Real> interpolate_pose(const BodyPose<Real>& a, const BodyPose<Real>& b
   if (w == Real(0)) return a;
   BodyPose<Real> out;
   out.id = a.id;
+  out.sleeping = a.sleeping;
   lerp3(a.position, b.position, w, out.position);
   slerp(a.orientation, b.orientation, w, out.orientation);
   lerp3(a.linear_velocity, b.linear_velocity, w, out.linear_velocity);

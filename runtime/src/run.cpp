@@ -323,7 +323,8 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   const SleepingSwitch sleeping(config.sleeping);
   const Stamp start;
   check_run_memory(scene, config);
-  if (config.inputs && inputs_through_simulation(config)) return run_with_inputs(scene, config);
+  if (!config.record_path.empty() || (config.inputs && inputs_through_simulation(config)))
+    return run_with_inputs(scene, config);
   if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0 ||
       config.inputs)
     return run_partitioned(scene, config);

@@ -9,16 +9,54 @@
 #include <spdlog/spdlog.h>
 
 #include "soda/loadbalance/thread_clock.h"
+#include "soda/replay/replay_writer.h"
 #include "soda/runtime/simulation.h"
+#include "soda/runtime/view_adapter.h"
 #include "soda/scene/validate.h"
 
 namespace soda {
 namespace {
 
 void check_supported(const RunConfig& config) {
+  const std::string what = config.record_path.empty() ? "--inputs" : "--record";
   if (config.world != WorldKind::Canonical)
-    throw std::invalid_argument("--inputs runs the canonical world only (not --world stock)");
-  if (config.shuffle_seed != 0) throw std::invalid_argument("--inputs cannot be combined with --shuffle-seed");
+    throw std::invalid_argument(what + " runs the canonical world only (not --world stock)");
+  if (config.shuffle_seed != 0) throw std::invalid_argument(what + " cannot be combined with --shuffle-seed");
+  if (config.record_path.empty()) return;
+  if (config.inputs)
+    throw std::invalid_argument("--record " + config.record_path + ": " + config.inputs_source +
+                                " add or remove bodies during the run; a replay file holds a fixed set of bodies "
+                                "(run without inputs, or a scene without inputs of its own)");
+  if (!inputs_through_simulation(config))
+    throw std::invalid_argument("--record " + config.record_path +
+                                ": the run must go through a Simulation, which does not balance load (--lb), run "
+                                "SyncTest (--sync-test) or heal (--watchdog heal)");
+}
+
+// Reads every committed frame 0 .. steps through `reader` into the replay
+// file while the worlds run (started up to `steps`); the last one carries
+// the state hash. On the calling thread.
+void record(Simulation& sim, SceneReader& reader, const Scene& scene, const TerritoryMap& map,
+            const RunConfig& config, RunResult& r) {
+  const std::int64_t cpu0 = thread_cpu_ns();
+  const replay::ViewHeader header = view_header(scene, map);
+  replay::ReplayWriter out(config.record_path, header,
+                           {config.record_keyframe_every, config.record_compression_level});
+  sim.start(sim.time_of(config.steps));
+  for (std::int64_t k = 0; k <= config.steps; ++k) {
+    std::optional<SceneFrame> frame = reader.read_at(sim.time_of(k));
+    if (!frame) throw std::logic_error("--record: the frame of step " + std::to_string(k) + " was not read");
+    replay::ViewFrame v = view_frame(*frame, header, k == 0 ? &map : nullptr);
+    if (k == config.steps) {
+      sim.advance_to(sim.time_of(config.steps));
+      v.state_hash = sim.state_hash();
+    }
+    out.append(v);
+  }
+  out.close();
+  r.record_frames = out.frames();
+  r.record_bytes = out.bytes();
+  r.record_cpu_seconds = static_cast<double>(thread_cpu_ns() - cpu0) * 1e-9;
 }
 
 // The API call for one input, as an embedding application makes it.
@@ -67,13 +105,20 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
     const std::int64_t now = wall_ns();
     step_ends.push_back(now);
     if (config.progress_seconds > 0 && now >= next_progress) {
-      spdlog::info("{} with inputs: world 0 at step {}/{}, {:.1f} s elapsed", scene.name, step, config.steps,
+      spdlog::info("{} {}: world 0 at step {}/{}, {:.1f} s elapsed", scene.name,
+                   config.inputs ? "with inputs" : "recording", step, config.steps,
                    static_cast<double>(now - t0) * 1e-9);
       next_progress = now + static_cast<std::int64_t>(config.progress_seconds * 1e9);
     }
   };
-  Simulation sim(scene, sc);
-  for (const UserInput& in : *config.inputs) {
+  // The map made here (as the Simulation would make it): a replay's header
+  // and first frame name it.
+  const TerritoryMap map = make_partition(config.partition, scene, config.territories, sc.grid);
+  Simulation sim(scene, map, sc);
+  std::optional<SceneReader> reader;
+  if (!config.record_path.empty()) reader.emplace(sim.add_reader());
+  if (config.inputs)
+    for (const UserInput& in : *config.inputs) {
     try {
       give(sim, in);
     } catch (const std::invalid_argument& e) {
@@ -92,6 +137,7 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   r.rollback = config.rollback;
   t0 = wall_ns();
   next_progress = t0 + static_cast<std::int64_t>(config.progress_seconds * 1e9);
+  if (reader) record(sim, *reader, scene, map, config, r);
   sim.advance_to(sim.time_of(config.steps));
   r.wall_seconds = static_cast<double>(wall_ns() - t0) * 1e-9;
   std::vector<std::int64_t> step_ns;

@@ -14,9 +14,13 @@ namespace soda {
 /// (PartitionedOptions::inputs), which ends on the same hash.
 bool inputs_through_simulation(const RunConfig& config);
 
-/// run_scene when config.inputs is set and inputs_through_simulation
-/// (validated there first). Throws std::invalid_argument for a
-/// configuration a Simulation does not run (stock world, shuffle seed) and
+/// run_scene when config.inputs is set and inputs_through_simulation, or
+/// config.record_path is set (validated there first): with a record path,
+/// a SceneReader on the calling thread reads every committed frame into the
+/// replay file while the worlds run. Throws std::invalid_argument for a
+/// configuration a Simulation does not run (stock world, shuffle seed; with
+/// a record path also inputs, balancing, SyncTest, heal),
+/// replay::ReplayError when the file cannot be written, and
 /// SceneError
 /// naming the input file, the entry and what is wrong for an input the
 /// Simulation refuses (unknown id, id in use, bad body, ...).

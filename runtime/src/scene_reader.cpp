@@ -10,9 +10,13 @@
 #include "soda/runtime/scene_reader.h"
 
 #include <algorithm>
+#include <functional>
+#include <queue>
+#include <utility>
 #include <stdexcept>
 #include <string>
 
+#include <BulletCollision/CollisionDispatch/btCollisionObject.h>  // ISLAND_SLEEPING
 #include <LinearMath/btMatrix3x3.h>
 #include <LinearMath/btQuaternion.h>
 
@@ -36,6 +40,7 @@ ScenePose body_pose(const BodyState& s) {
   p.orientation[1] = q.y();
   p.orientation[2] = q.z();
   p.orientation[3] = q.w();
+  p.sleeping = s.activation_state == ISLAND_SLEEPING;
   return p;
 }
 
@@ -115,8 +120,24 @@ SceneFrame SceneReader::assemble(std::int64_t step,
   std::size_t n = 0;
   for (const auto& e : entries) n += e->poses.size();
   f.poses.reserve(n);
-  for (const auto& e : entries) f.poses.insert(f.poses.end(), e->poses.begin(), e->poses.end());
-  std::sort(f.poses.begin(), f.poses.end(), [](const ScenePose& a, const ScenePose& b) { return a.id < b.id; });
+  f.owners.reserve(n);
+  f.busy_seconds.reserve(entries.size());
+  // Each entry is sorted by id: merge them, noting whose entry held each.
+  using Head = std::pair<BodyId, std::size_t>;  // (id, world)
+  std::priority_queue<Head, std::vector<Head>, std::greater<>> heads;
+  std::vector<std::size_t> next(entries.size(), 0);
+  for (std::size_t w = 0; w < entries.size(); ++w) {
+    f.busy_seconds.push_back(entries[w]->busy_seconds);
+    if (!entries[w]->poses.empty()) heads.emplace(entries[w]->poses.front().id, w);
+  }
+  while (!heads.empty()) {
+    const std::size_t w = heads.top().second;
+    heads.pop();
+    const std::vector<ScenePose>& poses = entries[w]->poses;
+    f.poses.push_back(poses[next[w]]);
+    f.owners.push_back(static_cast<WorldId>(w));
+    if (++next[w] < poses.size()) heads.emplace(poses[next[w]].id, w);
+  }
   for (std::size_t i = 1; i < f.poses.size(); ++i) {
     if (f.poses[i].id != f.poses[i - 1].id) continue;
     std::string worlds;

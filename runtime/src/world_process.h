@@ -174,6 +174,7 @@ class PartitionedWorld::Process {
   WorldMetrics sums_;
   StageClock clock_;                       // per-stage costs; its published() totals are the metrics
   std::int64_t step_start_cpu_ns_ = 0;     // clock_ total at the last step's end
+  std::int64_t entry_cpu_mark_ns_ = 0;     // clock_ total when the last entry was made (busy_seconds)
   std::int64_t step_start_rollback_ns_ = 0;  // ... its rollback stage's
   std::int64_t step_cpu_max_ns_ = 0;
   std::vector<std::int64_t> step_cpu_history_ns_;  // CPU time of every finished internal step

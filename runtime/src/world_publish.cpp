@@ -38,7 +38,12 @@ bool PartitionedWorld::Process::try_publish() {
     s_.phase = StepPhase::Predict;
     return true;
   }
-  if (!s_.pending) s_.pending = transform_entry(s_.step / substeps_, output_.dt, s_.world->owned_states());
+  if (!s_.pending) {
+    s_.pending = transform_entry(s_.step / substeps_, output_.dt, s_.world->owned_states());
+    const std::int64_t cpu_ns = clock_.published().cpu_ns_sum;  // published at the step's end
+    s_.pending->busy_seconds = static_cast<double>(cpu_ns - entry_cpu_mark_ns_) * 1e-9;
+    entry_cpu_mark_ns_ = cpu_ns;
+  }
   if (output_.buffer->try_publish(std::move(*s_.pending))) {
     published(true);
     return true;

@@ -21,6 +21,9 @@ struct BodyPose {
   Real orientation[4] = {0, 0, 0, 1};  // unit quaternion x, y, z, w
   Real linear_velocity[3] = {0, 0, 0};
   Real angular_velocity[3] = {0, 0, 0};
+  /// Asleep at the end of the step (Bullet's ISLAND_SLEEPING): for viewers
+  /// and replay files (soda run --record); no physics reads it.
+  bool sleeping = false;
 };
 
 /// What a world publishes for one step. Immutable once published.
@@ -30,6 +33,10 @@ struct TransformEntry {
   double time = 0.0;            // simulated time at the end of `step`, s
   std::uint64_t revision = 0;   // set by the buffer: 0, then +1 per rewrite
   std::vector<BodyPose<Real>> poses;  // strictly increasing by id
+  /// Thread CPU time the world spent since its previous entry (the step's
+  /// stages, a rollback's re-runs included), seconds; 0 for step 0. For
+  /// viewers' per-world load (replay files); no physics reads it.
+  double busy_seconds = 0.0;
 };
 
 /// Poses at a time between two consecutive entries (see interpolate_entries).
@@ -48,7 +55,7 @@ struct PoseSample {
 /// both velocities linear (a + (b - a) * w), orientation by slerp along the
 /// shorter arc, renormalised (nlerp when |cos| of the angle between the two
 /// quaternions exceeds 0.9995, where they differ by at most ~1e-6 rad).
-/// w == 0 returns a unchanged, bit for bit. The id is a's. Thread-safe.
+/// w == 0 returns a unchanged, bit for bit. The id and sleeping flag are a's. Thread-safe.
 template <class Real>
 BodyPose<Real> interpolate_pose(const BodyPose<Real>& a, const BodyPose<Real>& b, Real w);
 

@@ -94,6 +94,15 @@ struct RunConfig {
   /// (accepted, no balance step). With inputs, the PartitionedWorld applies
   /// them (inputs_via_simulation).
   BalanceOptions balance = {};
+  /// Not empty: write a replay file there (docs/replay-format.md) of every
+  /// committed frame, steps 0 .. steps, read through a SceneReader while
+  /// the worlds run: the run goes through a Simulation (canonical world; not
+  /// with load balancing, SyncTest, heal, a shuffle seed or inputs, which
+  /// add or remove bodies). The state hash is the same as without.
+  std::string record_path;
+  /// The replay's keyframe interval and zlib level (ReplayWriterOptions).
+  int record_keyframe_every = 60;
+  int record_compression_level = 1;
 };
 
 /// Summary statistics of per-step times, in milliseconds.
@@ -138,6 +147,12 @@ struct RunResult {
   std::uint64_t sync_rollbacks = 0;         // SyncTest: rollbacks checked bit-identical
   std::vector<BalanceRecord> balance_log;   // K > 1: PartitionedWorld::balance_log()
   std::vector<StepLoads> step_loads;        // K > 1 (not through a Simulation): PartitionedWorld::step_loads()
+  // RunConfig::record_path: frames and bytes written, and the recording
+  // thread's (the caller's) CPU time reading, quantising, compressing and
+  // writing them.
+  std::uint64_t record_frames = 0;
+  std::uint64_t record_bytes = 0;
+  double record_cpu_seconds = 0;
 };
 
 /// Insertion order of the scene's bodies for a shuffle seed (0: scene order).

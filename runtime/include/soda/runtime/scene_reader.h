@@ -21,6 +21,7 @@
 #include <optional>
 #include <vector>
 
+#include "soda/grid/territory_map.h"
 #include "soda/rollback/transform_buffer.h"
 #include "soda/rollback/transform_entry.h"
 #include "soda/worlds/body_state.h"
@@ -34,7 +35,7 @@ using SceneSample = PoseSample<btScalar>;
 
 /// A body's pose from its raw state: the position is the origin, the
 /// orientation btMatrix3x3::getRotation of the basis, the velocities as they
-/// are. A pure function: a frame equals, bit for bit, body_pose() of the
+/// are, sleeping when the activation state is Bullet's ISLAND_SLEEPING. A pure function: a frame equals, bit for bit, body_pose() of the
 /// one-world CanonicalWorld's body_states() at the same step.
 ScenePose body_pose(const BodyState& state);
 
@@ -43,6 +44,11 @@ struct SceneFrame {
   std::int64_t step = 0;         // scene step
   double time = 0.0;             // step * dt, seconds
   std::vector<ScenePose> poses;  // every dynamic body exactly once, ascending id
+  /// owners[i]: the world whose entry held poses[i] (its owner at `step`).
+  std::vector<WorldId> owners;
+  /// Per world: thread CPU time it spent since its previous entry
+  /// (TransformEntry::busy_seconds), seconds; 0 for step 0.
+  std::vector<double> busy_seconds;
   /// The pose of `id`, or null if it is not a dynamic body of the scene.
   const ScenePose* find(BodyId id) const;
 };

@@ -1,0 +1,190 @@
+#include "soda/replay/replay_writer.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+#include "byte_io.h"
+#include "replay_codec.h"
+
+namespace soda::replay {
+namespace {
+
+std::string body_field(const ViewHeader& h, std::int64_t step, std::size_t i, const char* field) {
+  std::size_t k = 0;
+  for (const ViewBody& b : h.bodies) {
+    if (b.is_static) continue;
+    if (k++ == i)
+      return "step " + std::to_string(step) + ", body " + std::to_string(b.id) + ": " + field;
+  }
+  return "step " + std::to_string(step) + ": " + field;
+}
+
+}  // namespace
+
+ReplayWriter::ReplayWriter(std::string path, ViewHeader header, ReplayWriterOptions options)
+    : path_(std::move(path)), header_(std::move(header)), options_(options) {
+  if (options_.keyframe_every < 1) throw std::invalid_argument("ReplayWriter: keyframe_every must be >= 1");
+  if (options_.compression_level < 1 || options_.compression_level > 9)
+    throw std::invalid_argument("ReplayWriter: compression_level must be in 1 .. 9");
+  if (header_.territories < 1 || header_.territories > 0xFFFF)
+    throw std::invalid_argument(path_ + ": territories " + std::to_string(header_.territories) +
+                                " cannot be stored (1 .. 65535)");
+  for (std::size_t i = 1; i < header_.bodies.size(); ++i)
+    if (header_.bodies[i].id <= header_.bodies[i - 1].id)
+      throw std::invalid_argument(path_ + ": header bodies not in ascending id order at body " +
+                                  std::to_string(header_.bodies[i].id));
+  const std::vector<std::uint8_t> head = encode_header(header_, static_cast<std::uint32_t>(options_.keyframe_every));
+  file_ = std::fopen(path_.c_str(), "wb");
+  if (!file_) throw ReplayError(path_, std::string("cannot open for writing: ") + std::strerror(errno));
+  ByteWriter w;
+  for (char c : kFileMagic) w.u8(static_cast<std::uint8_t>(c));
+  w.u32(kFormatVersion);
+  w.u32(0);  // flags, none yet
+  write_bytes(w.bytes().data(), w.bytes().size());
+  write_chunk(kHeaderTag, head);
+}
+
+ReplayWriter::~ReplayWriter() {
+  try {
+    close();
+  } catch (...) {
+  }
+  if (file_) std::fclose(file_);
+}
+
+std::size_t ReplayWriter::keyframes() const {
+  std::size_t n = 0;
+  for (const IndexEntry& e : index_) n += e.key ? 1 : 0;
+  return n;
+}
+
+void ReplayWriter::write_bytes(const void* data, std::size_t size) {
+  if (size && std::fwrite(data, 1, size, file_) != size)
+    throw ReplayError(path_, "write failed at byte " + std::to_string(offset_) + ": " + std::strerror(errno));
+  offset_ += size;
+}
+
+void ReplayWriter::write_chunk(std::uint32_t tag, const std::vector<std::uint8_t>& raw) {
+  const std::vector<std::uint8_t> stored = deflate_bytes(raw, options_.compression_level);
+  ByteWriter w;
+  w.u32(tag);
+  w.u32(static_cast<std::uint32_t>(raw.size()));
+  w.u32(static_cast<std::uint32_t>(stored.size()));
+  w.u32(crc32_of(stored));
+  write_bytes(w.bytes().data(), w.bytes().size());
+  write_bytes(stored.data(), stored.size());
+}
+
+void ReplayWriter::check(const ViewFrame& f) const {
+  if (!file_) throw std::logic_error(path_ + ": append after close()");
+  const std::string at = "step " + std::to_string(f.step);
+  if (last_ && f.step <= last_->step)
+    throw std::invalid_argument(path_ + ": " + at + " does not follow step " + std::to_string(last_->step));
+  const FrameShape shape = frame_shape(header_);
+  const std::size_t n = shape.bodies;
+  auto size = [&](std::size_t got, std::size_t want, const char* field) {
+    if (got != want)
+      throw std::invalid_argument(path_ + ": " + at + ": " + field + " has " + std::to_string(got) +
+                                  " values, the header's " + std::to_string(n) + " dynamic bodies need " +
+                                  std::to_string(want));
+  };
+  size(f.position.size(), 3 * n, "position");
+  size(f.orientation.size(), 4 * n, "orientation");
+  size(f.sleeping.size(), n, "sleeping");
+  size(f.owner.size(), n, "owner");
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t a = 0; a < 3; ++a)
+      if (!std::isfinite(f.position[3 * i + a]))
+        throw std::invalid_argument(path_ + ": " + body_field(header_, f.step, i, "position is not finite"));
+    double norm2 = 0;
+    for (std::size_t a = 0; a < 4; ++a) norm2 += static_cast<double>(f.orientation[4 * i + a]) * f.orientation[4 * i + a];
+    if (!(std::isfinite(norm2) && norm2 > 0.25 && norm2 < 4))
+      throw std::invalid_argument(path_ + ": " + body_field(header_, f.step, i, "orientation is not a unit quaternion"));
+    if (f.owner[i] >= header_.territories)
+      throw std::invalid_argument(path_ + ": " + body_field(header_, f.step, i, "owner") + " " +
+                                  std::to_string(f.owner[i]) + " >= territories " +
+                                  std::to_string(header_.territories));
+  }
+  if (!f.cell_owner.empty() || (!last_ && shape.cells > 0)) {
+    if (f.cell_owner.size() != shape.cells)
+      throw std::invalid_argument(path_ + ": " + at + ": cell_owner has " + std::to_string(f.cell_owner.size()) +
+                                  " cells, the header's box " + std::to_string(shape.cells) +
+                                  (last_ ? "" : " (the first frame must carry the map)"));
+    for (std::uint16_t o : f.cell_owner)
+      if (o >= header_.territories)
+        throw std::invalid_argument(path_ + ": " + at + ": cell_owner " + std::to_string(o) + " >= territories " +
+                                    std::to_string(header_.territories));
+  }
+  if (!f.world_busy_ms.empty() && f.world_busy_ms.size() != static_cast<std::size_t>(header_.territories))
+    throw std::invalid_argument(path_ + ": " + at + ": world_busy_ms has " + std::to_string(f.world_busy_ms.size()) +
+                                " values, not one per world (" + std::to_string(header_.territories) + ")");
+}
+
+void ReplayWriter::append(const ViewFrame& f) {
+  check(f);
+  const std::size_t n = f.sleeping.size();
+  auto cur = std::make_unique<StoredFrame>();
+  cur->step = f.step;
+  const bool key = !last_ || since_key_ + 1 >= options_.keyframe_every || !box_holds(last_->box, f.position);
+  cur->box = key ? position_box(f.position) : last_->box;
+  cur->position.resize(3 * n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t a = 0; a < 3; ++a)
+      cur->position[3 * i + a] = quantise_position(f.position[3 * i + a], cur->box.lo[a], cur->box.hi[a]);
+  cur->orientation.resize(n);
+  for (std::size_t i = 0; i < n; ++i) cur->orientation[i] = pack_orientation(&f.orientation[4 * i]);
+  cur->sleeping.resize(n);
+  for (std::size_t i = 0; i < n; ++i) cur->sleeping[i] = f.sleeping[i] ? 1 : 0;
+  cur->owner = f.owner;
+  if (!f.cell_owner.empty()) {
+    cur->cell_owner = f.cell_owner;
+    cur->map_changed = !last_ || last_->cell_owner != f.cell_owner;
+  } else if (last_) {
+    cur->cell_owner = last_->cell_owner;
+  }
+  if (key) cur->map_changed = true;  // a keyframe carries the map in force
+  cur->world_busy_ms = f.world_busy_ms;
+  cur->state_hash = f.state_hash;
+  const std::uint64_t at = offset_;
+  write_chunk(key ? kKeyframeTag : kDeltaTag, key ? encode_keyframe(*cur) : encode_delta(*last_, *cur));
+  index_.push_back({f.step, at, key, cur->box});
+  since_key_ = key ? 0 : since_key_ + 1;
+  last_ = std::move(cur);
+}
+
+void ReplayWriter::close() {
+  if (!file_) return;
+  ByteWriter w;
+  w.u64(index_.size());
+  for (const IndexEntry& e : index_) {
+    w.i64(e.step);
+    w.u64(e.offset);
+    w.u8(e.key ? 1 : 0);
+    if (!e.key) continue;
+    for (int a = 0; a < 3; ++a) w.f32(e.box.lo[a]);
+    for (int a = 0; a < 3; ++a) w.f32(e.box.hi[a]);
+  }
+  const std::uint64_t index_at = offset_;
+  write_chunk(kIndexTag, w.bytes());
+  ByteWriter t;
+  t.u64(index_at);
+  for (char c : kEndMagic) t.u8(static_cast<std::uint8_t>(c));
+  write_bytes(t.bytes().data(), t.bytes().size());
+  std::FILE* f = file_;
+  file_ = nullptr;
+  if (std::fclose(f) != 0) throw ReplayError(path_, std::string("closing failed: ") + std::strerror(errno));
+}
+
+ViewFrame ReplayWriter::stored_frame() const {
+  if (!last_) throw std::logic_error(path_ + ": stored_frame() before the first append");
+  return to_view_frame(*last_);
+}
+
+PositionBox ReplayWriter::stored_box() const {
+  if (!last_) throw std::logic_error(path_ + ": stored_box() before the first append");
+  return last_->box;
+}
+
+}  // namespace soda::replay

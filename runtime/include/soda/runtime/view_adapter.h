@@ -1,0 +1,31 @@
+// runtime/ — the embedding API. This header: a run as a viewer sees it
+// (replay/view_frame.h), from a Scene, its TerritoryMap and the SceneFrames
+// a SceneReader reads. Used by `soda run --record` (replay files) and meant
+// for live FrameSources (`soda run --serve`). Needs btScalar (SceneFrame),
+// hence here and not in replay/.
+#pragma once
+
+#include "soda/grid/territory_map.h"
+#include "soda/replay/view_frame.h"
+#include "soda/runtime/scene_reader.h"
+#include "soda/scene/scene.h"
+
+namespace soda {
+
+/// The viewer's header of a run of `scene` cut by `map`: every body in
+/// ascending id (shapes, statics' poses, dynamics' initial poses), dt, seed,
+/// K = map.world_count(), the map's grid and box. Throws
+/// std::invalid_argument for two bodies with one id. Pure; thread-safe.
+replay::ViewHeader view_header(const Scene& scene, const TerritoryMap& map);
+
+/// `frame` as a viewer sees it: positions and orientations rounded to
+/// float, sleep flags, owners (SceneFrame::owners), per-world busy time in
+/// ms (SceneFrame::busy_seconds), and cell_owner = map's owners if `map` is
+/// given (else empty: "unchanged"). The frame's poses must be the header's
+/// dynamic bodies (ascending id, every one): throws std::invalid_argument
+/// naming the step and body otherwise (bodies added or removed by inputs
+/// are not in a fixed header). Pure; thread-safe.
+replay::ViewFrame view_frame(const SceneFrame& frame, const replay::ViewHeader& header,
+                             const TerritoryMap* map = nullptr);
+
+}  // namespace soda

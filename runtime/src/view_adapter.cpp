@@ -1,0 +1,59 @@
+#include "soda/runtime/view_adapter.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+namespace soda {
+
+replay::ViewHeader view_header(const Scene& scene, const TerritoryMap& map) {
+  replay::ViewHeader h;
+  h.scene = scene.name;
+  h.seed = scene.seed;
+  h.dt = scene.settings.dt;
+  h.territories = map.world_count();
+  h.grid = map.grid();
+  h.box = map.box();
+  h.bodies.reserve(scene.bodies.size());
+  for (const Body& b : scene.bodies) h.bodies.push_back({b.id, b.is_static, b.shape, b.position, b.orientation});
+  std::sort(h.bodies.begin(), h.bodies.end(),
+            [](const replay::ViewBody& a, const replay::ViewBody& b) { return a.id < b.id; });
+  for (std::size_t i = 1; i < h.bodies.size(); ++i)
+    if (h.bodies[i].id == h.bodies[i - 1].id)
+      throw std::invalid_argument("view_header: two bodies with id " + std::to_string(h.bodies[i].id));
+  return h;
+}
+
+replay::ViewFrame view_frame(const SceneFrame& frame, const replay::ViewHeader& header, const TerritoryMap* map) {
+  replay::ViewFrame v;
+  v.step = frame.step;
+  const std::size_t n = frame.poses.size();
+  const std::string at = "view_frame: step " + std::to_string(frame.step);
+  if (frame.owners.size() != n) throw std::invalid_argument(at + ": owners do not match the poses");
+  v.position.resize(3 * n);
+  v.orientation.resize(4 * n);
+  v.sleeping.resize(n);
+  v.owner.resize(n);
+  std::size_t i = 0;
+  for (const replay::ViewBody& b : header.bodies) {
+    if (b.is_static) continue;
+    if (i >= n || frame.poses[i].id != b.id)
+      throw std::invalid_argument(at + ": body " + std::to_string(b.id) +
+                                  " of the header is not in the frame (bodies added or removed during the run?)");
+    const ScenePose& p = frame.poses[i];
+    for (std::size_t a = 0; a < 3; ++a) v.position[3 * i + a] = static_cast<float>(p.position[a]);
+    for (std::size_t a = 0; a < 4; ++a) v.orientation[4 * i + a] = static_cast<float>(p.orientation[a]);
+    v.sleeping[i] = p.sleeping ? 1 : 0;
+    v.owner[i] = static_cast<std::uint16_t>(frame.owners[i]);
+    ++i;
+  }
+  if (i != n)
+    throw std::invalid_argument(at + ": body " + std::to_string(frame.poses[i].id) + " is not in the header");
+  v.world_busy_ms.reserve(frame.busy_seconds.size());
+  for (double s : frame.busy_seconds) v.world_busy_ms.push_back(static_cast<float>(s * 1e3));
+  if (map)
+    for (WorldId o : map->owners()) v.cell_owner.push_back(static_cast<std::uint16_t>(o));
+  return v;
+}
+
+}  // namespace soda

@@ -1,0 +1,38 @@
+// `soda run --record FILE` and `soda replay-info FILE` end to end.
+#include "cli_test_util.h"
+
+namespace soda_cli_test {
+namespace {
+
+TEST_F(CliTest, RecordKeepsTheHashAndReplayInfoReadsIt) {
+  const std::string file = (dir_ / "r.replay").string();
+  const std::string args = "run --scene falling-cubes --n 100 --steps 60 --territories 2 --threads 1";
+  const Outcome plain = run_cli(args);
+  const Outcome recorded = run_cli(args + " --record " + file);
+  ASSERT_EQ(recorded.exit_code, 0) << recorded.output;
+  EXPECT_EQ(hash_of(recorded), hash_of(plain));
+  EXPECT_NE(recorded.output.find("recorded 61 frames"), std::string::npos) << recorded.output;
+  const Outcome info = run_cli("replay-info " + file);
+  ASSERT_EQ(info.exit_code, 0) << info.output;
+  EXPECT_NE(info.output.find("2 territories, 101 bodies (100 dynamic)"), std::string::npos) << info.output;
+  EXPECT_NE(info.output.find("frames: 61 (steps 0 .. 60)"), std::string::npos) << info.output;
+  EXPECT_NE(info.output.find("state_hash " + hash_of(plain)), std::string::npos) << info.output;
+}
+
+TEST_F(CliTest, ReplayInfoOfANonReplayIsBadInput) {
+  const std::string path = write("not.replay", "hello, this is not a replay file at all");
+  const Outcome o = run_cli("replay-info " + path);
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find(path + ": not a replay file"), std::string::npos) << o.output;
+}
+
+TEST_F(CliTest, RecordRefusesLoadBalancing) {
+  const Outcome o = run_cli("run --scene falling-cubes --n 50 --steps 5 --territories 2 --lb diffusive --record " +
+                            (dir_ / "r.replay").string());
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("--record"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("--lb"), std::string::npos) << o.output;
+}
+
+}  // namespace
+}  // namespace soda_cli_test
