@@ -9,6 +9,8 @@
 #include <CLI/CLI.hpp>
 
 #include "soda/loadbalance/policy.h"
+#include "soda/runtime/run.h"
+#include "soda/scene/scene.h"
 
 namespace soda::cli {
 
@@ -43,5 +45,26 @@ void add_balance_options(CLI::App& cmd, BalanceOptions& balance);
 /// `lb`: a load-balance experiment, one scene under each balance policy.
 /// cmd_lb.cpp; docs/loadbalance.md.
 Command add_lb_command(CLI::App& app);
+
+/// What `soda run --serve PORT` was asked. docs/viewer.md.
+struct ServeOptions {
+  int port = 0;                 // on 127.0.0.1; 0: any free port (printed)
+  double linger_seconds = 60;   // serving on after the run; < 0: until Ctrl-C
+};
+
+/// The port `soda view` serves on by default.
+inline constexpr int kDefaultViewPort = 8765;
+
+/// `soda run --serve`: runs `scene` through a Simulation (the run's
+/// territories, partition, threads, speculation) while serving it to the
+/// browser viewer live, prints the state hash (the same as without
+/// --serve), serves the last frame for serve.linger_seconds, then stops.
+/// Ctrl-C stops the run (or the linger) cleanly: exit code 130. Throws
+/// std::invalid_argument for run options a Simulation does not support.
+/// cmd_view.cpp.
+int serve_run(const Scene& scene, const RunConfig& config, const ServeOptions& serve);
+
+/// `view FILE`: serves a replay file to the browser viewer. cmd_view.cpp.
+Command add_view_command(CLI::App& app);
 
 }  // namespace soda::cli

@@ -58,6 +58,8 @@ struct Options {
   std::string inputs_path;  // run: an input file to replay (docs/inputs.md)
   int repeat = 3;
   bool no_awake = false;  // bench: skip the runs with sleeping off
+  std::optional<int> serve_port;  // run --serve: the browser viewer, live (docs/viewer.md)
+  double serve_linger = soda::cli::ServeOptions{}.linger_seconds;
 };
 
 void add_scene_options(CLI::App& cmd, Options& o) {
@@ -243,6 +245,7 @@ int cmd_run(Options& o) {
     o.config.inputs = std::move(own);
     o.config.inputs_source = "scene '" + o.scene + "' (its inputs)";
   }
+  if (o.serve_port) return soda::cli::serve_run(scene, o.config, {*o.serve_port, o.serve_linger});
   const soda::RunResult r = soda::run_scene(scene, o.config);
   print_summary(r);
   if (!o.json_path.empty())
@@ -364,6 +367,13 @@ int main(int argc, char** argv) {
                   "Replay user inputs (add/remove bodies, set velocities, impulses at scene steps) from this JSON "
                   "file (docs/inputs.md): the same calls as the embedding API, the same hash for every territory "
                   "count");
+  run->add_option("--serve", run_o.serve_port,
+                  "Serve the run to the browser viewer on 127.0.0.1:PORT while it runs (0: any free port; "
+                  "docs/viewer.md)")
+      ->check(CLI::Range(0, 65535));
+  run->add_option("--serve-linger", run_o.serve_linger,
+                  "With --serve: seconds to go on serving after the run ends (< 0: until Ctrl-C)")
+      ->capture_default_str();
   CLI::App* bench = app.add_subcommand("bench", "Run a scene and a stock Bullet baseline side by side");
   bench->add_option("scene", bench_o.scene, "Registry scene name or .json file (same as --scene)");
   add_run_options(*bench, bench_o);
@@ -389,6 +399,7 @@ int main(int argc, char** argv) {
   more.push_back(soda::cli::add_speculation_command(*bench));
   more.push_back(soda::cli::add_stress_command(app));
   more.push_back(soda::cli::add_lb_command(app));
+  more.push_back(soda::cli::add_view_command(app));
 
   try {
     app.parse(argc, argv);

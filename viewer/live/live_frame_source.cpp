@@ -1,0 +1,131 @@
+#include "soda/viewer/live_frame_source.h"
+
+#include <stdexcept>
+#include <string>
+
+namespace soda::viewer {
+
+replay::ViewFrame to_view_frame(const SceneFrame& frame, const replay::ViewHeader& header, const TerritoryMap& map,
+                                const std::vector<std::uint16_t>& cell_owner) {
+  const std::size_t n = header.dynamic_count();
+  if (frame.poses.size() != n)
+    throw std::logic_error("live viewer: the frame of step " + std::to_string(frame.step) + " holds " +
+                           std::to_string(frame.poses.size()) + " bodies, the scene " + std::to_string(n) +
+                           " dynamic ones (bodies added or removed are not shown live)");
+  replay::ViewFrame f;
+  f.step = frame.step;
+  f.position.resize(3 * n);
+  f.orientation.resize(4 * n);
+  f.sleeping.resize(n);
+  f.owner.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const ScenePose& p = frame.poses[i];
+    for (int a = 0; a < 3; ++a) f.position[3 * i + a] = static_cast<float>(p.position[a]);
+    for (int a = 0; a < 4; ++a) f.orientation[4 * i + a] = static_cast<float>(p.orientation[a]);
+    bool still = true;
+    for (int a = 0; a < 3; ++a) still = still && p.linear_velocity[a] == 0 && p.angular_velocity[a] == 0;
+    f.sleeping[i] = still ? 1 : 0;
+    const Vec3 at(static_cast<double>(p.position[0]), static_cast<double>(p.position[1]),
+                  static_cast<double>(p.position[2]));
+    f.owner[i] = static_cast<std::uint16_t>(map.owner_of(at));
+  }
+  f.cell_owner = cell_owner;
+  return f;
+}
+
+LiveFrameSource::LiveFrameSource(Simulation& sim, const Scene& scene, TerritoryMap map)
+    : sim_(sim),
+      header_(make_view_header(scene, map)),
+      map_(std::move(map)),
+      cell_owner_(cell_owners(map_)),
+      reader_(sim.add_reader()) {}
+
+LiveFrameSource::~LiveFrameSource() { stop_pump(); }
+
+void LiveFrameSource::start() {
+  if (thread_.joinable()) return;
+  stop_ = false;
+  thread_ = std::thread([this] { pump(); });
+}
+
+void LiveFrameSource::stop_pump() {
+  stop_ = true;
+  if (thread_.joinable()) thread_.join();
+}
+
+void LiveFrameSource::pump() {
+  try {
+    pump_loop();
+  } catch (const std::exception& e) {  // a failed world: the run reports it; the viewer keeps the last frame
+    std::lock_guard lock(mutex_);
+    pump_error_ = e.what();
+  }
+}
+
+void LiveFrameSource::pump_loop() {
+  while (!stop_.load()) {
+    const std::int64_t step = sim_.published_step();
+    if (step > reader_.last_step()) {
+      // Never waits: a step some world has not published yet is tried again
+      // at the next period.
+      if (auto frame = reader_.try_read_at(sim_.time_of(step))) {
+        keep(to_view_frame(*frame, header_, map_, cell_owner_));
+        ++frames_read_;
+      }
+    }
+    if (sim_.stopped()) break;
+    std::this_thread::sleep_for(kPumpPeriod);
+  }
+}
+
+void LiveFrameSource::finish(std::int64_t last_step, std::uint64_t state_hash) {
+  stop_pump();
+  std::optional<replay::ViewFrame> last;
+  if (last_step == reader_.last_step()) {
+    std::lock_guard lock(mutex_);
+    last = newest_;
+  } else if (auto frame = reader_.read_at(sim_.time_of(last_step))) {
+    last = to_view_frame(*frame, header_, map_, cell_owner_);
+  }
+  std::lock_guard lock(mutex_);
+  if (last) {
+    last->state_hash = state_hash;
+    newest_ = std::move(last);
+  }
+  finished_ = true;
+}
+
+void LiveFrameSource::keep(replay::ViewFrame frame) {
+  std::lock_guard lock(mutex_);
+  newest_ = std::move(frame);
+}
+
+std::optional<replay::ViewFrame> LiveFrameSource::newest_after(std::int64_t after) {
+  std::lock_guard lock(mutex_);
+  if (!newest_ || newest_->step <= after) return std::nullopt;
+  return newest_;
+}
+
+std::optional<replay::ViewFrame> LiveFrameSource::frame_at(std::int64_t step) {
+  std::lock_guard lock(mutex_);
+  if (!newest_ || newest_->step != step) return std::nullopt;
+  return newest_;
+}
+
+std::string LiveFrameSource::pump_error() const {
+  std::lock_guard lock(mutex_);
+  return pump_error_;
+}
+
+std::pair<std::int64_t, std::int64_t> LiveFrameSource::step_range() const {
+  std::lock_guard lock(mutex_);
+  if (!newest_) return {0, -1};
+  return {newest_->step, newest_->step};
+}
+
+bool LiveFrameSource::finished() const {
+  std::lock_guard lock(mutex_);
+  return finished_;
+}
+
+}  // namespace soda::viewer
