@@ -95,6 +95,11 @@ int serve_run(const Scene& scene, const RunConfig& config, const ServeOptions& s
   std::printf("soda: serving %s live (%zu dynamic bodies, %d territories, %d steps) at %s\n", scene.name.c_str(),
               scene.dynamic_count(), sc.territories, config.steps, server.url().c_str());
   std::fflush(stdout);
+  if (serve.wait_for_viewer) {
+    std::printf("soda: waiting for a browser to open %s\n", server.url().c_str());
+    std::fflush(stdout);
+    while (!g_interrupted.load() && server.frame_requests() == 0) std::this_thread::sleep_for(kPollPeriod);
+  }
   source->start();
   const auto t0 = std::chrono::steady_clock::now();
   sim.start(sim.time_of(config.steps));

@@ -50,6 +50,7 @@ Command add_lb_command(CLI::App& app);
 struct ServeOptions {
   int port = 0;                 // on 127.0.0.1; 0: any free port (printed)
   double linger_seconds = 60;   // serving on after the run; < 0: until Ctrl-C
+  bool wait_for_viewer = false; // start stepping once a viewer has opened the page
 };
 
 /// The port `soda view` serves on by default.

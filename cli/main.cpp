@@ -60,6 +60,7 @@ struct Options {
   bool no_awake = false;  // bench: skip the runs with sleeping off
   std::optional<int> serve_port;  // run --serve: the browser viewer, live (docs/viewer.md)
   double serve_linger = soda::cli::ServeOptions{}.linger_seconds;
+  bool serve_wait = false;
 };
 
 void add_scene_options(CLI::App& cmd, Options& o) {
@@ -245,7 +246,7 @@ int cmd_run(Options& o) {
     o.config.inputs = std::move(own);
     o.config.inputs_source = "scene '" + o.scene + "' (its inputs)";
   }
-  if (o.serve_port) return soda::cli::serve_run(scene, o.config, {*o.serve_port, o.serve_linger});
+  if (o.serve_port) return soda::cli::serve_run(scene, o.config, {*o.serve_port, o.serve_linger, o.serve_wait});
   const soda::RunResult r = soda::run_scene(scene, o.config);
   print_summary(r);
   if (!o.json_path.empty())
@@ -374,6 +375,8 @@ int main(int argc, char** argv) {
   run->add_option("--serve-linger", run_o.serve_linger,
                   "With --serve: seconds to go on serving after the run ends (< 0: until Ctrl-C)")
       ->capture_default_str();
+  run->add_flag("--serve-wait", run_o.serve_wait,
+                "With --serve: start stepping once a browser has opened the page and asked for a frame (to watch from step 0)");
   CLI::App* bench = app.add_subcommand("bench", "Run a scene and a stock Bullet baseline side by side");
   bench->add_option("scene", bench_o.scene, "Registry scene name or .json file (same as --scene)");
   add_run_options(*bench, bench_o);

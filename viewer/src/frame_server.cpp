@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
+#include <atomic>
 #include <chrono>
 #include <thread>
 
@@ -13,8 +14,13 @@
 namespace soda::viewer {
 namespace {
 
-// Idle keep-alive connections hold a server thread each; a short read
-// timeout lets stop() and other browsers' requests through quickly.
+// Every open keep-alive connection holds a server thread (httplib), and a
+// browser opens about six to load the page's modules: with httplib's
+// default pool (8 threads here) a later request waited for an idle
+// connection to time out (seen: /range answered ~2 s late). Enough threads
+// for a few browser tabs, and idle connections closed after a second.
+constexpr std::size_t kServerThreads = 32;
+constexpr int kKeepAliveSeconds = 1;
 constexpr int kReadTimeoutSeconds = 2;
 // The loopback interface only: the viewer is for the user at this machine.
 constexpr const char* kHost = "127.0.0.1";
@@ -41,6 +47,7 @@ struct FrameServer::Impl {
   httplib::Server server;
   std::thread thread;
   int port = 0;
+  std::atomic<std::int64_t> frame_requests{0};
 
   void send_frame(const std::optional<replay::ViewFrame>& frame, bool json, int missing_status,
                   httplib::Response& res) {
@@ -64,6 +71,8 @@ struct FrameServer::Impl {
     });
     server.set_default_headers({{"Cache-Control", "no-store"}});
     server.set_read_timeout(kReadTimeoutSeconds, 0);
+    server.set_keep_alive_timeout(kKeepAliveSeconds);
+    server.new_task_queue = [] { return new httplib::ThreadPool(kServerThreads); };
     server.set_file_extension_and_mimetype_mapping("js", "text/javascript");
     server.set_mount_point("/three", options.three_dir);
     server.set_mount_point("/", options.web_dir);
@@ -76,6 +85,7 @@ struct FrameServer::Impl {
       res.set_content(j.dump(), "application/json");
     });
     server.Get("/frame", [this](const httplib::Request& req, httplib::Response& res) {
+      ++frame_requests;
       try {
         const bool json = req.has_param("format") && req.get_param_value("format") == "json";
         if (const auto at = step_param(req, "at")) return send_frame(source->frame_at(*at), json, 404, res);
@@ -150,6 +160,8 @@ void FrameServer::stop() {
   impl_->server.stop();
   impl_->thread.join();
 }
+
+std::int64_t FrameServer::frame_requests() const { return impl_->frame_requests.load(); }
 
 int FrameServer::port() const { return impl_->port; }
 

@@ -17,6 +17,7 @@ const playwright = loadPlaywright();
 const palette = paletteFromSource();
 const TERRITORIES = 4;
 const TIMEOUT_MS = 60000;
+const LIVE_STEPS = 300;
 // Each world's colour must cover at least this many pixels (a few cubes at
 // 960x640), the background at least this fraction of the canvas.
 const MIN_WORLD_PIXELS = 40;
@@ -44,8 +45,8 @@ async function run() {
   mkdirSync(outDir, { recursive: true });
   const args = mode === 'replay'
     ? ['--scene', 'falling-cubes', '--n', '400', '--territories', String(TERRITORIES), '--steps', '90', '--seconds', '120']
-    : ['run', '--scene', 'falling-cubes', '--n', '400', '--territories', String(TERRITORIES), '--steps', '240',
-       '--serve', '0', '--serve-linger', '60'];
+    : ['run', '--scene', 'falling-cubes', '--n', '1000', '--territories', String(TERRITORIES), '--steps', String(LIVE_STEPS),
+       '--serve', '0', '--serve-linger', '60', '--serve-wait'];
   const server = await startServer(exe, args, TIMEOUT_MS);
   const browser = await launchBrowser(playwright);
   try {
@@ -86,7 +87,7 @@ async function run() {
       const line = server.lines.find((l) => l.includes('state_hash'));
       const hash = /state_hash ([0-9a-f]{16})/.exec(line)[1];
       console.log(`live: first frame step ${first.step}, ${end.frames} frames shown, last step ${end.step}, hash ${end.hash}`);
-      if (end.step !== '240') fail(`the live page ended on step ${end.step}, the run on 240`);
+      if (end.step !== String(LIVE_STEPS)) fail(`the live page ended on step ${end.step}, the run on ${LIVE_STEPS}`);
       if (end.hash !== hash) fail(`the live page shows hash '${end.hash}', soda printed ${hash}`);
       if (Number(end.frames) < 2) fail(`the live page showed ${end.frames} frame(s): it did not follow the run`);
       checkPixels(await countColours(page, palette.list, palette.background), 'live end');

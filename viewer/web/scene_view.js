@@ -81,6 +81,11 @@ export class SceneView {
 
   // Groups every body by shape type; dynamic ones get a slot (mesh, index).
   buildBodies() {
+    this.matrix = new THREE.Matrix4();
+    this.position = new THREE.Vector3();
+    this.quaternion = new THREE.Quaternion();
+    this.scaleVector = new THREE.Vector3();
+    this.colour = new THREE.Color();
     const groups = new Map();
     const slots = [];  // per dynamic body, in header order: {group, index, scale}
     const statics = [];
@@ -109,11 +114,6 @@ export class SceneView {
     }
     this.groups = [...groups.values()];
     this.slots = slots;
-    this.matrix = new THREE.Matrix4();
-    this.position = new THREE.Vector3();
-    this.quaternion = new THREE.Quaternion();
-    this.scaleVector = new THREE.Vector3();
-    this.colour = new THREE.Color();
   }
 
   place(slot, p, q) {

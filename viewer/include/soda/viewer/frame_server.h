@@ -13,6 +13,7 @@
 // on its own, live_frame_source.h).
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -54,6 +55,9 @@ class FrameServer {
   int port() const;
   /// "http://127.0.0.1:PORT/".
   std::string url() const;
+  /// Requests for /frame received so far (a viewer has loaded the page, its
+  /// header and range, and asks for frames). Any thread.
+  std::int64_t frame_requests() const;
 
  private:
   struct Impl;
