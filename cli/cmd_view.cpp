@@ -16,6 +16,15 @@
 #include "soda/viewer/live_frame_source.h"
 #include "soda/worlds/body_state.h"
 
+// The replay file reader of issue #19 part 1 (branch i19-replay), when this
+// tree has it: `soda view` then serves replay files.
+#if __has_include("soda/replay/replay_reader.h")
+#include "soda/replay/replay_reader.h"
+#define SODA_HAS_REPLAY_READER 1
+#else
+#define SODA_HAS_REPLAY_READER 0
+#endif
+
 namespace soda::cli {
 namespace {
 
@@ -128,21 +137,40 @@ int serve_run(const Scene& scene, const RunConfig& config, const ServeOptions& s
 
 Command add_view_command(CLI::App& app) {
   auto file = std::make_shared<std::string>();
-  auto port = std::make_shared<int>(kDefaultViewPort);
+  auto options = std::make_shared<ServeOptions>(ServeOptions{.port = kDefaultViewPort, .linger_seconds = -1});
   CLI::App* view = app.add_subcommand("view", "Serve a replay file (soda run --record) to the browser viewer");
   view->add_option("file", *file, "The .replay file")->required();
-  view->add_option("--port", *port, "Port on 127.0.0.1 (0: any free port)")
+  view->add_option("--port", options->port, "Port on 127.0.0.1 (0: any free port)")
       ->check(CLI::Range(0, 65535))
       ->capture_default_str();
-  return {view, [file, port]() -> int {
-            // TODO(#19, lead): open *file with replay::ReplayReader (the
-            // i19-replay branch), which is a replay::FrameSource, and serve
-            // it as serve_run does: FrameServer server(reader, {.port =
-            // *port}); server.start(); print server.url(); linger(-1).
-            throw std::invalid_argument("soda view " + *file + ": reading replay files needs the ReplayReader of "
-                                        "issue #19 part 1, not in this build yet (port " + std::to_string(*port) +
-                                        ")");
+  view->add_option("--seconds", options->linger_seconds, "Stop serving after this many seconds (< 0: at Ctrl-C)")
+      ->capture_default_str();
+  return {view, [file, options]() -> int {
+#if SODA_HAS_REPLAY_READER
+            return serve_source(std::make_shared<replay::ReplayReader>(*file), *options);
+#else
+            // The ReplayReader (issue #19 part 1, branch i19-replay) is not
+            // in this tree: once merged, the branch above serves it.
+            throw std::invalid_argument("soda view " + *file + ": this build has no ReplayReader (issue #19 part 1) to "
+                                        "read replay files with");
+#endif
           }};
+}
+
+int serve_source(std::shared_ptr<replay::FrameSource> source, const ServeOptions& serve) {
+  const replay::ViewHeader& h = source->header();
+  const auto [first, last] = source->step_range();
+  viewer::FrameServer server(source, {.port = serve.port, .web_dir = "", .three_dir = ""});
+  InterruptGuard guard;
+  server.start();
+  std::printf("soda: serving %s (%zu dynamic bodies, %d territories, steps %lld..%lld) at %s\n", h.scene.c_str(),
+              h.dynamic_count(), h.territories, static_cast<long long>(first), static_cast<long long>(last),
+              server.url().c_str());
+  std::printf("soda: open that address in a browser; Ctrl-C stops\n");
+  std::fflush(stdout);
+  linger(serve.linger_seconds);
+  server.stop();
+  return 0;  // Ctrl-C is how `soda view` ends: a clean exit
 }
 
 }  // namespace soda::cli

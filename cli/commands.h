@@ -3,12 +3,14 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "soda/loadbalance/policy.h"
+#include "soda/replay/view_frame.h"
 #include "soda/runtime/run.h"
 #include "soda/scene/scene.h"
 
@@ -65,7 +67,12 @@ inline constexpr int kDefaultViewPort = 8765;
 /// cmd_view.cpp.
 int serve_run(const Scene& scene, const RunConfig& config, const ServeOptions& serve);
 
-/// `view FILE`: serves a replay file to the browser viewer. cmd_view.cpp.
+/// `view FILE [--port P] [--seconds S]`: serves a replay file (ReplayReader)
+/// to the browser viewer until Ctrl-C (exit 0) or S seconds. cmd_view.cpp.
 Command add_view_command(CLI::App& app);
+
+/// Serves `source` on 127.0.0.1:serve.port, prints the URL, and returns
+/// after serve.linger_seconds (< 0: at Ctrl-C), 0. cmd_view.cpp.
+int serve_source(std::shared_ptr<replay::FrameSource> source, const ServeOptions& serve);
 
 }  // namespace soda::cli
