@@ -9,6 +9,9 @@ import { ASLEEP_COLOUR, AWAKE_COLOUR, BACKGROUND_COLOUR, BORDER_COLOUR, STATIC_C
 
 // Most border segments drawn: beyond, a map is too fine to read as lines.
 const MAX_BORDER_FACES = 200000;
+// Static bodies larger than this (half extent, m) are left out of the
+// camera's first framing.
+const STATIC_FIT_LIMIT = 40;
 
 // A body's mesh group key, its unit geometry maker and its instance scale.
 function shapeKind(shape) {
@@ -125,11 +128,16 @@ export class SceneView {
   // Looks at the dynamic bodies' initial box from above and aside (y up).
   fitCamera() {
     const box = new THREE.Box3();
-    for (const b of this.header.bodies)
-      if (!b.static) box.expandByPoint(new THREE.Vector3(...b.position));
+    // Dynamic bodies' initial positions, and statics' centres unless they
+    // are huge (a ground plate): walls and catch rows mark where bodies go.
+    for (const b of this.header.bodies) {
+      const e = b.shape.half_extents;
+      const huge = b.static && (!e || Math.max(...e) > STATIC_FIT_LIMIT);
+      if (!huge) box.expandByPoint(new THREE.Vector3(...b.position));
+    }
     if (box.isEmpty()) box.set(new THREE.Vector3(-5, 0, -5), new THREE.Vector3(5, 5, 5));
     const centre = box.getCenter(new THREE.Vector3());
-    const size = box.getSize(new THREE.Vector3()).length() + 2;
+    const size = 1.25 * box.getSize(new THREE.Vector3()).length() + 2;
     this.camera.position.set(centre.x + 0.75 * size, centre.y + 0.55 * size, centre.z + 0.9 * size);
     this.controls.target.copy(centre);
     this.camera.lookAt(centre);
