@@ -31,6 +31,7 @@ const state = {
   finished: false,
   colourMode: params.get('colour') === 'sleep' ? 'sleep' : 'world',
   busy: false,          // a request is under way
+  pending: null,        // a step asked for meanwhile (replay)
 };
 
 function report(error) {
@@ -81,12 +82,24 @@ async function liveLoop() {
   }
 }
 
+// Shows the frame at `step`; true if the source held it. A request made
+// while another is under way (a scrub during play) is kept and shown after
+// it (the newest such request wins), never dropped.
 async function showStep(step) {
-  if (state.busy) return false;
+  if (state.busy) {
+    state.pending = step;
+    return false;
+  }
   state.busy = true;
   try {
     const frame = await fetchFrame(`at=${step}`);
     if (frame) show(frame);
+    while (state.pending !== null) {
+      const next = state.pending;
+      state.pending = null;
+      const f = await fetchFrame(`at=${next}`);
+      if (f) show(f);
+    }
     return frame !== null;
   } catch (e) {
     report(e.message);
