@@ -14,8 +14,8 @@ packages=(
   libjs-three            # three.js for the browser viewer (served from /usr/share/javascript/three)
   chromium               # the browser tests (headless, WebGL on SwiftShader)
 )
-# node runs the browser tests (playwright-core); Debian's nodejs if none is
-# there (any node >= 18 will do).
+# node (>= 20: playwright-core's requirement; the machine's own) runs the
+# browser tests; Debian's nodejs if there is none at all.
 command -v node >/dev/null || packages+=(nodejs npm)
 
 missing=()

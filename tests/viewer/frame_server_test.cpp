@@ -161,6 +161,10 @@ TEST(LiveFrameSource, FollowsTheRunAndEndsOnItsHash) {
   const TerritoryMap map = make_partition(config.partition, scene, 3, config.grid);
   Simulation sim(scene, map, config);
   auto source = std::make_shared<viewer::LiveFrameSource>(sim, scene, map);
+  auto first = source->newest_after(-1);  // step 0, before any world runs
+  ASSERT_TRUE(first);
+  EXPECT_EQ(first->step, 0);
+  EXPECT_FALSE(source->finished());
   source->start();
   sim.advance_to(sim.time_of(kSteps));
   source->finish(kSteps, sim.state_hash());

@@ -38,7 +38,11 @@ LiveFrameSource::LiveFrameSource(Simulation& sim, const Scene& scene, TerritoryM
       header_(make_view_header(scene, map)),
       map_(std::move(map)),
       cell_owner_(cell_owners(map_)),
-      reader_(sim.add_reader()) {}
+      reader_(sim.add_reader()) {
+  // Step 0 is published at construction: a viewer that comes before the
+  // worlds run (soda run --serve-wait) sees the scene as given.
+  if (auto frame = reader_.try_read_at(0.0)) keep(to_view_frame(*frame, header_, map_, cell_owner_));
+}
 
 LiveFrameSource::~LiveFrameSource() { stop_pump(); }
 

@@ -11,7 +11,7 @@ import { fileURLToPath } from 'node:url';
 export const CHROMIUM = process.env.SODA_CHROMIUM || '/usr/bin/chromium';
 // The headless flags: WebGL on SwiftShader (no GPU), nothing fetched.
 export const CHROMIUM_ARGS = ['--no-sandbox', '--headless', '--disable-gpu', '--enable-unsafe-swiftshader',
-  '--use-angle=swiftshader', '--disable-background-networking', '--disable-component-update', '--disable-sync',
+  '--use-angle=swiftshader', '--disable-quic', '--disable-background-networking', '--disable-component-update', '--disable-sync',
   '--no-first-run'];
 
 const here = path.dirname(fileURLToPath(import.meta.url));

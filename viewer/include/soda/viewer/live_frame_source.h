@@ -49,7 +49,8 @@ replay::ViewFrame to_view_frame(const SceneFrame& frame, const replay::ViewHeade
 class LiveFrameSource : public replay::FrameSource {
  public:
   /// `sim` must outlive this object (or finish() be called first); `map` is
-  /// the map sim was built with. Adds a reader to sim; the pump starts with
+  /// the map sim was built with. Adds a reader to sim and keeps the frame of
+  /// step 0 if the worlds have not moved past it; the pump starts with
   /// start().
   LiveFrameSource(Simulation& sim, const Scene& scene, TerritoryMap map);
   /// Stops the pump (and drops the reader).
