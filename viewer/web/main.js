@@ -74,7 +74,18 @@ async function liveLoop() {
       const frame = await fetchFrame(`after=${after}`);
       if (frame) show(frame);
       if (state.finished) return;
-      if (!frame) await new Promise((r) => setTimeout(r, LIVE_POLL_MS));
+      if (!frame) {
+        // Nothing newer: the run may have ended on the step shown (the pump
+        // read it before the hash was added), so ask whether it finished and
+        // fetch that step again with its hash.
+        const range = await fetchJson('/range');
+        if (range.finished) {
+          const last = await fetchFrame(`at=${range.last}`);
+          if (last) show(last);
+          return;
+        }
+        await new Promise((r) => setTimeout(r, LIVE_POLL_MS));
+      }
     } catch (e) {
       report(e.message);  // the server went away (the run ended): keep the last frame
       return;
