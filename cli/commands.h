@@ -3,12 +3,16 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "soda/loadbalance/policy.h"
+#include "soda/replay/view_frame.h"
+#include "soda/runtime/run.h"
+#include "soda/scene/scene.h"
 
 namespace soda::cli {
 
@@ -47,5 +51,31 @@ Command add_lb_command(CLI::App& app);
 /// `replay-info FILE`: a replay file's header, frames and size.
 /// cmd_replay_info.cpp; docs/replay-format.md.
 Command add_replay_info_command(CLI::App& app);
+/// What `soda run --serve PORT` was asked. docs/viewer.md.
+struct ServeOptions {
+  int port = 0;                 // on 127.0.0.1; 0: any free port (printed)
+  double linger_seconds = 60;   // serving on after the run; < 0: until Ctrl-C
+  bool wait_for_viewer = false; // start stepping once a viewer has opened the page
+};
+
+/// The port `soda view` serves on by default.
+inline constexpr int kDefaultViewPort = 8765;
+
+/// `soda run --serve`: runs `scene` through a Simulation (the run's
+/// territories, partition, threads, speculation) while serving it to the
+/// browser viewer live, prints the state hash (the same as without
+/// --serve), serves the last frame for serve.linger_seconds, then stops.
+/// Ctrl-C stops the run (or the linger) cleanly: exit code 130. Throws
+/// std::invalid_argument for run options a Simulation does not support.
+/// cmd_view.cpp.
+int serve_run(const Scene& scene, const RunConfig& config, const ServeOptions& serve);
+
+/// `view FILE [--port P] [--seconds S]`: serves a replay file (ReplayReader)
+/// to the browser viewer until Ctrl-C (exit 0) or S seconds. cmd_view.cpp.
+Command add_view_command(CLI::App& app);
+
+/// Serves `source` on 127.0.0.1:serve.port, prints the URL, and returns
+/// after serve.linger_seconds (< 0: at Ctrl-C), 0. cmd_view.cpp.
+int serve_source(std::shared_ptr<replay::FrameSource> source, const ServeOptions& serve);
 
 }  // namespace soda::cli

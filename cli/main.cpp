@@ -59,6 +59,9 @@ struct Options {
   std::string inputs_path;  // run: an input file to replay (docs/inputs.md)
   int repeat = 3;
   bool no_awake = false;  // bench: skip the runs with sleeping off
+  std::optional<int> serve_port;  // run --serve: the browser viewer, live (docs/viewer.md)
+  double serve_linger = soda::cli::ServeOptions{}.linger_seconds;
+  bool serve_wait = false;
 };
 
 void add_scene_options(CLI::App& cmd, Options& o) {
@@ -244,6 +247,7 @@ int cmd_run(Options& o) {
     o.config.inputs = std::move(own);
     o.config.inputs_source = "scene '" + o.scene + "' (its inputs)";
   }
+  if (o.serve_port) return soda::cli::serve_run(scene, o.config, {*o.serve_port, o.serve_linger, o.serve_wait});
   const soda::RunResult r = soda::run_scene(scene, o.config);
   print_summary(r);
   if (!o.config.record_path.empty())
@@ -380,6 +384,15 @@ int main(int argc, char** argv) {
                   "--record: zlib level, 1 (fastest) .. 9 (smallest)")
       ->check(CLI::Range(1, 9))
       ->capture_default_str();
+  run->add_option("--serve", run_o.serve_port,
+                  "Serve the run to the browser viewer on 127.0.0.1:PORT while it runs (0: any free port; "
+                  "docs/viewer.md)")
+      ->check(CLI::Range(0, 65535));
+  run->add_option("--serve-linger", run_o.serve_linger,
+                  "With --serve: seconds to go on serving after the run ends (< 0: until Ctrl-C)")
+      ->capture_default_str();
+  run->add_flag("--serve-wait", run_o.serve_wait,
+                "With --serve: start stepping once a browser has opened the page and asked for a frame (to watch from step 0)");
   CLI::App* bench = app.add_subcommand("bench", "Run a scene and a stock Bullet baseline side by side");
   bench->add_option("scene", bench_o.scene, "Registry scene name or .json file (same as --scene)");
   add_run_options(*bench, bench_o);
@@ -406,6 +419,7 @@ int main(int argc, char** argv) {
   more.push_back(soda::cli::add_stress_command(app));
   more.push_back(soda::cli::add_lb_command(app));
   more.push_back(soda::cli::add_replay_info_command(app));
+  more.push_back(soda::cli::add_view_command(app));
 
   try {
     app.parse(argc, argv);

@@ -11,7 +11,13 @@ packages=(
   libgtest-dev
   zlib1g-dev             # replay files (replay/: zlib chunks)
   python3-matplotlib     # bench/plot_accuracy.py (plots only; the C++ never needs it)
+  libcpp-httplib-dev     # the viewer's frame server (soda view, soda run --serve)
+  libjs-three            # three.js for the browser viewer (served from /usr/share/javascript/three)
+  chromium               # the browser tests (headless, WebGL on SwiftShader)
 )
+# node (>= 20: playwright-core's requirement; the machine's own) runs the
+# browser tests; Debian's nodejs if there is none at all.
+command -v node >/dev/null || packages+=(nodejs npm)
 
 missing=()
 for p in "${packages[@]}"; do
@@ -20,8 +26,24 @@ for p in "${packages[@]}"; do
   fi
 done
 
+# The browser tests' driver: playwright-core (no browser download: it drives
+# Debian's chromium) from the npm registry into viewer/tests/node_modules, at
+# the version package-lock.json pins.
+install_playwright() {
+  local dir viewer_tests
+  dir="$(cd "$(dirname "$0")/.." && pwd)"
+  viewer_tests="$dir/viewer/tests"
+  if [ -f "$viewer_tests/node_modules/playwright-core/package.json" ]; then
+    echo "setup: playwright-core present"
+  else
+    echo "setup: installing playwright-core into $viewer_tests/node_modules"
+    (cd "$viewer_tests" && npm ci --no-audit --no-fund --loglevel=error)
+  fi
+}
+
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#packages[@]} packages present"
+  install_playwright
   exit 0
 fi
 
@@ -35,3 +57,4 @@ fi
 echo "setup: installing ${missing[*]}"
 $sudo apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+install_playwright

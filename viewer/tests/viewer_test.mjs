@@ -1,0 +1,105 @@
+// The browser tests (ctest label `browser`; docs/viewer.md, "Tests"):
+//   node viewer_test.mjs replay SERVER_EXE OUT_DIR   a recorded run (viewer_test_server)
+//   node viewer_test.mjs live SODA_EXE OUT_DIR       soda run --serve 0 (a running scene)
+// Starts the server on 127.0.0.1, loads the page in headless chromium, waits
+// for the page to report a frame, screenshots it into OUT_DIR, checks that
+// every world's colour is drawn somewhere and the background elsewhere, and
+// the step shown. Exits 1 with "FAIL: ..." on any failure; stops itself
+// (every wait has a timeout).
+import { mkdirSync, readFileSync } from 'node:fs';
+import path from 'node:path';
+import { countColours, fail, launchBrowser, loadPlaywright, startServer, status } from './browser.mjs';
+
+const [mode, exe, outDir] = process.argv.slice(2);
+if (!['replay', 'live'].includes(mode) || !exe || !outDir)
+  fail('usage: node viewer_test.mjs replay|live SERVER_EXE OUT_DIR');
+const playwright = loadPlaywright();
+const palette = paletteFromSource();
+const TERRITORIES = 4;
+const TIMEOUT_MS = 60000;
+const LIVE_STEPS = 300;
+// Each world's colour must cover at least this many pixels (a few cubes at
+// 960x640), the background at least this fraction of the canvas.
+const MIN_WORLD_PIXELS = 40;
+const MIN_BACKGROUND_FRACTION = 0.2;
+
+// WORLD_COLOURS and BACKGROUND_COLOUR as the page has them (palette.js).
+function paletteFromSource() {
+  const text = readFileSync(new URL('../web/palette.js', import.meta.url), 'utf8');
+  const list = /WORLD_COLOURS = \[([^\]]*)\]/.exec(text)[1].match(/0x[0-9a-f]{6}/gi).map(Number);
+  const background = Number(/BACKGROUND_COLOUR = (0x[0-9a-f]{6})/i.exec(text)[1]);
+  return { list, background };
+}
+
+function checkPixels(px, label) {
+  const worlds = px.counts.slice(0, TERRITORIES);
+  console.log(`${label}: ${px.width}x${px.height}, background ${px.background} px, per world ${worlds.join(' ')} px`);
+  if (px.background < MIN_BACKGROUND_FRACTION * px.total)
+    fail(`${label}: only ${px.background} of ${px.total} pixels are background`);
+  worlds.forEach((n, w) => {
+    if (n < MIN_WORLD_PIXELS) fail(`${label}: world ${w}'s colour covers ${n} pixels (< ${MIN_WORLD_PIXELS}): bodies not drawn?`);
+  });
+}
+
+async function run() {
+  mkdirSync(outDir, { recursive: true });
+  const args = mode === 'replay'
+    ? ['--scene', 'falling-cubes', '--n', '400', '--territories', String(TERRITORIES), '--steps', '90', '--seconds', '120']
+    : ['run', '--scene', 'falling-cubes', '--n', '1000', '--territories', String(TERRITORIES), '--steps', String(LIVE_STEPS),
+       '--serve', '0', '--serve-linger', '60', '--serve-wait'];
+  const server = await startServer(exe, args, TIMEOUT_MS);
+  const browser = await launchBrowser(playwright);
+  try {
+    const page = await browser.context.newPage();
+    const errors = [];
+    page.on('pageerror', (e) => errors.push(e.message));
+    page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+    if (mode === 'replay') {
+      const step = 60;
+      await page.goto(`${server.url}?play=0&step=${step}`, { timeout: TIMEOUT_MS });
+      await page.waitForFunction((s) => document.getElementById('status').dataset.step === String(s), step,
+                                 { timeout: TIMEOUT_MS });
+      const st = await status(page);
+      const label = await page.textContent('#step-label');
+      if (label !== `step ${step}`) fail(`the step label reads '${label}', expected 'step ${step}'`);
+      if (st.mode !== 'replay' || st.worlds !== String(TERRITORIES)) fail(`status ${JSON.stringify(st)}`);
+      await page.screenshot({ path: path.join(outDir, 'viewer-replay.png') });
+      checkPixels(await countColours(page, palette.list, palette.background), 'replay step 60');
+      // The last frame carries the run's hash, shown on the page.
+      const hash = server.lines.find((l) => l.startsWith('state_hash ')).split(' ')[1];
+      await page.fill('#timeline', '90');  // sets the slider and fires its input event, as a drag does
+      await page.waitForFunction(() => document.getElementById('status').dataset.step === '90', null, { timeout: TIMEOUT_MS });
+      const end = await status(page);
+      if (end.hash !== hash || end.finished !== '1') fail(`at the end the page shows hash '${end.hash}' (finished ${end.finished}), the run's is ${hash}`);
+      if (!(await page.textContent('#hash')).includes(hash)) fail('the hash is not displayed');
+    } else {
+      await page.goto(server.url, { timeout: TIMEOUT_MS });
+      await page.waitForFunction(() => Number(document.getElementById('status').dataset.step) >= 0, null,
+                                 { timeout: TIMEOUT_MS });
+      const first = await status(page);
+      await page.screenshot({ path: path.join(outDir, 'viewer-live.png') });
+      if (first.mode !== 'live') fail(`status ${JSON.stringify(first)}`);
+      // The live page follows the run to its end and shows the hash soda prints.
+      await page.waitForFunction(() => document.getElementById('status').dataset.finished === '1', null,
+                                 { timeout: TIMEOUT_MS });
+      const end = await status(page);
+      const line = server.lines.find((l) => l.includes('state_hash'));
+      const hash = /state_hash ([0-9a-f]{16})/.exec(line)[1];
+      console.log(`live: first frame step ${first.step}, ${end.frames} frames shown, last step ${end.step}, hash ${end.hash}`);
+      if (end.step !== String(LIVE_STEPS)) fail(`the live page ended on step ${end.step}, the run on ${LIVE_STEPS}`);
+      if (end.hash !== hash) fail(`the live page shows hash '${end.hash}', soda printed ${hash}`);
+      if (Number(end.frames) < 2) fail(`the live page showed ${end.frames} frame(s): it did not follow the run`);
+      checkPixels(await countColours(page, palette.list, palette.background), 'live end');
+    }
+    const st = await status(page);
+    if (st.error) fail(`the page reports an error: ${st.error}`);
+    if (errors.length) fail(`the page logged errors: ${errors.join(' | ')}`);
+    console.log(`${mode}: ok (step ${st.step}, ${st.bodies} bodies)`);
+  } finally {
+    await browser.close();
+    server.child.kill('SIGTERM');
+  }
+}
+
+const watchdog = setTimeout(() => fail(`still running after ${4 * TIMEOUT_MS} ms`), 4 * TIMEOUT_MS);
+run().then(() => { clearTimeout(watchdog); process.exit(0); }, (e) => fail(e.stack || e.message));
