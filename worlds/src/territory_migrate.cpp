@@ -25,6 +25,8 @@ bool by_pair(const ManifoldState& a, const ManifoldState& b) {
 // As btDiscreteDynamicsWorld::integrateTransforms (CCD off) and
 // updateActivationState, for owned bodies; then clearForces.
 void TerritoryWorld::integrate() {
+  counters_.coloured_islands = parts_->solver.stats().coloured_islands - coloured_before_;
+  counters_.solver_threads = parts_->solver.stats().threads_max;
   const btScalar h = btScalar(settings_.dt / settings_.substeps);
   for (Entry* e : owned_) {
     btRigidBody& body = *e->body;

@@ -94,6 +94,10 @@ struct RunConfig {
   /// (accepted, no balance step). With inputs, the PartitionedWorld applies
   /// them (inputs_via_simulation).
   BalanceOptions balance = {};
+  /// Threads that solve the colours of a large island (docs/coloured-solve.md):
+  /// K = 1, the canonical world's pool; K > 1, PartitionedOptions::solver_threads.
+  /// Results never depend on it. 1: none. >= 1. Not with the stock world.
+  int solver_threads = 1;
 };
 
 /// Summary statistics of per-step times, in milliseconds.
@@ -138,6 +142,8 @@ struct RunResult {
   std::uint64_t sync_rollbacks = 0;         // SyncTest: rollbacks checked bit-identical
   std::vector<BalanceRecord> balance_log;   // K > 1: PartitionedWorld::balance_log()
   std::vector<StepLoads> step_loads;        // K > 1 (not through a Simulation): PartitionedWorld::step_loads()
+  int solver_threads = 1;                   // RunConfig::solver_threads
+  std::uint64_t coloured_islands = 0;       // islands solved coloured, summed over steps (and worlds)
 };
 
 /// Insertion order of the scene's bodies for a shuffle seed (0: scene order).
