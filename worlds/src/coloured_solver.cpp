@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <limits>
+#include <stdexcept>
 
 namespace soda {
 
@@ -28,9 +29,16 @@ bool ColouredSolver::colour(const btContactSolverInfo& info) {
   if (contacts < kColouredMinContactRows) return false;
   if (m_tmpSolverNonContactConstraintPool.size() != 0) return false;
   if (info.m_solverMode & (SOLVER_RANDMIZE_ORDER | SOLVER_INTERLEAVE_CONTACT_AND_FRICTION_CONSTRAINTS)) return false;
-  for (int i = 0; i < m_orderTmpConstraintPool.size(); ++i)
+  // Only the first `contacts` (`frictions`) entries are an order: with
+  // SOLVER_USE_2_FRICTION_DIRECTIONS Bullet's setup sizes the contact order
+  // to twice the contact rows (resizeNoInitialize) and sets only the first
+  // half; the rest is whatever earlier, larger islands of this solver left
+  // there. Reading it made the choice coloured/stock depend on the world's
+  // history, not on the island (N territories != one).
+  if (m_orderTmpConstraintPool.size() < contacts || m_orderFrictionConstraintPool.size() < frictions) return false;
+  for (int i = 0; i < contacts; ++i)
     if (m_orderTmpConstraintPool[i] != i) return false;
-  for (int i = 0; i < m_orderFrictionConstraintPool.size(); ++i)
+  for (int i = 0; i < frictions; ++i)
     if (m_orderFrictionConstraintPool[i] != i) return false;
 
   // 1. Runs of contact rows with the same two solver bodies.
@@ -192,6 +200,21 @@ ColouredSolver::Residual ColouredSolver::sweep(Sweep kind) {
   return total;
 }
 
+// Mode::SequentialInColourOrder: Bullet's order arrays in the order the
+// coloured sweeps visit the rows (only their first `contacts` / `frictions`
+// entries are read by Bullet's non-interleaved loop).
+void ColouredSolver::set_colour_order() {
+  if (m_tmpSolverContactRollingFrictionConstraintPool.size() > 0)
+    throw std::logic_error("ColouredSolver: SequentialInColourOrder does not support rolling friction");
+  int contact = 0, friction = 0;
+  for (const int r : colour_runs_) {
+    const Run& run = runs_[static_cast<std::size_t>(r)];
+    for (int i = run.contact_begin; i < run.contact_end; ++i) m_orderTmpConstraintPool[contact++] = i;
+    for (int j = run.friction_begin; j < run.friction_end; ++j)
+      m_orderFrictionConstraintPool[friction++] = friction_rows_[static_cast<std::size_t>(j)];
+  }
+}
+
 // As btSequentialImpulseConstraintSolver::solveGroupCacheFriendlyIterations
 // (split-impulse iterations, then the velocity iterations with the same
 // early exit), each sweep coloured.
@@ -202,6 +225,12 @@ btScalar ColouredSolver::solveGroupCacheFriendlyIterations(btCollisionObject** b
   if (numConstraints != 0 || !colour(info))
     return btSequentialImpulseConstraintSolver::solveGroupCacheFriendlyIterations(
         bodies, numBodies, manifoldPtr, numManifolds, constraints, numConstraints, info, debugDrawer);
+  if (mode_ == Mode::SequentialInColourOrder) {
+    set_colour_order();
+    stats_.threads_max = std::max(stats_.threads_max, 1);
+    return btSequentialImpulseConstraintSolver::solveGroupCacheFriendlyIterations(
+        bodies, numBodies, manifoldPtr, numManifolds, constraints, numConstraints, info, debugDrawer);
+  }
   threads_ = 1;
   const btScalar threshold = info.m_leastSquaresResidualThreshold;
   auto done = [&](const Residual& r) { return !r.nan && r.max <= threshold; };

@@ -69,6 +69,22 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
     int threads_max = 0;               // most threads a job of a coloured island could use
   };
 
+  /// How an island that qualifies (colour() succeeds) is solved.
+  enum class Mode {
+    /// The coloured loop (step 3 of the header), on the pool's threads.
+    Coloured,
+    /// The oracle of the tests: the island is coloured as usual, then
+    /// Bullet's own sequential loop solves it with its order arrays set to
+    /// the colour order (colour after colour, runs in order, each run's
+    /// rows in pool order), on the calling thread. Bit-identical to
+    /// Coloured by construction, for any per-island settings (iterations,
+    /// early exit); a difference is a bug of the coloured loop. Not with
+    /// rolling friction (Bullet visits those rows in pool order only):
+    /// std::logic_error.
+    SequentialInColourOrder,
+  };
+  void set_mode(Mode mode) { mode_ = mode; }
+
   /// The pool the colours' runs are shared on (null: the calling thread
   /// alone). Results never depend on it. Not during a solve.
   void set_pool(std::shared_ptr<SolverPool> pool) { pool_ = std::move(pool); }
@@ -102,7 +118,10 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
   Residual sweep(Sweep kind);
   void solve_runs(Sweep kind, const int* runs, int count, Residual& residual);
 
+  void set_colour_order();
+
   std::shared_ptr<SolverPool> pool_;
+  Mode mode_ = Mode::Coloured;
   Stats stats_;
   int threads_ = 1;  // of the current island
 
