@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <memory>
 #include <tuple>
 #include <set>
 #include <sstream>
@@ -21,6 +22,7 @@
 #include "soda/runtime/partitioned_world.h"
 #include "soda/scene/registry.h"
 #include "soda/worlds/canonical_world.h"
+#include "soda/worlds/solver_pool.h"
 #include "soda/worlds/stock_world.h"
 #include "soda/worlds/watchdog.h"
 
@@ -156,6 +158,7 @@ Observed run_case_world(const Scene& scene, const StressCase& c) {
   if (c.ccd) throw std::invalid_argument("CCD is outside the canonical world's contract");
   std::unique_ptr<btConstraintSolver> variant_solver;  // outlives the world
   CanonicalWorld w(scene);
+  if (c.solver_threads > 1) w.set_solver_pool(std::make_shared<SolverPool>(c.solver_threads));
   apply_solver_variant(w.bullet(), c.variant, variant_solver);
   return observe(w, scene, c.steps);
 }
@@ -304,7 +307,9 @@ void run_bullet_border(StressResult& r, const Scene& scene, const StressCase& c)
   bool same = true;
   const BodyId sphere = scene.bodies.back().id;
   for (int k : {1, 2, 4, 8}) {
-    PartitionedWorld w(scene, make_partition("grid:" + std::to_string(k) + "x1x1", scene, k, grid));
+    PartitionedOptions options;
+    options.solver_threads = c.solver_threads;
+    PartitionedWorld w(scene, make_partition("grid:" + std::to_string(k) + "x1x1", scene, k, grid), options);
     const std::int64_t a = wall_ns();
     for (int t = 0; t < c.steps; ++t) {
       w.step(1);

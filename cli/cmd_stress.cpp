@@ -34,6 +34,7 @@ struct StressOptions {
   int substeps = 0;    // 0 : each scene's own
   std::string variant;  // diagnosis: solver_variant.h
   bool stock = false;   // run every case in Bullet's stock world
+  int solver_threads = 1;  // canonical world: threads of the coloured solve
 };
 
 void write_text(const std::string& path, const std::string& text) {
@@ -63,6 +64,7 @@ int run_stress(StressOptions& o) {
     c = with_settings(c, dt, o.iterations);
     if (o.substeps > 0) c.substeps = o.substeps;
     c.variant = o.variant;
+    c.solver_threads = o.solver_threads;
     if (o.stock) c.world = WorldKind::Stock;
   }
   std::vector<StressResult> results;
@@ -157,6 +159,10 @@ Command add_stress_command(CLI::App& app) {
                   "Diagnosis: solver settings to change, e.g. ws=1,erp2=0.8,nosleep (bench/include/soda/bench/"
                   "solver_variant.h)");
   cmd->add_flag("--stock", o->stock, "Run every case in Bullet's stock world (the comparison column)");
+  cmd->add_option("--solver-threads", o->solver_threads,
+                  "Canonical world: threads of the coloured solve of large islands (results are identical for "
+                  "every value; docs/coloured-solve.md)")
+      ->check(CLI::Range(1, 256));
   cmd->add_option("--sibling", o->sibling, "The other precision's binary (default: next to this one)");
   cmd->add_flag("--no-sibling", o->no_sibling, "Do not run the two-precision cases in the other build");
   cmd->add_option("--csv", o->csv, "Output CSV ('' for none)")->capture_default_str();

@@ -90,6 +90,11 @@ void add_run_options(CLI::App& cmd, Options& o) {
   cmd.add_flag("--serialise", o.config.serialise,
                "Send every message between worlds through bytes, as a process boundary would (territories > 1)");
   cmd.add_flag("--pin", o.config.pin, "Pin world threads to cores (one thread per world)");
+  cmd.add_option("--solver-threads", o.config.solver_threads,
+                 "Threads that solve the colours of a large island (the stepping thread plus helpers shared by "
+                 "all worlds; results are identical for every value; canonical world only); docs/coloured-solve.md")
+      ->check(CLI::Range(1, 256))
+      ->capture_default_str();
   cmd.add_option("--shuffle-seed", o.config.shuffle_seed,
                  "Every world (each territory's too) inserts its bodies in an order shuffled by this seed (0: "
                  "scene order); the canonical world's results do not depend on it")
@@ -188,6 +193,9 @@ void print_summary(const soda::RunResult& r) {
                 r.territories, r.partition.c_str(), r.schedule.c_str(), r.threads,
                 static_cast<unsigned long long>(r.messages), r.cpu_seconds,
                 soda::slowest_world_cpu_seconds(r.world_metrics));
+  if (r.coloured_islands > 0 || r.solver_threads > 1)
+    std::printf("  coloured solve: %llu islands solved coloured, on up to %d solver thread(s)\n",
+                static_cast<unsigned long long>(r.coloured_islands), r.solver_threads);
   if (r.territories > 1) {
     // Per stage, summed over the worlds: CPU seconds / seconds waited.
     const soda::WorldMetrics t = soda::total_metrics(r.world_metrics);

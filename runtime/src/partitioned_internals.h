@@ -17,6 +17,7 @@
 #include "scheduler.h"
 #include "soda/runtime/partitioned_world.h"
 #include "soda/runtime/transport.h"
+#include "soda/worlds/solver_pool.h"
 #include "validator.h"
 #include "world_process.h"
 
@@ -27,6 +28,7 @@ struct PartitionedWorld::Internals {
   std::unique_ptr<WorldGraph> graph;
   std::unique_ptr<Transport> transport;
   std::unique_ptr<Validator> validator;                 // null unless PartitionedOptions::validate
+  std::shared_ptr<SolverPool> solver_pool;              // null unless PartitionedOptions::solver_threads > 1
   std::vector<std::unique_ptr<TerritoryWorld>> worlds;  // by id; a rewind or rollback may replace one
   std::unique_ptr<CommitHorizon> horizon;
   std::unique_ptr<RollbackBoard> board;                 // speculation: rollbacks of every world

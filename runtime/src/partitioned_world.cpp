@@ -72,6 +72,8 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.rollback_cpu_seconds += m.rollback_cpu_seconds;
   t.lead_max = std::max(t.lead_max, m.lead_max);
   t.kept_states_max = std::max(t.kept_states_max, m.kept_states_max);
+  t.coloured_islands += m.coloured_islands;
+  t.solver_threads = std::max(t.solver_threads, m.solver_threads);
 }
 
 }  // namespace
@@ -161,7 +163,12 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   // The inputs still to come (those of earlier steps are in the scene).
   if (in.validator && inputs_)
     for (const UserInput& input : inputs_->from(steps_done_)) in.validator->expect(input, substeps_);
-  for (WorldId w = 0; w < k; ++w) in.worlds.push_back(make_world(w));
+  if (options_.solver_threads < 1) throw std::invalid_argument("PartitionedWorld: solver_threads must be >= 1");
+  if (options_.solver_threads > 1) in.solver_pool = std::make_shared<SolverPool>(options_.solver_threads);
+  for (WorldId w = 0; w < k; ++w) {
+    in.worlds.push_back(make_world(w));
+    in.worlds.back()->set_solver_pool(in.solver_pool);
+  }
   const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
   in.horizon = std::make_unique<SharedMemoryHorizon>(k, steps_done_ * substeps_);
   // Speculation: a world waiting for the horizon, or told to roll back

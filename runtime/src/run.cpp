@@ -19,6 +19,7 @@
 #include "soda/runtime/memory_estimate.h"
 #include "soda/scene/validate.h"
 #include "soda/worlds/canonical_world.h"
+#include "soda/worlds/solver_pool.h"
 #include "soda/worlds/stock_world.h"
 
 namespace soda {
@@ -60,6 +61,7 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
     world.step();
     const std::int64_t b = wall_ns();
     if constexpr (std::is_same_v<W, CanonicalWorld>) {
+      r.coloured_islands += world.last_step_stats().coloured_islands;
       if (config.watchdog.response != WatchdogResponse::Off) {
         std::vector<WatchdogFinding> findings = world.watchdog_findings(config.watchdog.limits);
         if (!findings.empty()) throw WatchdogError(s + 1, kNoWorld, std::move(findings), config.watchdog.limits);
@@ -94,12 +96,16 @@ struct Stamp {
 template <class W, class... Args>
 RunResult build_run_destroy(const Scene& scene, const RunConfig& config, const Stamp& start, Args&&... args) {
   auto world = std::make_unique<W>(std::forward<Args>(args)...);
+  if constexpr (std::is_same_v<W, CanonicalWorld>) {
+    if (config.solver_threads > 1) world->set_solver_pool(std::make_shared<SolverPool>(config.solver_threads));
+  }
   const Stamp built;
   std::size_t bodies0 = 0, pairs0 = 0;
   if constexpr (std::is_same_v<W, CanonicalWorld>) {
     if (config.validate) bodies0 = world->body_count(), pairs0 = world->contact_state().size();
   }
   RunResult r = run_world(*world, scene, config);
+  r.solver_threads = config.solver_threads;
   if constexpr (std::is_same_v<W, CanonicalWorld>) {
     if (config.validate) {
       r.bodies_at_start = bodies0;
@@ -167,6 +173,8 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   options.reach_speed = config.reach_speed;
   options.balance = config.balance;
   if (config.inputs) options.inputs = *config.inputs;
+  options.solver_threads = config.solver_threads;
+  r.solver_threads = config.solver_threads;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
   step_ends.reserve(static_cast<std::size_t>(config.steps));
   std::int64_t t0 = 0;
@@ -228,6 +236,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.balance_log = world.balance_log();
   r.step_loads = world.step_loads();
   for (const WorldMetrics& m : r.world_metrics) r.migrations += m.migrations_out;
+  for (const WorldMetrics& m : r.world_metrics) r.coloured_islands += m.coloured_islands;
   if (config.validate) {
     const WorldSnapshot s = world.snapshot();
     r.bodies_at_end = s.bodies.size();
@@ -308,6 +317,10 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   if (config.steps < 0) throw std::invalid_argument("--steps must be >= 0");
   if (config.territories < 1) throw std::invalid_argument("--territories must be >= 1");
   if (config.threads < 0) throw std::invalid_argument("--threads must be >= 0");
+  if (config.solver_threads < 1)
+    throw std::invalid_argument("--solver-threads must be >= 1, got " + std::to_string(config.solver_threads));
+  if (config.solver_threads > 1 && config.world == WorldKind::Stock)
+    throw std::invalid_argument("--solver-threads > 1 runs the canonical world only (not --world stock)");
   if (config.sync_test < 0) throw std::invalid_argument("--sync-test must be >= 0");
   if (!(config.slow_world0_ms >= 0) || config.slow_world0_ms > 1000)
     throw std::invalid_argument("--slow-world0 must be in [0, 1000] ms");

@@ -87,6 +87,7 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   sc.serialise = config.serialise;
   sc.validate = config.validate;
   sc.anticipation = config.anticipation;
+  sc.solver_threads = config.solver_threads;
   sc.rollback = config.rollback;
   sc.checkpoint_every = config.checkpoint_every;
   sc.eager_bets = config.eager_bets;

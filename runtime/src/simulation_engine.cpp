@@ -41,6 +41,7 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
         "') is not supported by a Simulation yet: a cession is applied at a balance step where every world "
         "stands, and a Simulation's worlds run freely (use PartitionedWorld::step, or `soda run` without "
         "--inputs; docs/loadbalance.md)");
+  o.solver_threads = c.solver_threads;
   if (c.past_inputs && c.validate)
     throw std::invalid_argument("SimulationConfig: past_inputs with validate is not supported (the validator "
                                 "cannot follow a rollback yet)");
@@ -248,6 +249,7 @@ void SimulationEngine::rollback_locked(std::int64_t scene_step) {
 // World w's thread, at the boundary it was held at.
 void SimulationEngine::rewind_world(WorldId w, const WorldSnapshot& state) {
   auto fresh = std::make_unique<TerritoryWorld>(state, w, world->world(w).map());
+  fresh->set_solver_pool(world->world(w).solver_pool());
   core->buffers[static_cast<std::size_t>(w)]->invalidate_from(state.steps_done + 1);
   parts().process(w).rewind(*fresh, state.steps_done);
   parts().worlds[static_cast<std::size_t>(w)] = std::move(fresh);

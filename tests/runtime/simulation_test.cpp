@@ -110,6 +110,20 @@ TEST(Simulation, TimesToStepsAndOneWorld) {
   EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(test::reference_hash(s, 15)));
 }
 
+// A heap on two territories with a pool of solver threads
+// (docs/coloured-solve.md): the one-world hash, solved coloured.
+TEST(Simulation, SolverThreadsKeepTheOneWorldHash) {
+  const Scene s = test::scene("cube-pile", 200);
+  SimulationConfig config;
+  config.territories = 2;
+  config.solver_threads = 2;
+  Simulation sim(s, config);
+  ASSERT_TRUE(sim.advance_to(sim.time_of(60)));
+  EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(test::reference_hash(s, 60)));
+  EXPECT_GT(test::total(sim.metrics()).coloured_islands, 0u);
+  EXPECT_EQ(test::total(sim.metrics()).solver_threads, 2);
+}
+
 // Interpolation between frames equals interpolate_entries on the
 // reference's frames; at a step's own time it is the frame. try_read_at
 // never waits; a frame the reader moved past is gone, its last one is not.

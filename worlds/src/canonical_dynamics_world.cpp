@@ -76,9 +76,8 @@ bool decide_island_sleeping(btCollisionObject* const* bodies, int count) {
 }
 
 CanonicalDynamicsWorld::CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtBroadphase* broadphase,
-                                               btConstraintSolver* solver,
-                                               btCollisionConfiguration* config)
-    : btDiscreteDynamicsWorld(dispatcher, broadphase, solver, config), broadphase_(broadphase) {
+                                               ColouredSolver* solver, btCollisionConfiguration* config)
+    : btDiscreteDynamicsWorld(dispatcher, broadphase, solver, config), broadphase_(broadphase), solver_(solver) {
   // Islands are never batched: one solveGroup per island (see header).
   getSolverInfo().m_minimumSolverBatchSize = 1;
 }
@@ -272,10 +271,13 @@ void CanonicalDynamicsWorld::solveConstraints(btContactSolverInfo& solver_info) 
     throw std::logic_error("CanonicalWorld: constraints are not supported yet");
   if (!bodies_sorted_) sort_dynamic_bodies();
   getConstraintSolver()->prepareSolve(getNumCollisionObjects(), getDispatcher()->getNumManifolds());
+  const std::size_t coloured_before = solver_->stats().coloured_islands;
   build_islands();
   decide_sleeping();
   collect_island_manifolds();
   solve_islands(solver_info);
+  stats_.coloured_islands = solver_->stats().coloured_islands - coloured_before;
+  stats_.solver_threads = solver_->stats().threads_max;
   getConstraintSolver()->allSolved(solver_info, getDebugDrawer());
 }
 

@@ -23,7 +23,8 @@
 //     (one solveGroup call per island; batch size 1, so Bullet's early exit
 //     and iteration overrides are per island). Awake lone bodies without
 //     contacts are solved in one call: they have no solver rows, so each one's
-//     result is its own integration, whatever else is in the call.
+//     result is its own integration, whatever else is in the call. Large
+//     islands are solved coloured by the ColouredSolver (coloured_solver.h).
 #pragma once
 
 #include <cstdint>
@@ -31,6 +32,7 @@
 
 #include <btBulletDynamicsCommon.h>
 
+#include "coloured_solver.h"
 #include "soda/worlds/canonical_world.h"
 
 namespace soda {
@@ -56,7 +58,7 @@ bool decide_island_sleeping(btCollisionObject* const* bodies, int count);
 class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
  public:
   CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtBroadphase* broadphase,
-                         btConstraintSolver* solver, btCollisionConfiguration* config);
+                         ColouredSolver* solver, btCollisionConfiguration* config);
 
   /// Inserts a body whose user index is its global id: its broadphase proxy
   /// gets unique id = global id + 1, so every pair's body0 is its lower id.
@@ -82,6 +84,7 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
   void solve_islands(btContactSolverInfo& solver_info);
 
   btDbvtBroadphase* broadphase_;
+  ColouredSolver* solver_;
   StepStats stats_;
   bool bodies_sorted_ = true;
   std::vector<btRigidBody*> dynamic_bodies_;  // sorted by id; user index 2 = position

@@ -82,6 +82,8 @@ void CanonicalWorld::step() {
   ++steps_done_;
 }
 
+void CanonicalWorld::set_solver_pool(std::shared_ptr<SolverPool> pool) { parts_->solver.set_pool(std::move(pool)); }
+
 const StepStats& CanonicalWorld::last_step_stats() const { return parts_->world.stats(); }
 
 std::vector<BodyState> CanonicalWorld::body_states() const {

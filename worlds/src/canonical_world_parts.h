@@ -9,6 +9,7 @@
 #include "body_factory.h"
 #include "canonical_dynamics_world.h"
 #include "pair_cache.h"
+#include "coloured_solver.h"
 #include "soda/worlds/canonical_world.h"
 #include "world_teardown.h"
 
@@ -28,7 +29,7 @@ struct CanonicalWorldParts {
   btCollisionDispatcher dispatcher{&config};
   PairCache pairs;  // before the broadphase, which uses it (pair_cache.h)
   btDbvtBroadphase broadphase{&pairs};
-  btSequentialImpulseConstraintSolver solver;
+  ColouredSolver solver;  // docs/coloured-solve.md
   CanonicalDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
 };
 

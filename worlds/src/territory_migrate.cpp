@@ -26,6 +26,8 @@ bool by_pair(const ManifoldState& a, const ManifoldState& b) {
 // As btDiscreteDynamicsWorld::integrateTransforms (CCD off) and
 // updateActivationState, for owned bodies; then clearForces.
 void TerritoryWorld::integrate() {
+  counters_.coloured_islands = parts_->solver.stats().coloured_islands - coloured_before_;
+  counters_.solver_threads = parts_->solver.stats().threads_max;
   const btScalar h = btScalar(settings_.dt / settings_.substeps);
   // The step's speculative points end with its solve (docs/ccd.md); results
   // of border islands do not keep them (apply_island_result).

@@ -70,6 +70,7 @@ void TerritoryWorld::init_world(const TerritoryWorld* share_pools_of) {
                          std::to_string(map_.world_count()) + " worlds");
   install_bullet_allocator();
   parts_ = std::make_unique<Parts>(this, share_pools_of ? share_pools_of->parts_->config : nullptr);
+  if (share_pools_of) parts_->solver.set_pool(share_pools_of->parts_->solver.pool());
   parts_->world.setGravity(to_bt(settings_.gravity));
   configure_canonical_solver(parts_->world.getSolverInfo(), settings_);
 }
@@ -181,6 +182,10 @@ bool TerritoryWorld::owns(BodyId id) const {
   return it != entries_.end() && it->second->role == Role::Owned;
 }
 
+void TerritoryWorld::set_solver_pool(std::shared_ptr<SolverPool> pool) { parts_->solver.set_pool(std::move(pool)); }
+
+std::shared_ptr<SolverPool> TerritoryWorld::solver_pool() const { return parts_->solver.pool(); }
+
 const std::vector<WorldId>& TerritoryWorld::neighbours() const { return map_.neighbours(id_); }
 
 // predict: what btDiscreteDynamicsWorld::stepSimulation does to every body
@@ -188,6 +193,7 @@ const std::vector<WorldId>& TerritoryWorld::neighbours() const { return map_.nei
 // createPredictiveContacts without CCD), for owned bodies only; then halos.
 void TerritoryWorld::predict() {
   counters_ = TerritoryCounters{};
+  coloured_before_ = parts_->solver.stats().coloured_islands;
   sort_lists();
   local_islands_.clear();
   if (replay_.before) mark_clean();

@@ -13,6 +13,7 @@
 
 #include "body_factory.h"
 #include "pair_cache.h"
+#include "coloured_solver.h"
 #include "soda/worlds/territory_world.h"
 #include "world_teardown.h"
 
@@ -68,7 +69,7 @@ struct TerritoryWorld::Parts {
   Dispatcher dispatcher;
   PairCache pairs;  // before the broadphase, which uses it (pair_cache.h)
   btDbvtBroadphase broadphase{&pairs};
-  btSequentialImpulseConstraintSolver solver;
+  ColouredSolver solver;  // docs/coloured-solve.md
   btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, config.get()};
   btManifoldArray scratch;  // near callback
   std::vector<btPersistentManifold*> speculative;  // held manifolds given a speculative point this step

@@ -31,6 +31,7 @@ struct StressCase {
   int iterations = 0;     // > 0: override the scene's solver iterations
   int substeps = 0;       // > 0: override the scene's substeps
   std::string variant{};  // diagnosis: solver_variant.h (canonical world only)
+  int solver_threads = 1; // > 1: the canonical world's coloured solve on a pool (results never depend on it)
 };
 
 /// The case with dt and iterations overridden (0: unchanged); steps are

@@ -158,6 +158,12 @@ struct PartitionedOptions {
   /// std::invalid_argument from the constructor naming it (its index,
   /// describe()) and what is wrong. Validation follows the inputs.
   std::vector<UserInput> inputs = {};
+  /// Threads that solve the colours of a large island (docs/coloured-solve.md):
+  /// one pool of solver_threads - 1 helper threads shared by every world of
+  /// this PartitionedWorld, joined by the thread of the world solving; a
+  /// world that finds it busy solves alone. Results never depend on it.
+  /// 1: no pool. >= 1.
+  int solver_threads = 1;
 };
 
 /// Thrown when the validation mode finds a broken invariant; the message names
@@ -224,6 +230,8 @@ struct WorldMetrics {
   double lead_mean = 0;                      // mean of lead over finished internal steps
   std::vector<std::int32_t> lead;            // clock - commit horizon at the end of every internal step
   std::size_t kept_states_max = 0;           // most states kept at once (rollback buffer occupancy)
+  std::uint64_t coloured_islands = 0;        // islands solved coloured (docs/coloured-solve.md)
+  int solver_threads = 0;                    // most threads a coloured island could use
 };
 
 /// The per-world metrics summed over worlds: counters, sizes, CPU and

@@ -103,6 +103,10 @@ struct RunConfig {
   /// The replay's keyframe interval and zlib level (ReplayWriterOptions).
   int record_keyframe_every = 60;
   int record_compression_level = 1;
+  /// Threads that solve the colours of a large island (docs/coloured-solve.md):
+  /// K = 1, the canonical world's pool; K > 1, PartitionedOptions::solver_threads.
+  /// Results never depend on it. 1: none. >= 1. Not with the stock world.
+  int solver_threads = 1;
 };
 
 /// Summary statistics of per-step times, in milliseconds.
@@ -153,6 +157,8 @@ struct RunResult {
   std::uint64_t record_frames = 0;
   std::uint64_t record_bytes = 0;
   double record_cpu_seconds = 0;
+  int solver_threads = 1;                   // RunConfig::solver_threads
+  std::uint64_t coloured_islands = 0;       // islands solved coloured, summed over steps (and worlds)
 };
 
 /// Insertion order of the scene's bodies for a shuffle seed (0: scene order).

@@ -101,6 +101,9 @@ struct SimulationConfig {
   /// and the cession (PartitionedOptions::balance) is applied at such a
   /// step: any other policy throws std::invalid_argument (docs/loadbalance.md).
   BalanceOptions balance = {};
+  /// Threads that solve the colours of a large island
+  /// (PartitionedOptions::solver_threads, docs/coloured-solve.md). >= 1.
+  int solver_threads = 1;
 };
 
 /// A world failed. world(): the world whose thread threw (kNoWorld if no

@@ -35,6 +35,7 @@ class btCollisionShape;
 namespace soda {
 
 class CanonicalDynamicsWorld;
+class SolverPool;
 struct CanonicalWorldParts;
 
 /// What the last step's island stage saw (IslandStage in docs/determinism.md).
@@ -47,6 +48,8 @@ struct StepStats {
   std::size_t solved_manifolds = 0;  // manifolds handed to the solver
   std::size_t broadphase_pairs = 0;  // after the full stale-pair sweep
   std::size_t speculative_contacts = 0;  // pairs given a speculative point (fast bodies; docs/ccd.md)
+  std::size_t coloured_islands = 0;  // islands solved coloured (docs/coloured-solve.md)
+  int solver_threads = 0;            // most threads a coloured island could use, so far
 };
 
 class CanonicalWorld {
@@ -64,6 +67,11 @@ class CanonicalWorld {
   ~CanonicalWorld();
   CanonicalWorld(const CanonicalWorld&) = delete;
   CanonicalWorld& operator=(const CanonicalWorld&) = delete;
+
+  /// The pool that large islands share their colours on
+  /// (docs/coloured-solve.md); null (the default): the stepping thread
+  /// alone. Results never depend on it. Not during a step.
+  void set_solver_pool(std::shared_ptr<SolverPool> pool);
 
   /// One fixed step of settings.dt (substeps as configured).
   void step();

@@ -52,6 +52,9 @@
 #include "soda/worlds/watchdog.h"
 
 class btPersistentManifold;
+namespace soda {
+class SolverPool;
+}
 class btVector3;
 class btCollisionObject;
 
@@ -87,6 +90,8 @@ struct TerritoryCounters {
   std::size_t migrations_in = 0;
   std::size_t islands_replayed = 0;       // islands a replayed step did not solve (set_replay)
   std::size_t bodies_replayed = 0;        // their bodies
+  std::size_t coloured_islands = 0;       // islands solved coloured here (docs/coloured-solve.md)
+  int solver_threads = 0;                 // most threads a coloured island of this world could use, so far
 };
 
 /// The islands a world solved in place in one step (those of build_islands
@@ -216,6 +221,15 @@ class TerritoryWorld {
   /// The islands solved (or replayed) in place in the last step.
   const LocalIslands& local_islands() const { return local_islands_; }
 
+  /// The pool that large islands solved here (in place or merged) share
+  /// their colours on (docs/coloured-solve.md); null: this world's thread
+  /// alone. Several worlds may share one pool (one job at a time; a world
+  /// that finds it busy solves alone). Results never depend on it. A world
+  /// rebuilt with share_pools_of takes the other world's pool. Not during
+  /// a step.
+  void set_solver_pool(std::shared_ptr<SolverPool> pool);
+  std::shared_ptr<SolverPool> solver_pool() const;
+
   // --- readout -------------------------------------------------------------
 
   /// The worlds this one exchanges messages with: the map's neighbours of
@@ -328,6 +342,7 @@ class TerritoryWorld {
   std::vector<std::uint64_t> interior_;  // bit per box cell: owned here with all 26 neighbours
   std::int64_t steps_done_ = 0;
   TerritoryCounters counters_;
+  std::size_t coloured_before_ = 0;  // the solver's coloured islands at predict()
 
   // Contact state kept here for pairs held elsewhere (or whose live manifold
   // was destroyed with a leaving body), by (id0, id1).

@@ -1,0 +1,148 @@
+// The coloured solve of large islands across territories
+// (docs/coloured-solve.md, #16 acceptance 1): a heap solved as a local
+// island (one territory) or as a merged border island (several) gives the
+// one-world hash for every territory count (1, 2, 3, 4, 8), every number of
+// solver threads (1, 2, 3, 8), every schedule, with anticipation 8, under
+// SyncTest and under the fuzzer; the coloured path really ran, on the
+// pool's threads. The border scenes and falling-cubes (small islands, not
+// coloured) keep the one-world hash with solver threads too. Label
+// "concurrency".
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "runtime/partitioned_test_util.h"
+#include "testing_hooks.h"  // runtime/src: the test-only knobs
+
+namespace soda {
+namespace {
+
+// cube-pile 150 lands at about step 90 and is then one island of 256+
+// contact rows (about 60 coloured solves in 150 steps).
+constexpr int kBodies = 150;
+constexpr int kSteps = 150;
+constexpr int kMinColoured = 40;
+
+struct Outcome {
+  std::uint64_t hash;
+  WorldMetrics total;
+};
+
+Outcome run(const Scene& s, const TerritoryMap& map, const PartitionedOptions& o) {
+  PartitionedWorld w(s, map, o);
+  w.step(kSteps);
+  return Outcome{w.state_hash(), test::total(w.metrics())};
+}
+
+// The heap is coloured, on `threads` threads; with K > 1 it is a merged
+// border island solved at a root.
+void expect_coloured(const Outcome& r, int k, int threads) {
+  EXPECT_GT(r.total.coloured_islands, static_cast<std::uint64_t>(kMinColoured)) << "the heap was not solved coloured";
+  EXPECT_EQ(r.total.solver_threads, threads) << "the coloured solve did not get the pool's threads";
+  if (k > 1) {
+    EXPECT_GT(r.total.islands_solved, 0u);
+  }
+}
+
+TEST(ColouredSolve, CubePileEveryTerritoryCountAndSolverThreadCount) {
+  const Scene s = test::scene("cube-pile", kBodies);
+  const std::uint64_t reference = test::reference_hash(s, kSteps);
+  const Schedule schedules[] = {Schedule::Sequential, Schedule::ThreadPerWorld, Schedule::Pool};
+#if defined(__SANITIZE_THREAD__)  // TSan looks for races: fewer, slower runs
+  const std::vector<int> ks = {1, 3, 8}, solver_threads = {1, 3};
+#else
+  const std::vector<int> ks = {1, 2, 3, 4, 8}, solver_threads = {1, 2, 3, 8};
+#endif
+  int i = 0;
+  for (int k : ks) {
+    const TerritoryMap map = make_partition("kmeans", s, k, GridOptions{});
+    for (int threads : solver_threads) {
+      PartitionedOptions o;
+      o.schedule = schedules[i % 3];
+      o.threads = 2;
+      o.anticipation = i % 2 ? 8 : 0;
+      o.solver_threads = threads;
+      ++i;
+      const Outcome r = run(s, map, o);
+      std::printf("[ cube-pile %d %s K=%d ] %s, anticipation %d, solver threads %d: %s (one world %s), %llu "
+                  "coloured islands, up to %d threads\n",
+                  kBodies, kPrecisionName, k, schedule_name(o.schedule), o.anticipation, threads,
+                  hash_hex(r.hash).c_str(), hash_hex(reference).c_str(),
+                  static_cast<unsigned long long>(r.total.coloured_islands), r.total.solver_threads);
+      EXPECT_EQ(hash_hex(r.hash), hash_hex(reference)) << "K=" << k << ", solver threads " << threads;
+      expect_coloured(r, k, threads);
+    }
+  }
+}
+
+// The other scenes of the fuzz suite, each on its own partition, with 3
+// and 8 solver threads and anticipation 8: their islands are small (Bullet's
+// loop), the pool must change nothing.
+TEST(ColouredSolve, BorderScenesAndFallingCubesWithSolverThreads) {
+  for (const test::Case& c : test::mixed_cases()) {
+    if (std::string(c.scene) == "cube-pile") continue;
+    const Scene s = test::scene(c.scene, c.n);
+    const std::uint64_t reference = test::reference_hash(s, kSteps);
+    for (int threads : {3, 8}) {
+      PartitionedOptions o;
+      o.schedule = Schedule::ThreadPerWorld;
+      o.anticipation = 8;
+      o.solver_threads = threads;
+      const Outcome r = run(s, test::map_of(c, s), o);
+      std::printf("[ %s %s %s K=%d ] solver threads %d: %s (one world %s), %llu coloured islands\n", c.scene,
+                  kPrecisionName, c.partition, c.territories, threads, hash_hex(r.hash).c_str(),
+                  hash_hex(reference).c_str(), static_cast<unsigned long long>(r.total.coloured_islands));
+      EXPECT_EQ(hash_hex(r.hash), hash_hex(reference)) << c.scene << ", solver threads " << threads;
+    }
+  }
+}
+
+TEST(ColouredSolve, SyncTestWithSolverThreads) {
+  const Scene s = test::scene("cube-pile", kBodies);
+  PartitionedOptions o;
+  o.sync_test = 8;
+  o.solver_threads = 3;
+  PartitionedWorld w(s, make_partition("rcb", s, 3, GridOptions{}), o);
+  w.step(kSteps);
+  EXPECT_EQ(w.sync_rollbacks(), static_cast<std::uint64_t>(kSteps));
+  EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(test::reference_hash(s, kSteps)));
+  expect_coloured(Outcome{w.state_hash(), test::total(w.metrics())}, 3, 3);
+}
+
+// Random pauses in every stage and message (the fuzz suite's hooks) while
+// the pool's helpers share the colours: still the one-world hash.
+TEST(ColouredSolve, FuzzedWithSolverThreads) {
+  const Scene s = test::scene("cube-pile", kBodies);
+  const std::uint64_t reference = test::reference_hash(s, kSteps);
+#if defined(__SANITIZE_THREAD__)
+  constexpr int kSeeds = 3;
+#else
+  constexpr int kSeeds = 6;
+#endif
+  const int ks[] = {2, 4, 8};
+  const int solver_threads[] = {2, 3, 8};
+  for (int seed = 1; seed <= kSeeds; ++seed) {
+    const int k = ks[seed % 3];
+    PartitionedOptions o;
+    o.schedule = seed % 2 ? Schedule::ThreadPerWorld : Schedule::Pool;
+    o.threads = 2;
+    o.solver_threads = solver_threads[(seed / 3) % 3];
+    o.validate = true;
+    detail::edit_testing_hooks(o).fuzz_seed = static_cast<std::uint64_t>(seed);
+    const Outcome r = run(s, make_partition("kmeans", s, k, GridOptions{}), o);
+    EXPECT_EQ(hash_hex(r.hash), hash_hex(reference))
+        << "seed " << seed << ", K=" << k << ", solver threads " << o.solver_threads;
+    EXPECT_GT(r.total.coloured_islands, 0u);
+  }
+}
+
+TEST(ColouredSolve, SolverThreadsMustBePositive) {
+  const Scene s = test::scene("cube-pile", 20);
+  PartitionedOptions o;
+  o.solver_threads = 0;
+  EXPECT_THROW(PartitionedWorld(s, make_partition("kmeans", s, 2, GridOptions{}), o), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace soda

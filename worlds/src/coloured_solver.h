@@ -1,0 +1,139 @@
+// Internal: the constraint solver of every canonical and territory world
+// (docs/coloured-solve.md). Bullet's btSequentialImpulseConstraintSolver,
+// with the iteration loop of large islands replaced by a coloured one:
+//
+//   solveGroup
+//     solveGroupCacheFriendlySetup       (stock: solver bodies, contact and
+//                                         friction rows, in body and
+//                                         manifold order)
+//     solveGroupCacheFriendlyIterations  OVERRIDDEN for islands of at least
+//                                         kColouredMinContactRows contact rows
+//     solveGroupCacheFriendlyFinish      (stock: per body and per row)
+//
+// The coloured loop, a pure function of the rows that setup produced:
+//  1. runs: maximal sequences of consecutive contact rows with the same two
+//     solver bodies (one manifold, or several of one body with statics);
+//     each run carries its friction and rolling-friction rows, in pool order;
+//  2. colours, greedily in run order: a run takes the smallest colour that
+//     neither of its dynamic bodies has yet (statics share Bullet's one fixed
+//     solver body, which the rows never change: they do not conflict), among
+//     kMaxColours; runs left over, and colours of fewer than
+//     kMinRunsPerColour runs, go to a last overflow colour solved by one
+//     thread in run order;
+//  3. each sweep (split impulse, contact, friction, rolling friction — in
+//     Bullet's order and with Bullet's early exit) goes colour after colour;
+//     inside a colour no two runs share a dynamic body, so the runs may be
+//     solved in any order, on any number of threads, with the same bits.
+//     A run that touches statics solves against its own copy of the fixed
+//     body (the rows add zero to it; the copy keeps threads off shared
+//     memory, and keeps a NaN where the sequential solve would spread it
+//     only as far as its own run).
+// Not coloured (stock loop): smaller islands, joints, Bullet's random or
+// interleaved solver modes.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <vector>
+
+#include <btBulletDynamicsCommon.h>
+
+#include "soda/worlds/solver_pool.h"
+
+namespace soda {
+
+/// Islands with at least this many contact rows (contact points) are
+/// solved coloured. Below it, colouring and one pool job per colour and
+/// sweep cost more than a sweep gains on two threads; above it a heap's
+/// colours hold enough runs to share (measured in docs/coloured-solve.md).
+/// A function of the island alone: every world decides alike.
+constexpr int kColouredMinContactRows = 256;
+/// Colours tried per run before the overflow (a cube in a heap touches up
+/// to ~12 others: greedy colouring needs up to ~2x that).
+constexpr int kMaxColours = 32;
+/// A colour with fewer runs goes to the overflow: a pool job for a handful of
+/// runs costs more than solving them on one thread.
+constexpr int kMinRunsPerColour = 16;
+/// Runs per pool task: a few microseconds of rows, so that two threads
+/// share a colour evenly while a task still amortises its claim.
+constexpr int kRunsPerTask = 16;
+
+class ColouredSolver final : public btSequentialImpulseConstraintSolver {
+ public:
+  /// Cumulative counts (never reset; worlds take differences per step).
+  struct Stats {
+    std::size_t coloured_islands = 0;  // solveGroup calls solved coloured
+    std::size_t coloured_runs = 0;     // runs of those islands, summed
+    std::size_t overflow_runs = 0;     // ... solved in the overflow colour
+    int colours_max = 0;               // most colours of one island (overflow excluded)
+    int threads_max = 0;               // most threads a job of a coloured island could use
+  };
+
+  /// How an island that qualifies (colour() succeeds) is solved.
+  enum class Mode {
+    /// The coloured loop (step 3 of the header), on the pool's threads.
+    Coloured,
+    /// The oracle of the tests: the island is coloured as usual, then
+    /// Bullet's own sequential loop solves it with its order arrays set to
+    /// the colour order (colour after colour, runs in order, each run's
+    /// rows in pool order), on the calling thread. Bit-identical to
+    /// Coloured by construction, for any per-island settings (iterations,
+    /// early exit); a difference is a bug of the coloured loop. Not with
+    /// rolling friction (Bullet visits those rows in pool order only):
+    /// std::logic_error.
+    SequentialInColourOrder,
+  };
+  void set_mode(Mode mode) { mode_ = mode; }
+
+  /// The pool the colours' runs are shared on (null: the calling thread
+  /// alone). Results never depend on it. Not during a solve.
+  void set_pool(std::shared_ptr<SolverPool> pool) { pool_ = std::move(pool); }
+  const std::shared_ptr<SolverPool>& pool() const { return pool_; }
+  const Stats& stats() const { return stats_; }
+
+ protected:
+  btScalar solveGroupCacheFriendlyIterations(btCollisionObject** bodies, int numBodies,
+                                             btPersistentManifold** manifoldPtr, int numManifolds,
+                                             btTypedConstraint** constraints, int numConstraints,
+                                             const btContactSolverInfo& infoGlobal,
+                                             btIDebugDraw* debugDrawer) override;
+
+ private:
+  enum class Sweep { Split, Contact, Friction, Rolling };
+  struct Run {
+    int body_a, body_b;       // solver body indices
+    int contact_begin, contact_end;
+    int friction_begin, friction_end;  // into friction_rows_
+    int rolling_begin, rolling_end;    // into rolling_rows_
+  };
+  /// Residual of a sweep part: max of squares, NaN sticky (order-free).
+  struct Residual {
+    btScalar max = 0;
+    bool nan = false;
+    void add(btScalar r);
+    void merge(const Residual& o);
+  };
+
+  bool colour(const btContactSolverInfo& info);
+  Residual sweep(Sweep kind);
+  void solve_runs(Sweep kind, const int* runs, int count, Residual& residual);
+
+  void set_colour_order();
+
+  std::shared_ptr<SolverPool> pool_;
+  Mode mode_ = Mode::Coloured;
+  Stats stats_;
+  int threads_ = 1;  // of the current island
+
+  // Per-island scratch, kept to avoid reallocation.
+  std::vector<Run> runs_;
+  std::vector<int> friction_rows_, rolling_rows_;
+  std::vector<int> run_of_contact_;
+  std::vector<unsigned long long> body_colours_;  // per solver body: colour bits
+  std::vector<int> colour_of_run_;
+  std::vector<int> colour_begin_;   // CSR over colour_runs_; the last colour is the overflow
+  std::vector<int> colour_runs_;
+  std::vector<Residual> task_residuals_;
+};
+
+}  // namespace soda
