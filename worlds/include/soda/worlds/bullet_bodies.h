@@ -21,7 +21,8 @@ btVector3 to_bt(const Vec3& v);
 
 /// Creates a rigid body for `body` with its start transform and velocities in
 /// the construction info (so its world-space inertia is right from the first
-/// step), friction and restitution set. The body's user index is its id.
+/// step), friction and restitution set; a Body::asleep one ISLAND_SLEEPING
+/// with sleep timer kAsleepTimer. The body's user index is its id.
 /// The shape must outlive the body.
 std::unique_ptr<btRigidBody> make_rigid_body(const Body& body, btCollisionShape& shape);
 
