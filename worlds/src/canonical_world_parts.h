@@ -9,6 +9,7 @@
 #include "body_factory.h"
 #include "canonical_dynamics_world.h"
 #include "pair_cache.h"
+#include "parking.h"
 #include "soda/worlds/canonical_world.h"
 #include "world_teardown.h"
 
@@ -30,6 +31,7 @@ struct CanonicalWorldParts {
   btDbvtBroadphase broadphase{&pairs};
   btSequentialImpulseConstraintSolver solver;
   CanonicalDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
+  Parking parking{world, broadphase, dispatcher};  // idle unless CanonicalWorld::set_parking(true)
 };
 
 /// The insertion order of `count` bodies: `order` itself (it must list every
