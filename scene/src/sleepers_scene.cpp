@@ -23,19 +23,6 @@ constexpr double kActiveSpacing = 1.8;
 constexpr int kActiveLayers = 5;
 constexpr double kFirstActiveY = 3.0;
 constexpr double kGroundMargin = 10.0;
-constexpr double kGroundHalfThickness = 0.5;
-
-Body unit_cube(BodyId id, const Vec3& position, const Quat& orientation) {
-  Body c;
-  c.id = id;
-  c.shape = Shape::box(Vec3::Constant(0.5));
-  c.mass = 1.0;
-  c.friction = 0.5;
-  c.restitution = 0.0;
-  c.position = position;
-  c.orientation = orientation;
-  return c;
-}
 
 }  // namespace
 
@@ -51,21 +38,12 @@ Scene make_sleepers(const SceneParams& params) {
   const int side = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
   const double offset = 0.5 * kSleeperSpacing * (side - 1);
 
-  Body ground;
-  ground.id = 0;
-  ground.is_static = true;
-  const double h = offset + kGroundMargin;
-  ground.shape = Shape::box(Vec3(h, kGroundHalfThickness, h));
-  ground.mass = 0.0;
-  ground.friction = 0.5;
-  ground.position = Vec3(0.0, -kGroundHalfThickness, 0.0);
-  scene.bodies.push_back(ground);
-
+  scene.bodies.push_back(flat_ground(offset + kGroundMargin, 0.5));
   scene.bodies.reserve(static_cast<std::size_t>(n + active + 1));
   BodyId id = 1;
   for (int i = 0; i < n; ++i) {
     const Vec3 p((i / side) * kSleeperSpacing - offset, 0.5, (i % side) * kSleeperSpacing - offset);
-    Body b = unit_cube(id++, p, Quat::Identity());
+    Body b = dynamic_box(id++, Vec3::Constant(0.5), 1.0, p);
     b.asleep = true;
     scene.bodies.push_back(b);
   }
@@ -77,7 +55,7 @@ Scene make_sleepers(const SceneParams& params) {
       for (int iz = 0; iz < columns && placed < active; ++iz, ++placed) {
         const Vec3 p(ix * kActiveSpacing - active_offset, kFirstActiveY + layer * kActiveSpacing,
                      iz * kActiveSpacing - active_offset);
-        scene.bodies.push_back(unit_cube(id++, p, rng.rotation()));
+        scene.bodies.push_back(dynamic_box(id++, Vec3::Constant(0.5), 1.0, p, rng.rotation()));
       }
   return scene;
 }
