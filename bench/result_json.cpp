@@ -143,6 +143,7 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"threads", d.config.threads == 0 ? r.territories : d.config.threads},
       {"shuffle_seed", d.config.shuffle_seed},
       {"dt", st.dt},
+      {"parking", d.config.parking},
       {"substeps", st.substeps},
       {"iterations", st.iterations},
       {"steps", r.steps},

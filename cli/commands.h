@@ -36,6 +36,10 @@ double parse_step_size(const std::string& text);
 /// docs/speculation-bench.md.
 Command add_speculation_command(CLI::App& bench);
 
+/// Under `bench`: `sleepers` (the sleepers scene against its active bodies
+/// alone, #18). cmd_sleepers.cpp; docs/skip.md.
+Command add_sleepers_command(CLI::App& bench);
+
 /// `stress`: the numerical-stability suite. cmd_stress.cpp; docs/stress.md.
 Command add_stress_command(CLI::App& app);
 

@@ -51,6 +51,7 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
   r.bodies = scene.bodies.size();
   r.dynamic_bodies = scene.dynamic_count();
   r.steps = config.steps;
+  if constexpr (std::is_same_v<W, CanonicalWorld>) world.set_parking(config.parking);
   std::vector<std::int64_t> step_ns;
   step_ns.reserve(static_cast<std::size_t>(config.steps));
   const std::int64_t cpu0 = thread_cpu_ns();

@@ -76,7 +76,7 @@ Body parse_body(std::string where, const json& j) {
   b.id = static_cast<BodyId>(id);
   ctx.where += " (id " + std::to_string(id) + ")";
   ctx.only_known(j, {"id", "type", "shape", "mass", "friction", "restitution", "position",
-                     "orientation", "linear_velocity", "angular_velocity"});
+                     "orientation", "linear_velocity", "angular_velocity", "asleep"});
   const std::string type = ctx.string(j, "type", true, "");
   if (type != "static" && type != "dynamic") ctx.fail("type", "must be \"static\" or \"dynamic\"");
   b.is_static = type == "static";
@@ -93,6 +93,13 @@ Body parse_body(std::string where, const json& j) {
   b.angular_velocity = ctx.vec3(j, "angular_velocity", false, Vec3::Zero());
   if (b.is_static && (!b.linear_velocity.isZero(0.0) || !b.angular_velocity.isZero(0.0)))
     ctx.fail("linear_velocity", "a static body cannot move");
+  if (const json* a = ctx.find(j, "asleep", false)) {
+    if (!a->is_boolean()) ctx.fail("asleep", "must be true or false");
+    b.asleep = a->get<bool>();
+    if (b.asleep && b.is_static) ctx.fail("asleep", "a static body cannot be asleep (only dynamic bodies sleep)");
+    if (b.asleep && (!b.linear_velocity.isZero(0.0) || !b.angular_velocity.isZero(0.0)))
+      ctx.fail("asleep", "a body created asleep must have zero linear_velocity and angular_velocity");
+  }
   return b;
 }
 
@@ -126,6 +133,7 @@ json body_json(const Body& b) {
     jb["mass"] = b.mass;
     jb["linear_velocity"] = vec_json(b.linear_velocity);
     jb["angular_velocity"] = vec_json(b.angular_velocity);
+    if (b.asleep) jb["asleep"] = true;
   }
   return jb;
 }

@@ -31,6 +31,11 @@ std::vector<UserInput> make_rain_inputs(const SceneParams& params);
 // soak_scenes.cpp: long runs of one mechanism.
 Scene make_border_shuttle(const SceneParams& params);
 
+// sleepers_scene.cpp: most of the scene asleep (#18).
+Scene make_sleepers(const SceneParams& params);
+/// Active cubes of a sleepers scene with this many sleepers: ceil(n / 100).
+int sleepers_active_count(int sleepers);
+
 // stress_scenes.cpp: numerical stability (stress) and closed-form answers
 // (analytic).
 Scene make_tower(const SceneParams& params);

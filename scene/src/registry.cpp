@@ -70,6 +70,12 @@ const std::vector<SceneGenerator>& scene_registry() {
        "per 4 spheres, bouncing elastically: with grid:Kx1x1 they cross borders back and forth "
        "(migrations; docs/soak.md)",
        detail::make_border_shuttle},
+      // Skip what a scene does not need (#18).
+      {"sleepers",
+       "N unit cubes (default 100,000) created asleep (Body::asleep) on the ground 1.5 m apart, and "
+       "ceil(N / 100) active unit cubes in columns 1.8 m apart, 5 layers from y = 3 m, falling onto the "
+       "middle of the field and waking the sleepers they hit",
+       detail::make_sleepers},
       // Stress scenes (numerical stability).
       {"tower", "N unit boxes (default 10, N <= 100) stacked exactly resting on the origin",
        detail::make_tower},

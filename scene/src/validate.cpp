@@ -180,6 +180,9 @@ void validate_body(const Body& b, const std::string& where) {
     check_finite(where, "mass", b.mass);
     if (!(b.mass > 0.0)) fail(where, "mass", "must be > 0 for a dynamic body");
   }
+  if (b.asleep && b.is_static) fail(where, "asleep", "a static body cannot be asleep (only dynamic bodies sleep)");
+  if (b.asleep && (!b.linear_velocity.isZero(0.0) || !b.angular_velocity.isZero(0.0)))
+    fail(where, "asleep", "a body created asleep must have zero linear_velocity and angular_velocity");
 }
 
 void validate_scene(const Scene& scene, const std::string& source, Precision precision) {

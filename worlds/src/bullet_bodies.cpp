@@ -64,6 +64,12 @@ std::unique_ptr<btRigidBody> make_rigid_body(const Body& body, btCollisionShape&
     rb->setAngularVelocity(to_bt(body.angular_velocity));
     rb->setInterpolationLinearVelocity(to_bt(body.linear_velocity));
     rb->setInterpolationAngularVelocity(to_bt(body.angular_velocity));
+    if (body.asleep) {
+      // As a body that has just fallen asleep (scene.h, Body::asleep): it
+      // stays asleep until a contact with an awake body or an input wakes it.
+      rb->setActivationState(ISLAND_SLEEPING);
+      rb->setDeactivationTime(btScalar(kAsleepTimer));
+    }
   }
   return rb;
 }

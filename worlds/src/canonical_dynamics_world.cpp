@@ -2,6 +2,7 @@
 
 #include "island_solver_settings.h"
 #include "speculative_contact.h"
+#include "parking.h"
 
 #include <algorithm>
 #include <numeric>
@@ -103,9 +104,34 @@ void CanonicalDynamicsWorld::sort_dynamic_bodies() {
 // Stock btDbvtBroadphase removes stale pairs (leaf volumes no longer
 // overlapping) a fraction (m_cupdates %) per step; remove all of them, every
 // step, so the pair set is a function of the leaf volumes alone.
+// With parking (parking.h), the wake rule around Bullet's pass: parked
+// islands an active body touches come back before it, their contact state
+// after it.
 void CanonicalDynamicsWorld::computeOverlappingPairs() {
+  if (parking_) parking_->wake_touched();
   btCollisionWorld::computeOverlappingPairs();
   stats_.broadphase_pairs = remove_stale_pairs(*broadphase_, m_dispatcher1);
+  if (parking_) parking_->restore_woken_contacts();
+}
+
+void CanonicalDynamicsWorld::forget_detached_bodies() {
+  int w = 0;
+  for (int i = 0; i < m_collisionObjects.size(); ++i) {
+    btCollisionObject* o = m_collisionObjects[i];
+    o->setWorldArrayIndex(o->getBroadphaseHandle() ? w : -1);
+    if (o->getBroadphaseHandle()) m_collisionObjects[w++] = o;
+  }
+  m_collisionObjects.resize(w);
+  w = 0;
+  for (int i = 0; i < m_nonStaticRigidBodies.size(); ++i)
+    if (m_nonStaticRigidBodies[i]->getBroadphaseHandle()) m_nonStaticRigidBodies[w++] = m_nonStaticRigidBodies[i];
+  m_nonStaticRigidBodies.resize(w);
+  std::size_t d = 0;
+  for (btRigidBody* b : dynamic_bodies_)
+    if (b->getBroadphaseHandle()) dynamic_bodies_[d++] = b;
+  dynamic_bodies_.resize(d);
+  if (bodies_sorted_)
+    for (std::size_t i = 0; i < d; ++i) dynamic_bodies_[i]->setUserIndex2(static_cast<int>(i));
 }
 
 void CanonicalDynamicsWorld::performDiscreteCollisionDetection() {

@@ -37,6 +37,8 @@
 
 namespace soda {
 
+class Parking;
+
 /// Adds a body whose user index is its global id to a world over a dbvt
 /// broadphase: its proxy gets unique id = global id + 1, so every pair's body0
 /// is its lower id (shared with the territory world).
@@ -66,6 +68,19 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
 
   const StepStats& stats() const { return stats_; }
 
+  // --- for Parking (parking.h) ------------------------------------------
+  /// Parking's wake rule runs inside computeOverlappingPairs (null: none).
+  void set_parking(Parking* parking) { parking_ = parking; }
+  /// Islands of the last island stage: count, and island k's bodies (by id).
+  int island_count() const { return island_begin_.empty() ? 0 : static_cast<int>(island_begin_.size()) - 1; }
+  int island_size(int k) const { return island_begin_[k + 1] - island_begin_[k]; }
+  btCollisionObject* const* island_bodies(int k) const { return island_bodies_.data() + island_begin_[k]; }
+  /// The dynamic bodies in the world.
+  const std::vector<btRigidBody*>& dynamic_bodies() const { return dynamic_bodies_; }
+  /// Drops every body whose broadphase proxy was destroyed (handle null)
+  /// from the world's lists, in one pass over each.
+  void forget_detached_bodies();
+
   void computeOverlappingPairs() override;
   /// Bullet's discrete collision detection, then a speculative contact for
   /// every pair with a fast body and no point (speculative_contact.h).
@@ -85,6 +100,7 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
 
   btDbvtBroadphase* broadphase_;
   ColouredSolver* solver_;
+  Parking* parking_ = nullptr;
   StepStats stats_;
   bool bodies_sorted_ = true;
   std::vector<btRigidBody*> dynamic_bodies_;  // sorted by id; user index 2 = position

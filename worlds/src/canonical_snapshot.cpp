@@ -87,6 +87,7 @@ std::vector<ManifoldState> CanonicalWorld::contact_state() const {
     if (m->getNumContacts() == 0) continue;
     out.push_back(read_manifold_state(*m));
   }
+  parts_->parking.append_contacts(out);
   std::sort(out.begin(), out.end(), [](const ManifoldState& a, const ManifoldState& b) {
     return a.id0 != b.id0 ? a.id0 < b.id0 : a.id1 < b.id1;
   });

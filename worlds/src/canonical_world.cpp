@@ -80,9 +80,25 @@ void CanonicalWorld::step() {
   const btScalar h = btScalar(settings_.dt / settings_.substeps);
   for (int i = 0; i < settings_.substeps; ++i) parts_->world.stepSimulation(h, 0, h);
   ++steps_done_;
+  if (parking_) parts_->parking.park_settled(h);
 }
 
 void CanonicalWorld::set_solver_pool(std::shared_ptr<SolverPool> pool) { parts_->solver.set_pool(std::move(pool)); }
+
+void CanonicalWorld::set_parking(bool on) {
+  if (on == parking_) return;
+  parking_ = on;
+  if (on) {
+    parts_->world.set_parking(&parts_->parking);
+    // A scene's sleepers (Body::asleep) need not wait for the first step.
+    parts_->parking.park_lone_settled(btScalar(settings_.dt / settings_.substeps));
+  } else {
+    parts_->parking.unpark_all();
+    parts_->world.set_parking(nullptr);
+  }
+}
+
+std::size_t CanonicalWorld::parked_count() const { return parts_->parking.parked_bodies(); }
 
 const StepStats& CanonicalWorld::last_step_stats() const { return parts_->world.stats(); }
 

@@ -10,6 +10,7 @@
 #include "canonical_dynamics_world.h"
 #include "pair_cache.h"
 #include "coloured_solver.h"
+#include "parking.h"
 #include "soda/worlds/canonical_world.h"
 #include "world_teardown.h"
 
@@ -31,6 +32,7 @@ struct CanonicalWorldParts {
   btDbvtBroadphase broadphase{&pairs};
   ColouredSolver solver;  // docs/coloured-solve.md
   CanonicalDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
+  Parking parking{world, broadphase, dispatcher};  // idle unless CanonicalWorld::set_parking(true)
 };
 
 /// The insertion order of `count` bodies: `order` itself (it must list every

@@ -145,6 +145,7 @@ void* PairCache::removeOverlappingPair(btBroadphaseProxy* proxy0, btBroadphasePr
 }
 
 void PairCache::removeOverlappingPairsContainingProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) {
+  if (!proxy_sweeps_) return;
   for (int i = 0; i < pairs_.size();) {
     btBroadphasePair& pair = pairs_[i];
     if (holds(pair, proxy))
@@ -163,6 +164,7 @@ void PairCache::cleanOverlappingPair(btBroadphasePair& pair, btDispatcher* dispa
 }
 
 void PairCache::cleanProxyFromPairs(btBroadphaseProxy* proxy, btDispatcher* dispatcher) {
+  if (!proxy_sweeps_) return;
   for (int i = 0; i < pairs_.size(); ++i)
     if (holds(pairs_[i], proxy)) cleanOverlappingPair(pairs_[i], dispatcher);
 }

@@ -51,6 +51,10 @@ class PairCache final : public btOverlappingPairCache {
   /// m_internalInfo1 (null if absent).
   void* removeOverlappingPair(btBroadphaseProxy* proxy0, btBroadphaseProxy* proxy1,
                               btDispatcher* dispatcher) override;
+  /// Off: removeOverlappingPairsContainingProxy and cleanProxyFromPairs do
+  /// nothing, for a caller that has removed a batch of proxies' pairs in one
+  /// sweep and then destroys the proxies (parking.h); on by default.
+  void set_proxy_sweeps(bool on) { proxy_sweeps_ = on; }
   /// Removes every pair holding `proxy`: O(pairs).
   void removeOverlappingPairsContainingProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) override;
 
@@ -102,6 +106,7 @@ class PairCache final : public btOverlappingPairCache {
   std::vector<int> head_;            // per bucket: its first pair, or kNone
   btOverlapFilterCallback* filter_ = nullptr;
   btOverlappingPairCallback* ghost_ = nullptr;
+  bool proxy_sweeps_ = true;
 };
 
 }  // namespace soda

@@ -121,8 +121,10 @@ WatchdogError::WatchdogError(std::int64_t step, WorldId world, std::vector<Watch
 
 std::vector<WatchdogFinding> CanonicalWorld::watchdog_findings(const WatchdogLimits& limits) const {
   std::vector<WatchdogFinding> out;
-  for (const auto& e : entries_)
-    if (!e->description.is_static) watchdog_scan_body(*e->body, e->description.id, limits, out);
+  // The dynamic bodies in Bullet's world: parked ones are not scanned, their
+  // state is what it was at their last scan in the world (parking.h).
+  for (const btRigidBody* b : parts_->world.dynamic_bodies())
+    watchdog_scan_body(*b, static_cast<BodyId>(b->getUserIndex()), limits, out);
   watchdog_scan_manifolds(parts_->dispatcher, limits, out);
   watchdog_sort(out);
   return out;

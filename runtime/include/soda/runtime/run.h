@@ -49,6 +49,11 @@ struct RunConfig {
   /// step meanwhile; docs/bullet-globals.md). For benchmarks that compare
   /// worlds whose islands, hence sleepers, differ (`ratio_vs_baseline_awake`).
   bool sleeping = true;
+  /// One territory, canonical world: park settled sleeping islands outside
+  /// Bullet's world (CanonicalWorld::set_parking; #18, docs/skip.md). Exact:
+  /// the state hash is the same on and off. `--no-parking` turns it off. No
+  /// effect on the territory worlds (not yet parked there) or stock Bullet.
+  bool parking = true;
   double progress_seconds = 1.0;     // progress line period (<= 0: none)
   /// Checked after every step (watchdog.h; not the stock world, the
   /// baseline). Heal runs every territory count, 1 included, through the

@@ -72,10 +72,23 @@ struct Body {
   Quat orientation = Quat::Identity();           // unit quaternion
   Vec3 linear_velocity = Vec3::Zero();           // m/s
   Vec3 angular_velocity = Vec3::Zero();          // rad/s
+  /// Dynamic bodies only: created asleep, exactly as a body that has just
+  /// fallen asleep (docs/scene-format.md, "asleep"): Bullet's activation
+  /// state ISLAND_SLEEPING, sleep timer kAsleepTimer, velocities zero (a body
+  /// created asleep must have zero velocities). It wakes as any sleeper does:
+  /// when a contact joins it to an awake body, or by user input.
+  bool asleep = false;
 
   /// Half extents of the world-frame AABB of the body at its initial pose.
   Vec3 aabb_half_extents() const;
 };
+
+/// The sleep timer (seconds) of a body created asleep: Bullet's
+/// gDeactivationTime, the time below the sleeping thresholds after which a
+/// body wants to sleep. Any value > 0 keeps a sleeper asleep (Bullet wakes
+/// an ISLAND_SLEEPING body whose timer is 0); this one is what a body that
+/// has just fallen asleep carries at least.
+inline constexpr double kAsleepTimer = 2.0;
 
 /// Stepping settings of a scene. Units: seconds, m/s^2.
 struct SceneSettings {

@@ -31,7 +31,8 @@ btVector3 to_bt(const Vec3& v);
 
 /// Creates a rigid body for `body` with its start transform and velocities in
 /// the construction info (so its world-space inertia is right from the first
-/// step), friction and restitution set. The body's user index is its id; a
+/// step), friction and restitution set; a Body::asleep one ISLAND_SLEEPING
+/// with sleep timer kAsleepTimer. The body's user index is its id; a
 /// dynamic body's ccd swept sphere radius is inner_radius(shape) (its CCD
 /// motion threshold stays 0: Bullet's CCD off).
 /// The shape must outlive the body.

@@ -73,8 +73,26 @@ class CanonicalWorld {
   /// alone. Results never depend on it. Not during a step.
   void set_solver_pool(std::shared_ptr<SolverPool> pool);
 
-  /// One fixed step of settings.dt (substeps as configured).
+  /// One fixed step of settings.dt (substeps as configured). With parking
+  /// on, settled sleeping islands leave Bullet's world at its end.
   void step();
+
+  /// Parking of sleeping islands (#18, docs/skip.md; worlds/src/parking.h):
+  /// on, every island that is asleep and settled after a step leaves
+  /// Bullet's world (broadphase, body lists, dispatcher) with its contact
+  /// state and costs nothing per step but one AABB query; it comes back, in
+  /// the step, as soon as an active body's AABB touches one of its bodies'.
+  /// Exact: every step's state (hash, snapshot, contact state) is the same
+  /// on and off (tests/worlds/parking_test.cpp). Off (the default for this
+  /// class; `soda run` and `soda bench` turn it on, --no-parking off) puts
+  /// every parked island back. Call between steps. While parked, an
+  /// island's manifolds are not in bullet()'s dispatcher (contact_state()
+  /// and snapshot() include them) and the watchdog does not scan them again
+  /// (they were scanned while in the world and have not changed).
+  void set_parking(bool on);
+  bool parking() const { return parking_; }
+  /// Dynamic bodies parked now.
+  std::size_t parked_count() const;
   std::int64_t steps_done() const { return steps_done_; }
   const StepStats& last_step_stats() const;
 
@@ -111,6 +129,7 @@ class CanonicalWorld {
   // After entries_: destroyed first, while the bodies it holds are alive.
   std::unique_ptr<CanonicalWorldParts> parts_;
   std::int64_t steps_done_ = 0;
+  bool parking_ = false;
 };
 
 }  // namespace soda

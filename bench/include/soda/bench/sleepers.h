@@ -1,0 +1,59 @@
+// bench/ — `soda bench sleepers` (#18, docs/skip.md): what a scene costs
+// when most of it sleeps. The sleepers scene (docs/scenes.md) against the
+// same scene without its sleepers (the active bodies alone, same ids), each
+// on SODA (the configuration under test) and on stock Bullet, in one
+// process, interleaved; the figure is ratio_vs_active_only, the per-step
+// time with the sleepers over the per-step time without (1: sleepers cost
+// nothing; stock Bullet: 14–19 at 100,000 sleepers).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "soda/bench/bench.h"
+#include "soda/bench/result_json.h"
+
+namespace soda {
+
+struct SleepersBenchConfig {
+  /// The SODA runs' configuration (steps, territories, parking, ...);
+  /// world is Canonical for them and Stock for the baselines.
+  RunConfig run;
+  int repeat = 1;  // interleaved repeats; the fastest (thread CPU) of each run is kept
+};
+
+/// One configuration and its repeats.
+struct SleepersRun {
+  std::string name;  // soda-full | soda-active-only | stock-full | stock-active-only
+  RunResult best;    // the repeat with the least thread CPU
+  std::vector<double> cpu_seconds;  // every repeat
+};
+
+struct SleepersBenchResult {
+  std::vector<SleepersRun> runs;  // in the order of `names`
+  static constexpr const char* names[] = {"soda-full", "soda-active-only", "stock-full", "stock-active-only"};
+  const SleepersRun& run(const std::string& name) const;
+  /// Thread CPU per step of soda-full over soda-active-only (the figure).
+  double ratio_vs_active_only = 0;
+  double ratio_vs_active_only_wall = 0;  // the same with wall seconds
+  double stock_ratio_vs_active_only = 0;  // stock-full over stock-active-only, thread CPU
+  double stock_ratio_vs_active_only_wall = 0;
+};
+
+/// The scene without its sleepers (bodies with Body::asleep): the active
+/// bodies and the statics, same ids and settings.
+Scene without_sleepers(const Scene& scene);
+
+/// Runs the four configurations `config.repeat` times, in order on even
+/// repeats and in reverse order on odd ones. Throws what run_scene throws;
+/// repeat < 1 is std::invalid_argument.
+SleepersBenchResult bench_sleepers(const Scene& scene, const SleepersBenchConfig& config);
+
+/// The benchmark's JSON document (docs/skip.md).
+nlohmann::json sleepers_bench_json(const RunDescription& d, const SleepersBenchConfig& config,
+                                   const SleepersBenchResult& r);
+
+}  // namespace soda

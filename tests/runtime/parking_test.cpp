@@ -1,0 +1,110 @@
+// Parking of sleeping islands (#18, worlds/src/parking.h, docs/skip.md): the
+// state is the same with parking on and off at every step, and equals the
+// partitioned runs' (N territories vs 1, speculation, SyncTest), which park
+// nothing. Small sleepers scenes: sleepers woken by falling bodies, woken
+// islands parked again.
+#include <cstdio>
+
+#include "runtime/partitioned_test_util.h"
+#include "soda/runtime/run.h"
+#include "soda/worlds/canonical_world.h"
+
+namespace soda {
+namespace {
+
+constexpr int kSleepers = 2000;  // 20 active cubes
+constexpr int kSteps = 300;      // they land, wake sleepers, and the woken ones fall asleep again
+
+// Step by step, parking on and off: bodies, contacts and snapshots equal.
+TEST(Parking, EveryStepEqualsTheWorldWithoutParking) {
+  const Scene s = test::scene("sleepers", kSleepers);
+  CanonicalWorld off(s);
+  CanonicalWorld on(s);
+  on.set_parking(true);
+  // The scene's sleepers are settled when built: parked before the first step.
+  EXPECT_EQ(on.parked_count(), static_cast<std::size_t>(kSleepers));
+  EXPECT_EQ(hash_hex(on.state_hash(true)), hash_hex(off.state_hash(true)));
+  EXPECT_EQ(serialize(on.snapshot()), serialize(off.snapshot()));
+  std::size_t most_parked = 0, fewest_parked_after_most = 0;
+  bool woke = false;
+  for (int step = 1; step <= kSteps; ++step) {
+    off.step();
+    on.step();
+    ASSERT_EQ(hash_hex(on.state_hash(true)), hash_hex(off.state_hash(true))) << "step " << step;
+    if (on.parked_count() > most_parked) most_parked = fewest_parked_after_most = on.parked_count();
+    if (on.parked_count() < fewest_parked_after_most) {
+      fewest_parked_after_most = on.parked_count();
+      woke = true;
+    }
+  }
+  EXPECT_EQ(on.snapshot().manifolds.size(), off.snapshot().manifolds.size());
+  EXPECT_EQ(serialize(on.snapshot()), serialize(off.snapshot()));
+  // The sleepers were parked, some were woken (unparked) by falling cubes.
+  EXPECT_GE(most_parked, static_cast<std::size_t>(kSleepers) - 100);
+  EXPECT_TRUE(woke);
+  EXPECT_LT(on.last_step_stats().islands, off.last_step_stats().islands);
+  std::printf("[ parking ] %d sleepers, %d steps: at most %zu parked, %zu at the end; %s\n", kSleepers, kSteps,
+              most_parked, on.parked_count(), hash_hex(on.state_hash(true)).c_str());
+}
+
+// Switching parking off puts every island back, contacts included; a world
+// restored from a snapshot of a parking world steps on identically.
+TEST(Parking, OffAndRestoreContinueExactly) {
+  const Scene s = test::scene("sleepers", 500);
+  CanonicalWorld reference(s);
+  CanonicalWorld toggled(s);
+  toggled.set_parking(true);
+  for (int step = 0; step < 150; ++step) reference.step(), toggled.step();
+  ASSERT_GT(toggled.parked_count(), 0u);
+  CanonicalWorld restored(toggled.snapshot());
+  restored.set_parking(true);
+  toggled.set_parking(false);
+  EXPECT_EQ(toggled.parked_count(), 0u);
+  EXPECT_EQ(hash_hex(toggled.state_hash(true)), hash_hex(reference.state_hash(true)));
+  for (int step = 0; step < 100; ++step) reference.step(), toggled.step(), restored.step();
+  EXPECT_EQ(hash_hex(toggled.state_hash(true)), hash_hex(reference.state_hash(true)));
+  EXPECT_EQ(hash_hex(restored.state_hash(true)), hash_hex(reference.state_hash(true)));
+}
+
+struct Case {
+  int territories;
+  int anticipation;
+  int sync_test;
+};
+
+class ParkingVsPartitioned : public ::testing::TestWithParam<Case> {};
+
+// The one-territory run with parking (the default of run_scene) against
+// K territories (no parking there), with speculation or SyncTest.
+TEST_P(ParkingVsPartitioned, SameHashAsOneTerritoryWithParking) {
+  const Case c = GetParam();
+  const Scene s = test::scene("sleepers", kSleepers);
+  RunConfig one;
+  one.steps = kSteps;
+  one.progress_seconds = 0;
+  RunConfig no_parking = one;
+  no_parking.parking = false;
+  RunConfig k = one;
+  k.territories = c.territories;
+  k.threads = 1;
+  k.anticipation = c.anticipation;
+  k.sync_test = c.sync_test;
+  const RunResult parked = run_scene(s, one);
+  const RunResult unparked = run_scene(s, no_parking);
+  const RunResult partitioned = run_scene(s, k);
+  EXPECT_EQ(hash_hex(parked.state_hash), hash_hex(unparked.state_hash));
+  EXPECT_EQ(hash_hex(partitioned.state_hash), hash_hex(parked.state_hash));
+  std::printf("[ parking vs K=%d, anticipation %d, sync-test %d ] %s\n", c.territories, c.anticipation, c.sync_test,
+              hash_hex(parked.state_hash).c_str());
+}
+
+INSTANTIATE_TEST_SUITE_P(Runtime, ParkingVsPartitioned,
+                         ::testing::Values(Case{4, 8, 0}, Case{2, 0, 2}),
+                         [](const ::testing::TestParamInfo<Case>& info) {
+                           return "K" + std::to_string(info.param.territories) + "_anticipation" +
+                                  std::to_string(info.param.anticipation) + "_sync" +
+                                  std::to_string(info.param.sync_test);
+                         });
+
+}  // namespace
+}  // namespace soda
