@@ -15,6 +15,7 @@
 #include <spdlog/spdlog.h>
 
 #include "commands.h"
+#include "partition_png.h"
 #include "soda/bench/bench.h"
 #include "soda/bench/result_json.h"
 #include "soda/grid/partition.h"
@@ -303,7 +304,7 @@ int cmd_export(Options& o, const std::string& out) {
 
 // Shows how a scene would be cut: bodies and cells per territory, balance,
 // neighbours. JSON with --json.
-int cmd_partition(Options& o, std::optional<double> cell_size) {
+int cmd_partition(Options& o, std::optional<double> cell_size, const std::string& png_path) {
   const soda::Scene scene = soda::load_or_make_scene(o.scene, o.params);
   soda::GridOptions grid;
   grid.cell_size = cell_size;
@@ -329,6 +330,11 @@ int cmd_partition(Options& o, std::optional<double> cell_size) {
                            {"neighbours", neighbours}});
   }
   if (!o.json_path.empty()) soda::write_json(j, o.json_path);
+  if (!png_path.empty()) {
+    const int layer = soda::cli::write_partition_png(png_path, map, scene);
+    std::printf("  wrote %s: the map from above at cell layer y = %d (the one holding most bodies)\n",
+                png_path.c_str(), layer);
+  }
   return 0;
 }
 
@@ -418,6 +424,7 @@ int main(int argc, char** argv) {
   CLI::App* scenes = app.add_subcommand("scenes", "List the registered scene generators");
   Options part_o;
   std::optional<double> cell_size;
+  std::string partition_png;
   CLI::App* part = app.add_subcommand("partition", "Show how a scene is cut into territories");
   add_scene_options(*part, part_o);
   part->add_option("--territories", part_o.config.territories, "Number of territories")->capture_default_str();
@@ -425,6 +432,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   part->add_option("--cell-size", cell_size, "Cell edge in metres (default: the largest body's extent)");
   part->add_option("--json", part_o.json_path, "Write the partition summary as JSON ('-': stdout)");
+  part->add_option("--png", partition_png,
+                   "Write a picture of the map seen from above (the layer of cells holding most bodies; "
+                   "world colours as the viewer's, bodies as dots)");
   std::vector<soda::cli::Command> more = soda::cli::add_accuracy_commands(*bench);  // bench accuracy|accuracy-trace|analytic
   more.push_back(soda::cli::add_speculation_command(*bench));
   more.push_back(soda::cli::add_sleepers_command(*bench));
@@ -452,7 +462,7 @@ int main(int argc, char** argv) {
     if (*bench) return cmd_bench(bench_o);
     if (*exp) return cmd_export(export_o, export_path);
     if (*scenes) return cmd_scenes();
-    if (*part) return cmd_partition(part_o, cell_size);
+    if (*part) return cmd_partition(part_o, cell_size, partition_png);
   } catch (const soda::replay::ReplayFormatError& e) {  // a file that is not a readable replay: bad input
     std::fprintf(stderr, "soda: error: %s\n", e.what());
     return kExitBadInput;

@@ -8,6 +8,7 @@
 
 #include "soda/grid/partition.h"
 #include "soda/runtime/simulation.h"
+#include "soda/runtime/view_adapter.h"
 #include "soda/viewer/live_frame_source.h"
 #include "soda/viewer/memory_frame_source.h"
 
