@@ -62,7 +62,7 @@ std::string seconds_text(double s) {
   return text;
 }
 
-SimulationConfig simulation_config(const RunConfig& c) {
+SimulationConfig serve_simulation_config(const RunConfig& c) {
   auto refuse = [](bool bad, const char* what) {
     if (bad) throw std::invalid_argument(std::string("--serve runs the scene through a Simulation, which does not "
                                                      "support ") + what);
@@ -76,26 +76,15 @@ SimulationConfig simulation_config(const RunConfig& c) {
   refuse(c.watchdog.response == WatchdogResponse::Heal, "--watchdog heal");
   refuse(!c.sleeping, "runs with sleeping off");
   refuse(!c.record_path.empty(), "--record at the same time (record first, then 'soda view FILE')");
-  SimulationConfig s;
-  s.territories = c.territories;
-  s.partition = c.partition;
-  s.threads = c.threads;
-  s.pin = c.pin;
-  s.serialise = c.serialise;
-  s.validate = c.validate;
+  SimulationConfig s = soda::simulation_config(c);
   s.anticipation = c.territories > 1 ? c.anticipation : 0;
-  s.rollback = c.rollback;
-  s.checkpoint_every = c.checkpoint_every;
-  s.eager_bets = c.eager_bets;
-  s.reach_speed = c.reach_speed;
-  s.watchdog = c.watchdog;
   return s;
 }
 
 }  // namespace
 
 int serve_run(const Scene& scene, const RunConfig& config, const ServeOptions& serve) {
-  const SimulationConfig sc = simulation_config(config);
+  const SimulationConfig sc = serve_simulation_config(config);
   TerritoryMap map = make_partition(sc.partition, scene, sc.territories, sc.grid);
   Simulation sim(scene, map, sc);
   auto source = std::make_shared<viewer::LiveFrameSource>(sim, scene, map);

@@ -72,13 +72,7 @@ void give(Simulation& sim, const UserInput& in) {
 
 }  // namespace
 
-bool inputs_through_simulation(const RunConfig& config) {
-  return config.inputs_via_simulation && config.balance.policy == "none" && config.sync_test == 0 &&
-         config.watchdog.response != WatchdogResponse::Heal;
-}
-
-RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
-  check_supported(config);
+SimulationConfig simulation_config(const RunConfig& config) {
   SimulationConfig sc;
   sc.territories = config.territories;
   sc.partition = config.partition;
@@ -91,8 +85,20 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   sc.rollback = config.rollback;
   sc.checkpoint_every = config.checkpoint_every;
   sc.eager_bets = config.eager_bets;
+  sc.reach_speed = config.reach_speed;
   sc.watchdog = config.watchdog;
   sc.balance = config.balance;  // a Simulation refuses any policy but "none"
+  return sc;
+}
+
+bool inputs_through_simulation(const RunConfig& config) {
+  return config.inputs_via_simulation && config.balance.policy == "none" && config.sync_test == 0 &&
+         config.watchdog.response != WatchdogResponse::Heal;
+}
+
+RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
+  check_supported(config);
+  SimulationConfig sc = simulation_config(config);
   sc.buffer_capacity = std::max<std::size_t>(sc.buffer_capacity, static_cast<std::size_t>(config.anticipation) + 3);
   // Progress and step times from world 0's thread (re-runs after a rollback
   // included).

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "soda/runtime/partitioned_world.h"
+#include "soda/runtime/simulation.h"
 #include "soda/runtime/user_input.h"
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
@@ -184,5 +185,12 @@ Scene in_insertion_order(const Scene& scene, std::uint64_t shuffle_seed);
 /// std::bad_alloc when an allocation fails anyway. Blocks the calling thread; logs a progress line through spdlog
 /// every config.progress_seconds.
 RunResult run_scene(const Scene& scene, const RunConfig& config);
+
+/// The Simulation settings of a run: territories, partition, threads, pin,
+/// serialise, validate, anticipation, solver_threads, rollback,
+/// checkpoint_every, eager_bets, reach_speed, watchdog and balance copied
+/// from `config`, the rest SimulationConfig's defaults. For the runs that go
+/// through a Simulation (inputs, --record, --serve). Pure.
+SimulationConfig simulation_config(const RunConfig& config);
 
 }  // namespace soda
