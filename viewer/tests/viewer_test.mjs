@@ -1,18 +1,20 @@
 // The browser tests (ctest label `browser`; docs/viewer.md, "Tests"):
 //   node viewer_test.mjs replay SERVER_EXE OUT_DIR   a recorded run (viewer_test_server)
 //   node viewer_test.mjs live SODA_EXE OUT_DIR       soda run --serve 0 (a running scene)
+//   node viewer_test.mjs file SODA_EXE OUT_DIR       soda run --record, then soda view FILE
 // Starts the server on 127.0.0.1, loads the page in headless chromium, waits
 // for the page to report a frame, screenshots it into OUT_DIR, checks that
 // every world's colour is drawn somewhere and the background elsewhere, and
 // the step shown. Exits 1 with "FAIL: ..." on any failure; stops itself
 // (every wait has a timeout).
+import { execFileSync } from 'node:child_process';
 import { mkdirSync, readFileSync } from 'node:fs';
 import path from 'node:path';
 import { countColours, fail, launchBrowser, loadPlaywright, startServer, status } from './browser.mjs';
 
 const [mode, exe, outDir] = process.argv.slice(2);
-if (!['replay', 'live'].includes(mode) || !exe || !outDir)
-  fail('usage: node viewer_test.mjs replay|live SERVER_EXE OUT_DIR');
+if (!['replay', 'live', 'file'].includes(mode) || !exe || !outDir)
+  fail('usage: node viewer_test.mjs replay|live|file EXE OUT_DIR');
 const playwright = loadPlaywright();
 const palette = paletteFromSource();
 const TERRITORIES = 4;
@@ -43,7 +45,19 @@ function checkPixels(px, label) {
 
 async function run() {
   mkdirSync(outDir, { recursive: true });
-  const args = mode === 'replay'
+  // file: a replay file recorded by soda run --record and served by soda
+  // view, the user's path (the same checks as the in-memory replay).
+  let fileHash = null;
+  let args;
+  if (mode === 'file') {
+    const file = path.join(outDir, 'viewer-test.replay');
+    const out = execFileSync(exe, ['run', '--scene', 'falling-cubes', '--n', '400', '--territories', String(TERRITORIES),
+                                   '--steps', '90', '--record', file, '--log-level', 'warn'],
+                             { encoding: 'utf8', timeout: TIMEOUT_MS });
+    fileHash = /state_hash ([0-9a-f]{16})/.exec(out)?.[1];
+    if (!fileHash) fail(`soda run --record printed no state_hash: ${out}`);
+    args = ['view', file, '--port', '0', '--seconds', '120'];
+  } else args = mode === 'replay'
     ? ['--scene', 'falling-cubes', '--n', '400', '--territories', String(TERRITORIES), '--steps', '90', '--seconds', '120']
     : ['run', '--scene', 'falling-cubes', '--n', '1000', '--territories', String(TERRITORIES), '--steps', String(LIVE_STEPS),
        '--serve', '0', '--serve-linger', '60', '--serve-wait'];
@@ -54,7 +68,7 @@ async function run() {
     const errors = [];
     page.on('pageerror', (e) => errors.push(e.message));
     page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
-    if (mode === 'replay') {
+    if (mode === 'replay' || mode === 'file') {
       const step = 60;
       await page.goto(`${server.url}?play=0&step=${step}`, { timeout: TIMEOUT_MS });
       await page.waitForFunction((s) => document.getElementById('status').dataset.step === String(s), step,
@@ -66,7 +80,7 @@ async function run() {
       await page.screenshot({ path: path.join(outDir, 'viewer-replay.png') });
       checkPixels(await countColours(page, palette.list, palette.background), 'replay step 60');
       // The last frame carries the run's hash, shown on the page.
-      const hash = server.lines.find((l) => l.startsWith('state_hash ')).split(' ')[1];
+      const hash = fileHash ?? server.lines.find((l) => l.startsWith('state_hash ')).split(' ')[1];
       await page.fill('#timeline', '90');  // sets the slider and fires its input event, as a drag does
       await page.waitForFunction(() => document.getElementById('status').dataset.step === '90', null, { timeout: TIMEOUT_MS });
       const end = await status(page);
