@@ -1,6 +1,7 @@
 #include "soda/runtime/view_adapter.h"
 
 #include <algorithm>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -22,6 +23,13 @@ replay::ViewHeader view_header(const Scene& scene, const TerritoryMap& map) {
     if (h.bodies[i].id == h.bodies[i - 1].id)
       throw std::invalid_argument("view_header: two bodies with id " + std::to_string(h.bodies[i].id));
   return h;
+}
+
+std::vector<std::uint16_t> view_cell_owner(const TerritoryMap& map) {
+  if (map.world_count() > std::numeric_limits<std::uint16_t>::max())
+    throw std::invalid_argument("a viewer shows at most 65535 worlds, got " + std::to_string(map.world_count()));
+  const auto owners = map.owners();
+  return {owners.begin(), owners.end()};
 }
 
 replay::ViewFrame view_frame(const SceneFrame& frame, const replay::ViewHeader& header, const TerritoryMap* map) {
@@ -51,8 +59,7 @@ replay::ViewFrame view_frame(const SceneFrame& frame, const replay::ViewHeader& 
     throw std::invalid_argument(at + ": body " + std::to_string(frame.poses[i].id) + " is not in the header");
   v.world_busy_ms.reserve(frame.busy_seconds.size());
   for (double s : frame.busy_seconds) v.world_busy_ms.push_back(static_cast<float>(s * 1e3));
-  if (map)
-    for (WorldId o : map->owners()) v.cell_owner.push_back(static_cast<std::uint16_t>(o));
+  if (map) v.cell_owner = view_cell_owner(*map);
   return v;
 }
 

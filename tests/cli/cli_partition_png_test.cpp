@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <fstream>
 #include <iterator>
+#include <regex>
+#include <string>
 #include <vector>
 
 #include "cli_test_util.h"
@@ -57,6 +59,23 @@ Picture read_png(const std::string& path) {
   return pic;
 }
 
+// WORLD_COLOURS[w] of the viewer's palette (viewer/web/palette.js), which
+// the picture must use: partition_png.cpp keeps a copy, and this reads the
+// original, so the two cannot drift apart.
+std::uint32_t viewer_world_colour(int w) {
+  std::ifstream in(SODA_PALETTE_JS);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::smatch list;
+  EXPECT_TRUE(std::regex_search(text, list, std::regex(R"(WORLD_COLOURS = \[([^\]]*)\])"))) << SODA_PALETTE_JS;
+  const std::string body = list[1];
+  std::vector<std::uint32_t> colours;
+  const std::regex hex("0x([0-9a-fA-F]{6})");
+  for (auto it = std::sregex_iterator(body.begin(), body.end(), hex); it != std::sregex_iterator(); ++it)
+    colours.push_back(static_cast<std::uint32_t>(std::stoul((*it)[1], nullptr, 16)));
+  EXPECT_GT(colours.size(), static_cast<std::size_t>(w));
+  return colours.size() > static_cast<std::size_t>(w) ? colours[static_cast<std::size_t>(w)] : 0;
+}
+
 TEST_F(CliTest, PartitionPngShowsEachWorldWhereTheMapPutsIt) {
   const std::string file = (dir_ / "map.png").string();
   const Outcome o =
@@ -67,9 +86,11 @@ TEST_F(CliTest, PartitionPngShowsEachWorldWhereTheMapPutsIt) {
   ASSERT_GT(pic.width, 100u);
   ASSERT_GT(pic.height, 100u);
   ASSERT_EQ(pic.rows.size(), static_cast<std::size_t>(pic.height) * (1 + 3 * pic.width));
-  // grid:2x1x1 cuts along x: world 0 (red, the viewer's palette) on the
+  // grid:2x1x1 cuts along x: world 0 (red in the viewer's palette) on the
   // left, world 1 (green) on the right; bodies are black dots.
-  constexpr std::uint32_t kRed = 0xe6194b, kGreen = 0x3cb44b;
+  const std::uint32_t kRed = viewer_world_colour(0), kGreen = viewer_world_colour(1);
+  ASSERT_EQ(kRed, 0xe6194bu);
+  ASSERT_EQ(kGreen, 0x3cb44bu);
   std::size_t red_left = 0, green_right = 0, wrong_side = 0;
   for (std::uint32_t y = 0; y < pic.height; ++y)
     for (std::uint32_t x = 0; x < pic.width; ++x) {

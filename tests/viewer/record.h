@@ -29,7 +29,7 @@ inline Recording record_frames(const Scene& scene, int territories, int steps) {
   Simulation sim(scene, map, config);
   SceneReader reader = sim.add_reader();
   const replay::ViewHeader header = view_header(scene, map);
-  const std::vector<std::uint16_t> owners = viewer::cell_owners(map);
+  const std::vector<std::uint16_t> owners = view_cell_owner(map);
   auto source = std::make_shared<viewer::MemoryFrameSource>(header);
   sim.start(sim.time_of(steps));
   for (int step = 0; step <= steps; ++step) {

@@ -18,7 +18,7 @@ LiveFrameSource::LiveFrameSource(Simulation& sim, const Scene& scene, TerritoryM
     : sim_(sim),
       header_(view_header(scene, map)),
       map_(std::move(map)),
-      cell_owner_(cell_owners(map_)),
+      cell_owner_(view_cell_owner(map_)),
       reader_(sim.add_reader()) {
   // Step 0 is published at construction: a viewer that comes before the
   // worlds run (soda run --serve-wait) sees the scene as given.

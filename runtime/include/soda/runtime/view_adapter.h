@@ -5,6 +5,9 @@
 // hence here and not in replay/.
 #pragma once
 
+#include <cstdint>
+#include <vector>
+
 #include "soda/grid/territory_map.h"
 #include "soda/replay/view_frame.h"
 #include "soda/runtime/scene_reader.h"
@@ -18,9 +21,14 @@ namespace soda {
 /// std::invalid_argument for two bodies with one id. Pure; thread-safe.
 replay::ViewHeader view_header(const Scene& scene, const TerritoryMap& map);
 
+/// The map's owners as ViewFrame::cell_owner: one per box cell, in box
+/// index order. Throws std::invalid_argument if the map has more worlds than
+/// 16 bits hold. Pure; thread-safe.
+std::vector<std::uint16_t> view_cell_owner(const TerritoryMap& map);
+
 /// `frame` as a viewer sees it: positions and orientations rounded to
 /// float, sleep flags, owners (SceneFrame::owners), per-world busy time in
-/// ms (SceneFrame::busy_seconds), and cell_owner = map's owners if `map` is
+/// ms (SceneFrame::busy_seconds), and cell_owner = view_cell_owner(*map) if `map` is
 /// given (else empty: "unchanged"). The frame's poses must be the header's
 /// dynamic bodies (ascending id, every one): throws std::invalid_argument
 /// naming the step and body otherwise (bodies added or removed by inputs

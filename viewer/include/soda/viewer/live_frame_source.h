@@ -30,7 +30,6 @@
 #include "soda/grid/territory_map.h"
 #include "soda/replay/view_frame.h"
 #include "soda/runtime/simulation.h"
-#include "soda/viewer/view_header.h"
 
 namespace soda::viewer {
 
