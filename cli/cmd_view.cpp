@@ -67,13 +67,10 @@ SimulationConfig serve_simulation_config(const RunConfig& c) {
     if (bad) throw std::invalid_argument(std::string("--serve runs the scene through a Simulation, which does not "
                                                      "support ") + what);
   };
-  refuse(c.world != WorldKind::Canonical, "--world stock");
-  refuse(c.shuffle_seed != 0, "--shuffle-seed");
-  refuse(c.sync_test > 0, "--sync-test");
+  if (const std::string why = soda::simulation_unsupported(c); !why.empty())
+    throw std::invalid_argument("--serve runs the scene through a Simulation, " + why);
   refuse(c.slow_world0_ms > 0, "a slowed world 0");
   refuse(c.inputs.has_value(), "user inputs yet (--inputs, or a scene with inputs of its own such as rain)");
-  refuse(c.balance.policy != "none", "load balancing (--lb): its map is fixed");
-  refuse(c.watchdog.response == WatchdogResponse::Heal, "--watchdog heal");
   refuse(!c.sleeping, "runs with sleeping off");
   refuse(!c.record_path.empty(), "--record at the same time (record first, then 'soda view FILE')");
   SimulationConfig s = soda::simulation_config(c);

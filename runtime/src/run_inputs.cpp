@@ -27,10 +27,8 @@ void check_supported(const RunConfig& config) {
     throw std::invalid_argument("--record " + config.record_path + ": " + config.inputs_source +
                                 " add or remove bodies during the run; a replay file holds a fixed set of bodies "
                                 "(run without inputs, or a scene without inputs of its own)");
-  if (!inputs_through_simulation(config))
-    throw std::invalid_argument("--record " + config.record_path +
-                                ": the run must go through a Simulation, which does not balance load (--lb), run "
-                                "SyncTest (--sync-test) or heal (--watchdog heal)");
+  if (const std::string why = simulation_unsupported(config); !why.empty())
+    throw std::invalid_argument("--record " + config.record_path + ": the run must go through a Simulation, " + why);
 }
 
 // Reads every committed frame 0 .. steps through `reader` into the replay
@@ -91,9 +89,18 @@ SimulationConfig simulation_config(const RunConfig& config) {
   return sc;
 }
 
+std::string simulation_unsupported(const RunConfig& config) {
+  const char* what = config.world != WorldKind::Canonical      ? "--world stock"
+                     : config.shuffle_seed != 0                 ? "--shuffle-seed"
+                     : config.sync_test > 0                     ? "--sync-test"
+                     : config.balance.policy != "none"          ? "load balancing (--lb): its map is fixed"
+                     : config.watchdog.response == WatchdogResponse::Heal ? "--watchdog heal"
+                                                                : nullptr;
+  return what ? std::string("which does not support ") + what : std::string();
+}
+
 bool inputs_through_simulation(const RunConfig& config) {
-  return config.inputs_via_simulation && config.balance.policy == "none" && config.sync_test == 0 &&
-         config.watchdog.response != WatchdogResponse::Heal;
+  return config.inputs_via_simulation && simulation_unsupported(config).empty();
 }
 
 RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {

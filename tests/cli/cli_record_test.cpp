@@ -1,4 +1,7 @@
 // `soda run --record FILE` and `soda replay-info FILE` end to end.
+#include <utility>
+#include <vector>
+
 #include "cli_test_util.h"
 
 namespace soda_cli_test {
@@ -32,6 +35,26 @@ TEST_F(CliTest, RecordRefusesLoadBalancing) {
   EXPECT_EQ(o.exit_code, 2) << o.output;
   EXPECT_NE(o.output.find("--record"), std::string::npos) << o.output;
   EXPECT_NE(o.output.find("--lb"), std::string::npos) << o.output;
+}
+
+// --record and --serve refuse, from the one list (simulation_unsupported),
+// every option a Simulation cannot run, each naming the option: exit 2,
+// before any port is opened or file written.
+TEST_F(CliTest, RecordAndServeRefuseWhatASimulationCannotRun) {
+  const std::string base = "run --scene falling-cubes --n 50 --steps 5 --territories 2 ";
+  for (const auto& [option, named] : std::vector<std::pair<std::string, std::string>>{
+           {"--world stock", "--world stock"},
+           {"--sync-test 1", "--sync-test"},
+           {"--lb churn", "--lb"},
+           {"--watchdog heal", "--watchdog heal"}}) {
+    for (const std::string& mode : {"--record " + (dir_ / "r.replay").string(), std::string("--serve 0")}) {
+      const Outcome o = run_cli(base + option + " " + mode);
+      EXPECT_EQ(o.exit_code, 2) << option << " " << mode << ": " << o.output;
+      EXPECT_NE(o.output.find(named), std::string::npos) << option << " " << mode << ": " << o.output;
+      EXPECT_NE(o.output.find(mode.substr(0, mode.find(' '))), std::string::npos) << o.output;
+    }
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "r.replay"));
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 
 #include "record.h"
 #include "soda/scene/registry.h"
+#include "soda/scene/hash_text.h"
 #include "soda/viewer/frame_codec.h"
 #include "soda/viewer/frame_server.h"
 
@@ -48,7 +49,7 @@ int main(int argc, char** argv) {
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     server.start();
-    std::printf("serving %s\nstate_hash %s\n", server.url().c_str(), soda::viewer::hash_hex16(rec.state_hash).c_str());
+    std::printf("serving %s\nstate_hash %s\n", server.url().c_str(), soda::hash_hex(rec.state_hash).c_str());
     std::fflush(stdout);
     const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
     while (!g_stop.load() && std::chrono::steady_clock::now() < until)

@@ -5,6 +5,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "soda/scene/hash_text.h"
+
 namespace soda::viewer {
 namespace {
 
@@ -46,12 +48,6 @@ void append_value(std::string& out, T value) {
 
 }  // namespace
 
-std::string hash_hex16(std::uint64_t hash) {
-  char text[17];
-  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(hash));
-  return text;
-}
-
 nlohmann::json header_json(const replay::ViewHeader& h) {
   nlohmann::json bodies = nlohmann::json::array();
   for (const replay::ViewBody& b : h.bodies)
@@ -80,7 +76,7 @@ nlohmann::json frame_json(const replay::ViewFrame& f, bool finished) {
           {"owner", f.owner},
           {"cell_owner", f.cell_owner},
           {"world_busy_ms", f.world_busy_ms},
-          {"state_hash", f.state_hash ? nlohmann::json(hash_hex16(*f.state_hash)) : nlohmann::json(nullptr)},
+          {"state_hash", f.state_hash ? nlohmann::json(hash_hex(*f.state_hash)) : nlohmann::json(nullptr)},
           {"finished", finished}};
 }
 

@@ -37,10 +37,4 @@ std::uint64_t state_hash(std::vector<BodyState> states) {
   return h;
 }
 
-std::string hash_hex(std::uint64_t hash) {
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hash));
-  return std::string(buf);
-}
-
 }  // namespace soda

@@ -193,4 +193,10 @@ RunResult run_scene(const Scene& scene, const RunConfig& config);
 /// through a Simulation (inputs, --record, --serve). Pure.
 SimulationConfig simulation_config(const RunConfig& config);
 
+/// Why `config` cannot run through a Simulation, naming the option it does
+/// not support (--world stock, --shuffle-seed, --sync-test, --lb,
+/// --watchdog heal); empty if it can. The one list behind the refusals of
+/// --record and --serve, and behind which path --inputs takes. Pure.
+std::string simulation_unsupported(const RunConfig& config);
+
 }  // namespace soda

@@ -41,7 +41,4 @@ nlohmann::json frame_json(const replay::ViewFrame& frame, bool finished);
 /// std::invalid_argument if the per-body arrays disagree on n.
 std::string frame_binary(const replay::ViewFrame& frame, bool finished);
 
-/// 16 lower-case hex digits.
-std::string hash_hex16(std::uint64_t hash);
-
 }  // namespace soda::viewer

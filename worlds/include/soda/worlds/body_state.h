@@ -7,6 +7,7 @@
 
 #include <LinearMath/btScalar.h>
 
+#include "soda/scene/hash_text.h"  // hash_hex, the one text form of state_hash
 #include "soda/scene/scene.h"
 
 namespace soda {
@@ -31,8 +32,5 @@ struct BodyState {
 /// id, basis, origin, linear and angular velocity, activation state. Input
 /// order does not matter (it is sorted first); every bit of every field does.
 std::uint64_t state_hash(std::vector<BodyState> states);
-
-/// Hash formatted as 16 lowercase hex digits.
-std::string hash_hex(std::uint64_t hash);
 
 }  // namespace soda
