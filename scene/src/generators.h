@@ -8,6 +8,8 @@ namespace soda::detail {
 // generators.cpp: the thesis' scenes.
 Scene make_falling_cubes(const SceneParams& params);
 Scene make_cube_pile(const SceneParams& params);
+/// cube-pile at 1.8 m spacing: no cubes in contact at the start.
+Scene make_heap(const SceneParams& params);
 
 // border_scenes.cpp: small scenes that put contacts on territory borders.
 Scene make_seam_stack(const SceneParams& params);

@@ -18,6 +18,10 @@ const std::vector<SceneGenerator>& scene_registry() {
        "N unit cubes in columns 1.5 m apart, 10 layers from y = 2 m, falling into one connected "
        "heap: one giant island",
        detail::make_cube_pile},
+      {"heap",
+       "cube-pile without its initial overlaps: columns and layers 1.8 m apart (> sqrt(3) m, so "
+       "no two cubes touch at the start), falling into one connected heap: one giant island",
+       detail::make_heap},
       // Border scenes (small; contacts on the borders x = 0 / z = 0).
       {"seam-stack",
        "two towers of N unit boxes (default 8, N <= 50) 1 mm apart: one on the plane x = 0, one on "

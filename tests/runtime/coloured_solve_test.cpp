@@ -9,10 +9,14 @@
 // "concurrency".
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "parallel_stages.h"  // worlds/src: kParallelMinBodies
 #include "runtime/partitioned_test_util.h"
+#include "soda/worlds/solver_pool.h"
 #include "testing_hooks.h"  // runtime/src: the test-only knobs
 
 namespace soda {
@@ -134,6 +138,81 @@ TEST(ColouredSolve, FuzzedWithSolverThreads) {
     EXPECT_EQ(hash_hex(r.hash), hash_hex(reference))
         << "seed " << seed << ", K=" << k << ", solver threads " << o.solver_threads;
     EXPECT_GT(r.total.coloured_islands, 0u);
+  }
+}
+
+// The step's per-body and per-pair stages on the pool (parallel_stages.h):
+// scenes above kParallelMinBodies, one territory with 1, 2, 3, 8 solver
+// threads and two territories with 1 and 2 give the one-world hash, and the
+// stages really ran on the pool's threads. cube-pile: one heap (coloured);
+// falling-cubes: small islands.
+struct StagesRun {
+  std::uint64_t hash = 0;
+  int stage_threads = 0;  // most over the run
+};
+
+StagesRun run_canonical(const Scene& s, int steps, int solver_threads) {
+  CanonicalWorld w(s);
+  if (solver_threads > 1) w.set_solver_pool(std::make_shared<SolverPool>(solver_threads));
+  StagesRun r;
+  for (int i = 0; i < steps; ++i) {
+    w.step();
+    r.stage_threads = std::max(r.stage_threads, w.last_step_stats().stage_threads);
+  }
+  r.hash = w.state_hash();
+  return r;
+}
+
+TEST(ColouredSolve, StepStagesOnThePoolEveryThreadCount) {
+#if defined(__SANITIZE_THREAD__)  // TSan looks for races: fewer, shorter runs
+  constexpr int kStageSteps = 40;
+  const std::vector<int> solver_threads = {1, 3};
+#else
+  constexpr int kStageSteps = 120;
+  const std::vector<int> solver_threads = {1, 2, 3, 8};
+#endif
+  constexpr int kStageBodies = kParallelMinBodies + 88;  // 600: the per-body stages are shared
+  for (const char* name : {"cube-pile", "falling-cubes"}) {
+    const Scene s = test::scene(name, kStageBodies);
+    const std::uint64_t reference = test::reference_hash(s, kStageSteps);
+    for (int threads : solver_threads) {
+      const StagesRun r = run_canonical(s, kStageSteps, threads);
+      std::printf("[ %s %d %s K=1 ] solver threads %d: %s (no pool %s), stages on up to %d threads\n", name,
+                  kStageBodies, kPrecisionName, threads, hash_hex(r.hash).c_str(), hash_hex(reference).c_str(),
+                  r.stage_threads);
+      EXPECT_EQ(hash_hex(r.hash), hash_hex(reference)) << name << ", solver threads " << threads;
+      EXPECT_EQ(r.stage_threads, threads) << name << ": the step's stages did not get the pool's threads";
+    }
+    for (int threads : {1, 2}) {
+      PartitionedOptions o;
+      o.schedule = Schedule::ThreadPerWorld;
+      o.solver_threads = threads;
+      PartitionedWorld w(s, make_partition("kmeans", s, 2, GridOptions{}), o);
+      w.step(kStageSteps);
+      EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(reference)) << name << ", K=2, solver threads " << threads;
+    }
+  }
+}
+
+// heap (docs/scenes.md): one territory equals K = 2 and 4.
+TEST(ColouredSolve, HeapOneTerritoryEqualsK) {
+  constexpr int kHeapBodies = 150;
+  constexpr int kHeapSteps = 150;
+  const Scene s = test::scene("heap", kHeapBodies);
+  const std::uint64_t reference = test::reference_hash(s, kHeapSteps);
+#if defined(__SANITIZE_THREAD__)  // TSan looks for races: one partitioned run
+  const std::vector<int> ks = {4};
+#else
+  const std::vector<int> ks = {2, 4};
+#endif
+  for (int k : ks) {
+    PartitionedOptions o;
+    o.solver_threads = 2;
+    PartitionedWorld w(s, make_partition("kmeans", s, k, GridOptions{}), o);
+    w.step(kHeapSteps);
+    std::printf("[ heap %d %s K=%d ] %s (one world %s)\n", kHeapBodies, kPrecisionName, k,
+                hash_hex(w.state_hash()).c_str(), hash_hex(reference).c_str());
+    EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(reference)) << "heap, K=" << k;
   }
 }
 

@@ -134,8 +134,12 @@ void CanonicalDynamicsWorld::forget_detached_bodies() {
     for (std::size_t i = 0; i < d; ++i) dynamic_bodies_[i]->setUserIndex2(static_cast<int>(i));
 }
 
+// As btCollisionWorld::performDiscreteCollisionDetection (the dispatch:
+// dispatch_pairs), then the speculative points.
 void CanonicalDynamicsWorld::performDiscreteCollisionDetection() {
-  btDiscreteDynamicsWorld::performDiscreteCollisionDetection();
+  updateAabbs();
+  computeOverlappingPairs();
+  dispatch_pairs();
   // Each pair's point is a function of its two bodies alone: the pairs' order
   // does not matter.
   speculative_.clear();
@@ -159,7 +163,7 @@ void CanonicalDynamicsWorld::performDiscreteCollisionDetection() {
 void CanonicalDynamicsWorld::integrateTransforms(btScalar time_step) {
   for (btPersistentManifold* m : speculative_) clear_speculative_contact(*m);
   speculative_.clear();
-  btDiscreteDynamicsWorld::integrateTransforms(time_step);
+  integrate_bodies(time_step);
 }
 
 int CanonicalDynamicsWorld::find(int i) {

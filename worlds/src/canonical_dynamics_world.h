@@ -1,16 +1,20 @@
 // Internal: the btDiscreteDynamicsWorld subclass behind CanonicalWorld. It
 // replaces two stages of Bullet's internalSingleStepSimulation:
 //
-//   predictUnconstraintMotion        (stock: per body, order-free)
+//   predictUnconstraintMotion        (stock: per body, order-free) *
 //   performDiscreteCollisionDetection
-//     updateAabbs                    (stock: per body)
+//     updateAabbs                    (stock: per body) *
 //     computeOverlappingPairs        OVERRIDDEN: + full stale-pair sweep
-//     dispatchAllCollisionPairs      (stock: per pair; body0 = lower id)
+//     dispatchAllCollisionPairs      (stock: per pair; body0 = lower id) *
 //     + speculative contacts         ADDED: per pair with a fast body (docs/ccd.md)
 //   calculateSimulationIslands       OVERRIDDEN: no-op (Bullet's unites broadphase pairs)
 //   solveConstraints                 OVERRIDDEN: IslandStage (below)
 //   integrateTransforms              (stock: per body; CCD off), after
-//                                    the speculative points are removed
+//                                    the speculative points are removed *
+//
+// * with a solver pool and above a size, Bullet's loop over bodies or pairs
+//   runs on the pool's threads, same bits (parallel_stages.h,
+//   canonical_stages.cpp).
 //   updateActivationState            (stock: per body timers)
 //
 // IslandStage, every step:
@@ -88,6 +92,11 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
   /// Removes the step's speculative points, then integrates as Bullet does.
   void integrateTransforms(btScalar time_step) override;
   void calculateSimulationIslands() override {}
+  /// As Bullet's, per body on the solver pool's threads (parallel_stages.h).
+  void predictUnconstraintMotion(btScalar time_step) override;
+  /// As Bullet's: AABBs computed on the pool's threads, the broadphase
+  /// updated on the stepping thread in object order.
+  void updateAabbs() override;
   void solveConstraints(btContactSolverInfo& solver_info) override;
 
  private:
@@ -97,6 +106,11 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
   void decide_sleeping();
   void collect_island_manifolds();
   void solve_islands(btContactSolverInfo& solver_info);
+  // canonical_stages.cpp: Bullet's per-item loops on the pool.
+  SolverPool* stage_pool() const;  // null: no pool, or a pool of one thread
+  void note_stage_threads(int threads);
+  void dispatch_pairs();
+  void integrate_bodies(btScalar time_step);
 
   btDbvtBroadphase* broadphase_;
   ColouredSolver* solver_;
@@ -120,6 +134,11 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
   std::vector<btPersistentManifold*> manifold_ptrs_;
   std::vector<btCollisionObject*> lone_bodies_;
   std::vector<btPersistentManifold*> speculative_;  // manifolds given a speculative point this step
+  struct Aabb {
+    btVector3 min, max;
+  };
+  std::vector<Aabb> aabbs_;      // per collision object (updateAabbs)
+  std::vector<int> box_pairs_;   // box-box pairs of the step, by pair index (dispatch_pairs)
   btContactSolverInfo island_info_;  // an island's own settings (island_solver_settings.h)
 };
 
