@@ -26,12 +26,12 @@ CessionPlanner::CessionPlanner(const LoadView& view, const LoadMonitor& monitor,
   mean_ = monitor.mean();
 }
 
-std::vector<WorldId> CessionPlanner::recipients_of(WorldId g) const {
+std::vector<WorldId> CessionPlanner::recipients_of(WorldId g, bool givers_too) const {
   const int k = grid_.world_count();
   const double cells_per_world = static_cast<double>(grid_.box().count()) / k;
   std::vector<std::tuple<double, std::uint64_t, WorldId>> ranked;
   for (WorldId r : view_.map->neighbours(g)) {
-    if (role(r) == Role::Giver || !(load(r) < load(g))) continue;
+    if ((role(r) == Role::Giver && !givers_too) || !(load(r) < load(g))) continue;
     const double priority = load(r) / mean_ +
                             kNeighbourWeight * static_cast<double>(view_.map->neighbours(r).size()) / k +
                             kSurfaceWeight * static_cast<double>(grid_.cell_count(r)) / cells_per_world;
