@@ -8,6 +8,7 @@
 #include <cctype>
 #include <map>
 #include <mutex>
+#include <vector>
 
 #include "runtime/partitioned_test_util.h"
 #include "soda/runtime/simulation.h"
@@ -109,7 +110,12 @@ INSTANTIATE_TEST_SUITE_P(Runtime, ChurnBalance,
 // leaves most worlds untouched. A new world is made before the old one is
 // destroyed, so an unchanged address is a kept world.
 TEST(BalanceCession, WorldsAwayFromTheMovedCellsKeepTheirBulletWorlds) {
-  for (const int anticipation : {0, 8}) {
+#if defined(__SANITIZE_THREAD__)  // TSan looks for races, not hashes: the speculative run only
+  const std::vector<int> anticipations = {8};
+#else
+  const std::vector<int> anticipations = {0, 8};
+#endif
+  for (const int anticipation : anticipations) {
     const Case c{"border-shuttle", 200, 8, anticipation, 0, 120, 10};
     const Scene s = test::scene(c.scene, c.n);
     const TerritoryMap map = make_partition(partition_of(c), s, c.territories, GridOptions{});
