@@ -65,9 +65,10 @@ class CessionPlanner {
   int given(WorldId w) const { return given_[static_cast<std::size_t>(w)]; }
   const OwnerGrid& grid() const { return grid_; }
 
-  /// Neighbours of g that may receive from it now (not givers, less loaded
-  /// than g), highest priority first.
-  std::vector<WorldId> recipients_of(WorldId g) const;
+  /// Neighbours of g that may receive from it now (less loaded than g, and
+  /// not givers unless `givers_too`: the cascade, diffusive_policy.cpp),
+  /// highest priority first.
+  std::vector<WorldId> recipients_of(WorldId g, bool givers_too = false) const;
   /// Moves cells of g adjacent to r's territory to r, best first, until
   /// `want` (s per step, in g's units) is given, g's cap is reached or no
   /// cell qualifies. When no loaded cell of g touches r, g's load lies

@@ -26,7 +26,9 @@
 //  c. a cell is given only if the giver's estimated load minus its cost stays
 //     at or above the recipient's plus its cost: a move never reverses an
 //     imbalance, so cells do not go back and forth;
-//  d. a world gives or receives in one balance step, never both.
+//  d. a world gives at most once per balance step; it may also receive, in
+//     the cascade only: an overloaded world whose neighbours were as loaded
+//     as itself gives to one that has just given on (diffusive_policy.cpp).
 #pragma once
 
 #include <vector>

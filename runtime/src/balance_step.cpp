@@ -1,14 +1,17 @@
 // PartitionedWorld's load balancing (docs/loadbalance.md, "How a cession is
 // applied"): the balance steps, the LoadView a policy decides on, the moves
-// checked and applied by rebuilding every world for the new map from the
-// whole scene's state at the balance step, and the per-step loads.
+// checked and applied by rebuilding the worlds a cession changes for the new
+// map from the whole scene's state at the balance step (the others keep
+// their worlds), and the per-step loads.
 //
 // Why a rebuild is exact: a TerritoryWorld built from a whole-scene snapshot
 // steps exactly as the worlds the snapshot was taken from, for any map
 // (tests/worlds/territory_snapshot_test.cpp) — the bodies of a ceded cell
 // arrive at their new owner with their raw state, and every pair's contact
 // state goes to its key body's new owner. Every world stands at the balance
-// step (step() drains to it), so no rollback can reach below it.
+// step (step() drains to it), so no rollback can reach below it. A world
+// kept beside rebuilt ones is what a rollback of one world is
+// (changed_worlds says why its step is unchanged).
 #include <algorithm>
 #include <atomic>
 #include <exception>
@@ -18,6 +21,7 @@
 #include <thread>
 #include <map>
 #include <set>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -86,6 +90,34 @@ std::vector<CellLoad> cell_loads(const WorldSnapshot& state, const TerritoryMap&
   return out;
 }
 
+// The worlds a cession changes: the owners (before it) of every box cell
+// within the map's reach of a moved cell, and every move's recipient. Any
+// other world has no cell within reach of a moved cell, so none of its
+// bodies' halos overlaps one (a halo beyond the reach is a PartitionError),
+// it holds no copy of a moved body and no pair of one, and every owner it
+// looks up (ghost targets, migration, rule H, its neighbours, its interior)
+// is the same in both maps: it steps on exactly as it would have, in its
+// Bullet world, with its map (docs/loadbalance.md, "How a cession is
+// applied").
+std::vector<bool> changed_worlds(const TerritoryMap& before, const TerritoryMap& after) {
+  std::vector<bool> changed(static_cast<std::size_t>(before.world_count()), false);
+  const CellBox& box = before.box();
+  const int r = before.reach();
+  const std::span<const WorldId> was = before.owners(), now = after.owners();
+  for (std::size_t i = 0; i < was.size(); ++i) {
+    if (was[i] == now[i]) continue;
+    changed[static_cast<std::size_t>(now[i])] = true;
+    const CellCoord m = box.cell_at(i);
+    for (int dx = -r; dx <= r; ++dx)
+      for (int dy = -r; dy <= r; ++dy)
+        for (int dz = -r; dz <= r; ++dz) {
+          const CellCoord c{m.x + dx, m.y + dy, m.z + dz};
+          if (box.contains(c)) changed[static_cast<std::size_t>(before.owner(c))] = true;
+        }
+  }
+  return changed;
+}
+
 // f(w) for every world, on `threads` threads (the caller's among them);
 // rethrows the first error. The stepping threads are idle meanwhile.
 void for_each_world(int k, int threads, const std::function<void(WorldId)>& f) {
@@ -135,7 +167,7 @@ void PartitionedWorld::init_balance() {
   balanced_through_ = first_step_ = steps_done_;
 }
 
-const TerritoryMap& PartitionedWorld::map() const { return in_->worlds.front()->map(); }
+const TerritoryMap& PartitionedWorld::map() const { return in_->map; }
 
 std::int64_t PartitionedWorld::next_balance_step() const {
   if (!policy_) return std::numeric_limits<std::int64_t>::max();
@@ -259,30 +291,40 @@ void PartitionedWorld::rebuild(const WorldSnapshot& state, const TerritoryMap& m
   build(scene ? &*scene : nullptr, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
 }
 
-// The cession: rebuild() for the new map, with the worlds built and the old
-// ones destroyed on rebuild_threads() threads (each new world shares its
-// predecessor's Bullet pools). Concurrent building and destruction of
-// TerritoryWorlds is what speculation's rollbacks already do on the worlds'
-// own threads. Returns the helper threads' CPU time, ns.
+// The cession: the worlds it changes (changed_worlds) rebuilt for the new
+// map from the whole scene's state, on rebuild_threads() threads (each new
+// world shares its predecessor's Bullet pools), their old ones destroyed
+// there too; every other world is kept as it stands, Bullet world, pairs and
+// contact state. Concurrent building and destruction of TerritoryWorlds is
+// what speculation's rollbacks already do on the worlds' own threads, and a
+// kept world beside rebuilt ones is what a rollback of one world is. Every
+// world gets a new process (mailbox, horizon, board) for the new neighbour
+// sets. Returns the helper threads' CPU time, ns.
 std::int64_t PartitionedWorld::cede(const WorldSnapshot& state, const TerritoryMap& map) {
-  const int k = world_count();
+  const std::vector<bool> changed = changed_worlds(this->map(), map);
   const int threads = rebuild_threads();
+  std::vector<WorldId> rebuilt;
+  for (WorldId w = 0; w < world_count(); ++w)
+    if (changed[static_cast<std::size_t>(w)]) rebuilt.push_back(w);
+  const int n = static_cast<int>(rebuilt.size());
   std::atomic<std::int64_t> helper_ns{0};
   const std::thread::id me = std::this_thread::get_id();
   auto timed = [&](const std::function<void(std::size_t)>& f) {
-    return [&, f](WorldId w) {
+    return [&, f](WorldId i) {
       const std::int64_t c0 = thread_cpu_ns();
-      f(static_cast<std::size_t>(w));
+      f(static_cast<std::size_t>(rebuilt[static_cast<std::size_t>(i)]));
       if (std::this_thread::get_id() != me) helper_ns += thread_cpu_ns() - c0;
     };
   };
-  std::vector<std::unique_ptr<TerritoryWorld>> fresh(static_cast<std::size_t>(k));
-  for_each_world(k, threads, timed([&](std::size_t w) {
+  std::vector<std::unique_ptr<TerritoryWorld>> fresh(static_cast<std::size_t>(world_count()));
+  for_each_world(n, threads, timed([&](std::size_t w) {
                    fresh[w] = std::make_unique<TerritoryWorld>(state, static_cast<WorldId>(w), map, -1,
                                                                in_->worlds[w].get());
                  }));
   std::vector<std::unique_ptr<TerritoryWorld>> old = retire();
-  for_each_world(k, threads, timed([&](std::size_t w) { old[w].reset(); }));
+  for_each_world(n, threads, timed([&](std::size_t w) { old[w].reset(); }));
+  for (std::size_t w = 0; w < old.size(); ++w)
+    if (!changed[w]) fresh[w] = std::move(old[w]);
   std::optional<Scene> scene;
   if (options_.validate) scene = scene_of(state);
   build(scene ? &*scene : nullptr, map, [&](WorldId w) { return std::move(fresh[static_cast<std::size_t>(w)]); });

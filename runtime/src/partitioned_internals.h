@@ -25,6 +25,7 @@ namespace soda {
 
 struct PartitionedWorld::Internals {
   // In construction order; destroyed in reverse (a process refers to all above it).
+  TerritoryMap map;  // the map in force (a world kept by a cession may hold an older copy: balance_step.cpp)
   std::unique_ptr<WorldGraph> graph;
   std::unique_ptr<Transport> transport;
   std::unique_ptr<Validator> validator;                 // null unless PartitionedOptions::validate

@@ -155,6 +155,7 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   in_ = std::make_unique<Internals>();
   Internals& in = *in_;
   const detail::TestingHooks& hooks = detail::testing_hooks_of(options_);
+  in.map = map;
   in.graph = std::make_unique<WorldGraph>(map);
   in.transport = options_.serialise ? make_serialising_transport(k) : make_in_memory_transport(k);
   if (hooks.fuzz_seed) in.transport = make_fuzzing_transport(std::move(in.transport), hooks.fuzz_seed);

@@ -8,6 +8,7 @@
 #include <cctype>
 #include <map>
 #include <mutex>
+#include <vector>
 
 #include "runtime/partitioned_test_util.h"
 #include "soda/runtime/simulation.h"
@@ -101,6 +102,44 @@ INSTANTIATE_TEST_SUITE_P(Runtime, ChurnBalance,
                              if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
                            return n;
                          });
+
+// A cession rebuilds only the worlds it changes (a cell of theirs within the
+// map's reach of a moved cell, or a recipient); the others keep their
+// TerritoryWorld — Bullet world, pairs, contact state — and the hash still
+// equals the one-territory run's. One cell per balance step on 8 strips
+// leaves most worlds untouched. A new world is made before the old one is
+// destroyed, so an unchanged address is a kept world.
+TEST(BalanceCession, WorldsAwayFromTheMovedCellsKeepTheirBulletWorlds) {
+#if defined(__SANITIZE_THREAD__)  // TSan looks for races, not hashes: the speculative run only
+  const std::vector<int> anticipations = {8};
+#else
+  const std::vector<int> anticipations = {0, 8};
+#endif
+  for (const int anticipation : anticipations) {
+    const Case c{"border-shuttle", 200, 8, anticipation, 0, 120, 10};
+    const Scene s = test::scene(c.scene, c.n);
+    const TerritoryMap map = make_partition(partition_of(c), s, c.territories, GridOptions{});
+    PartitionedOptions o = churn_options(c);
+    o.balance.max_cells_per_move = 1;
+    PartitionedWorld world(s, map, o);
+    int kept = 0, rebuilt = 0;
+    for (int i = 0; i < c.steps; ++i) {
+      std::vector<const TerritoryWorld*> before;
+      for (WorldId w = 0; w < c.territories; ++w) before.push_back(&world.world(w));
+      const std::size_t records = world.balance_log().size();
+      world.step(1);
+      if (world.balance_log().size() == records || world.balance_log().back().cells_moved == 0) continue;
+      for (WorldId w = 0; w < c.territories; ++w) ++(&world.world(w) == before[static_cast<std::size_t>(w)] ? kept : rebuilt);
+    }
+    EXPECT_GT(kept, 0) << "anticipation " << anticipation;
+    EXPECT_GT(rebuilt, 0) << "anticipation " << anticipation;
+    EXPECT_EQ(hash_hex(world.state_hash()),
+              hash_hex(one_territory_hash(s, std::string(c.scene) + std::to_string(c.n), c.steps)))
+        << "anticipation " << anticipation;
+    std::printf("[ cession, anticipation %d ] worlds kept %d, rebuilt %d over the balance steps with moves\n",
+                anticipation, kept, rebuilt);
+  }
+}
 
 // The per-step loads and the balance log add up: every scene step once, the
 // cells of every step summing to the box, the bodies to the scene's dynamic

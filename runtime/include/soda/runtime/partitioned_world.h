@@ -136,8 +136,8 @@ struct PartitionedOptions {
   /// step() stops every world at that step (the *balance step*: nothing is
   /// speculated beyond it), shows the policy what the worlds measured over
   /// the period (LoadView), gives the cells it names to their new owners
-  /// and rebuilds the worlds for the new map from the whole scene's state
-  /// there. Results never depend on it (bit-identical under every policy);
+  /// and rebuilds the worlds the moves change for the new map from the whole
+  /// scene's state there (the others keep theirs). Results never depend on it (bit-identical under every policy);
   /// speed does. Policy "none" (the default) has no balance steps at all.
   /// Checked by make_balance_policy: bad values throw BalanceError (a
   /// std::invalid_argument) from the constructor.
@@ -275,6 +275,8 @@ class PartitionedWorld {
   std::size_t body_count() const;
 
   int world_count() const;
+  /// A world a cession kept (load balancing) holds a copy of an older map,
+  /// equal to map() within the world's reach: use map() for the map in force.
   const TerritoryWorld& world(WorldId id) const;
   const WorldGraph& graph() const;
   std::vector<WorldMetrics> metrics() const;
