@@ -1,5 +1,6 @@
 #include "soda/bench/result_json.h"
 
+#include <cctype>
 #include <fstream>
 #include <iostream>
 #include <stdexcept>
@@ -74,6 +75,30 @@ nlohmann::json stages_json(const WorldMetrics& m) {
                                             {"bytes", c.bytes}};
   }
   return j;
+}
+
+nlohmann::json traffic_json(const WorldMetrics& m) {
+  const auto kind_name = [](MessageKind kind) {
+    std::string name = message_kind_name(kind);
+    for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return name;
+  };
+  const MessageTraffic& t = m.traffic;
+  nlohmann::json flows = nlohmann::json::array();
+  for (const MessageFlow& f : t.flows)
+    flows.push_back({{"to", f.to},
+                     {"kind", kind_name(f.kind)},
+                     {"messages", f.messages},
+                     {"bytes", f.bytes},
+                     {"steps", f.steps},
+                     {"max_per_step", f.max_per_step}});
+  nlohmann::json rounds = nlohmann::json::object();
+  for (std::size_t k = 0; k < kMessageKindCount; ++k) rounds[kind_name(static_cast<MessageKind>(k + 1))] = t.rounds[k];
+  return {{"internal_steps", m.steps},
+          {"flows", std::move(flows)},
+          {"rounds", std::move(rounds)},
+          {"island_depth_sum", t.island_depth_sum},
+          {"island_depth_max", t.island_depth_max}};
 }
 
 nlohmann::json speculation_json(const WorldMetrics& m) {
@@ -228,6 +253,7 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
                         {"messages_sent", m.messages_sent}};
       row.update(speculation_json(m));
       row["stages"] = stages_json(m);
+      row["traffic"] = traffic_json(m);
       worlds.push_back(std::move(row));
     }
     j["worlds"] = std::move(worlds);

@@ -10,6 +10,7 @@
 
 #include "input_ledger.h"
 #include "input_queue.h"
+#include "message_tally.h"
 #include "partitioned_internals.h"
 #include "soda/worlds/world_snapshot.h"
 #include "testing_hooks.h"
@@ -62,6 +63,7 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.relay_messages_received += m.relay_messages_received;
   t.fragments_relayed += m.fragments_relayed;
   t.messages_sent += m.messages_sent;
+  add_traffic(t.traffic, m.traffic);
   t.bets += m.bets;
   t.bets_lost += m.bets_lost;
   t.rollbacks += m.rollbacks;

@@ -200,8 +200,10 @@ void Speculation::try_rejoin() {
       again.epoch = seen_epoch_;
       ++c_.sums.messages_sent;
       const std::uint64_t bytes0 = thread_bytes_sent();
-      c_.transport.send(again.to, std::move(again));
-      c_.clock.sent(thread_bytes_sent() - bytes0);
+      const WorldId to = again.to;
+      const MessageKind kind = again.kind();
+      c_.transport.send(to, std::move(again));
+      c_.clock.sent(to, kind, thread_bytes_sent() - bytes0);
     }
     sent_log_.insert_or_assign(it->first, std::move(it->second));
   }

@@ -71,6 +71,8 @@ void StageClock::publish() {
   close_interval(now);
   totals_.thread_cpu_ns = shared_ ? 0 : now - thread_first_ns_;
   published_ = totals_;
+  tally_.end_step();
+  published_traffic_ = tally_.totals();
 }
 
 }  // namespace soda

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <thread>
 
+#include "message_tally.h"
 #include "soda/runtime/stage.h"
 
 namespace soda {
@@ -43,11 +44,15 @@ class StageClock {
   /// Wall time waited for what `stage` needs.
   void add_wait(Stage stage, std::int64_t ns) { totals_.wait_ns[index(stage)] += ns; }
   void count(Stage stage, std::uint64_t items) { totals_.items[index(stage)] += items; }
-  /// A message of `bytes` bytes sent in the current stage.
-  void sent(std::uint64_t bytes) {
+  /// A message of `kind` and `bytes` bytes sent to `to` in the current
+  /// stage (also counted by destination and kind: published_traffic()).
+  void sent(WorldId to, MessageKind kind, std::uint64_t bytes) {
     ++totals_.messages[index(current_)];
     totals_.bytes[index(current_)] += bytes;
+    tally_.sent(to, kind, bytes);
   }
+  /// A merged border island of `depth` levels below its root, this step.
+  void island_depth(std::uint64_t depth) { tally_.island_depth(depth); }
   /// The stage running now, or Idle outside every Scope.
   Stage current() const { return current_; }
   /// CPU time so far, the current stage's interval included (one clock read;
@@ -56,9 +61,10 @@ class StageClock {
   /// CPU time given to `stage` so far (intervals closed at the last read).
   std::int64_t cpu_ns(Stage stage) const { return totals_.cpu_ns[index(stage)]; }
   /// At a step's end (inside a Scope): the totals become what published()
-  /// returns.
+  /// and published_traffic() return.
   void publish();
   const Totals& published() const { return published_; }
+  const MessageTraffic& published_traffic() const { return published_traffic_; }
   /// Wall time waited per stage so far (as WorldMetrics::blocked_seconds,
   /// written by the world's thread as it waits).
   const std::array<std::int64_t, kStageCount>& waits() const { return totals_.wait_ns; }
@@ -69,6 +75,8 @@ class StageClock {
 
   Totals totals_;
   Totals published_;
+  MessageTally tally_;
+  MessageTraffic published_traffic_;
   Stage current_ = Stage::Idle;
   int depth_ = 0;
   std::int64_t mark_ = 0;              // clock read at the last stage change

@@ -45,10 +45,15 @@ void PartitionedWorld::Process::close_island(const std::vector<const Fragment*>&
     return;
   }
   std::map<WorldId, WorldId> parent{{root, root}};
+  std::map<WorldId, std::uint64_t> depth{{root, 0}};
   std::vector<WorldId> queue{root};
   for (std::size_t i = 0; i < queue.size(); ++i)
     for (WorldId n : adjacent[queue[i]])
-      if (parent.emplace(n, queue[i]).second) queue.push_back(n);
+      if (parent.emplace(n, queue[i]).second) {
+        queue.push_back(n);
+        depth[n] = depth[queue[i]] + 1;
+      }
+  clock_.island_depth(depth[queue.back()]);  // BFS: the last world is the deepest
   WorldStep::Island& is = s_.islands[smallest];
   is.root = root;
   is.parent = parent.at(s_.world->id());

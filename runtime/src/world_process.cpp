@@ -166,8 +166,9 @@ void PartitionedWorld::Process::send(WorldId to, Message message) {
   }
   ++sums_.messages_sent;
   const std::uint64_t bytes0 = thread_bytes_sent();
+  const MessageKind kind = message.kind();
   transport_.send(to, std::move(message));
-  clock_.sent(thread_bytes_sent() - bytes0);
+  clock_.sent(to, kind, thread_bytes_sent() - bytes0);
 }
 
 // One case per place the step can wait; each reads as the stages it runs,

@@ -93,6 +93,7 @@ WorldMetrics PartitionedWorld::Process::metrics() const {
     c.messages = t.messages[i];
     c.bytes = t.bytes[i];
   }
+  m.traffic = clock_.published_traffic();
   m.cpu_step_max_ms = static_cast<double>(step_cpu_max_ns_) * 1e-6;
   m.cpu_step_ms.reserve(step_cpu_history_ns_.size());
   for (std::int64_t ns : step_cpu_history_ns_) m.cpu_step_ms.push_back(static_cast<double>(ns) * 1e-6);

@@ -282,6 +282,36 @@ TEST_F(CliSpeculation, RunJsonHasSpeculationFields) {
   EXPECT_TRUE(j["worlds"][0].contains("thread_cpu_seconds"));
 }
 
+// Messages by destination and kind (docs/cli.md, "traffic"): with
+// --serialise every flow has its encoded bytes and they add up to the run's
+// message_bytes; each world sends the other one Ghosts per step.
+TEST_F(CliTest, RunJsonHasTrafficByDestinationAndKind) {
+  const std::string out = (dir_ / "traffic.json").string();
+  const Outcome o = run_cli("run --scene falling-cubes --n 100 --steps 20 --territories 2 --serialise "
+                            "--log-level warn --json " + out);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(out));
+  ASSERT_EQ(j["worlds"].size(), 2u);
+  std::uint64_t bytes = 0, messages = 0;
+  for (const nlohmann::json& w : j["worlds"]) {
+    const nlohmann::json& t = w["traffic"];
+    EXPECT_EQ(t["internal_steps"], 20);
+    EXPECT_EQ(t["rounds"]["ghosts"], 20);
+    bool ghosts = false;
+    for (const nlohmann::json& f : t["flows"]) {
+      EXPECT_EQ(f["to"], 1 - w["world"].get<int>());
+      EXPECT_GT(f["bytes"].get<std::uint64_t>(), 0u);
+      if (f["kind"] == "ghosts") ghosts = f["messages"] == 20;
+      bytes += f["bytes"].get<std::uint64_t>();
+      messages += f["messages"].get<std::uint64_t>();
+    }
+    EXPECT_TRUE(ghosts) << t.dump();
+    EXPECT_TRUE(t.contains("island_depth_sum") && t.contains("island_depth_max"));
+  }
+  EXPECT_EQ(bytes, j["message_bytes"].get<std::uint64_t>());
+  EXPECT_EQ(messages, j["messages"].get<std::uint64_t>());
+}
+
 }  // namespace
 
 namespace {

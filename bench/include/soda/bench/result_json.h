@@ -22,6 +22,11 @@ struct RunDescription {
 /// stage name (stage.h), each {cpu_seconds, wait_seconds, items, messages,
 /// bytes}.
 nlohmann::json stages_json(const WorldMetrics& m);
+/// Messages one world sent (WorldMetrics::traffic, message_traffic.h):
+/// {internal_steps, flows: [{to, kind, messages, bytes, steps,
+/// max_per_step}], rounds: {kind: n}, island_depth_sum, island_depth_max};
+/// kinds in lower case ("ghosts", "glue", ...).
+nlohmann::json traffic_json(const WorldMetrics& m);
 /// Speculation figures of one world, or of a run (total_metrics over its
 /// worlds: the "speculation" object of a row).
 nlohmann::json speculation_json(const WorldMetrics& m);

@@ -29,6 +29,7 @@
 #include "soda/grid/territory_map.h"
 #include "soda/loadbalance/policy.h"
 #include "soda/runtime/balance_log.h"
+#include "soda/runtime/message_traffic.h"
 #include "soda/runtime/stage.h"
 #include "soda/runtime/world_graph.h"
 #include "soda/scene/input_file.h"
@@ -217,6 +218,10 @@ struct WorldMetrics {
   std::uint64_t relay_messages_received = 0;
   std::uint64_t fragments_relayed = 0;       // other worlds' fragments passed on
   std::uint64_t messages_sent = 0;           // all kinds
+  /// The same messages by destination and kind, with their encoded bytes,
+  /// rounds per step and merge-tree depths (message_traffic.h), over the
+  /// finished internal steps.
+  MessageTraffic traffic = {};
   // Speculation (PartitionedOptions::anticipation):
   std::uint64_t bets = 0;                    // neighbour messages assumed empty before they arrived
   std::uint64_t bets_lost = 0;               // ... that were not empty
@@ -237,7 +242,7 @@ struct WorldMetrics {
 /// The per-world metrics summed over worlds: counters, sizes, CPU and
 /// blocked times; merged_island_worlds_max and steps are maxima; the
 /// per-step series (cpu_step_ms) and the per-step means and maxima are left
-/// empty (they do not add up).
+/// empty (they do not add up); traffic flows are merged by (to, kind).
 WorldMetrics total_metrics(const std::vector<WorldMetrics>& worlds);
 
 class PartitionedWorld {
