@@ -270,6 +270,8 @@ int cmd_run(Options& o) {
     o.config.inputs = std::move(own);
     o.config.inputs_source = "scene '" + o.scene + "' (its inputs)";
   }
+  if (o.serve_port && o.config.group)
+    throw std::invalid_argument("--serve is not supported under mpirun yet (docs/mpi.md)");
   if (o.serve_port) return soda::cli::serve_run(scene, o.config, {*o.serve_port, o.serve_linger, o.serve_wait});
   const soda::RunResult r = soda::run_scene(scene, o.config);
   if (o.config.group && o.config.group->rank() != 0) return 0;  // rank 0 prints the whole scene's result
