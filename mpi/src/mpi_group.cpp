@@ -123,6 +123,28 @@ class MpiGroup final : public ProcessGroup {
     return out;
   }
 
+  std::vector<std::vector<std::uint8_t>> all_gather(const std::vector<std::uint8_t>& mine) override {
+    if (mine.size() > static_cast<std::size_t>(INT_MAX)) throw std::length_error("MpiGroup::all_gather: too many bytes");
+    const int count = static_cast<int>(mine.size());
+    std::vector<int> counts(static_cast<std::size_t>(size_));
+    mpi::check(MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, comm_.get()), "MPI_Allgather");
+    std::vector<int> offsets(counts.size());
+    long long total = 0;
+    for (std::size_t r = 0; r < counts.size(); ++r) {
+      offsets[r] = static_cast<int>(total);
+      total += counts[r];
+    }
+    if (total > INT_MAX) throw std::length_error("MpiGroup::all_gather: more than 2 GiB to gather");
+    std::vector<std::uint8_t> all(static_cast<std::size_t>(total));
+    mpi::check(MPI_Allgatherv(mine.data(), count, MPI_BYTE, all.data(), counts.data(), offsets.data(), MPI_BYTE,
+                              comm_.get()),
+               "MPI_Allgatherv");
+    std::vector<std::vector<std::uint8_t>> out;
+    for (std::size_t r = 0; r < counts.size(); ++r)
+      out.emplace_back(all.begin() + offsets[r], all.begin() + offsets[r] + counts[r]);
+    return out;
+  }
+
   RankTraffic traffic() const override {
     RankTraffic t;
     t.rank = rank_;

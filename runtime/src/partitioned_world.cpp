@@ -229,6 +229,7 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
 }
 
 WorldSnapshot PartitionedWorld::snapshot() const {
+  if (options_.group) return gathered_snapshot();
   std::vector<WorldSnapshot> parts;
   for (const auto& w : in_->worlds) parts.push_back(w->part_snapshot());
   return in_->assemble(steps_done_, std::move(parts));

@@ -44,7 +44,7 @@ if(NOT ranks EQUAL 2 OR NOT worlds1 EQUAL 2)
 endif()
 message(STATUS "one territory ${reference}; 3 territories on 2 ranks ${ranked} (JSON ${hash_json})")
 
-foreach(bad "--ranks-worlds;0,2,1" "--ranks-worlds;0,1" "--anticipation;8")
+foreach(bad "--ranks-worlds;0,2,1" "--ranks-worlds;0,1" "--anticipation;8" "--sync-test;1")
   execute_process(COMMAND ${MPIEXEC} --oversubscribe -np 2 ${SODA} run ${scene} --territories 3 ${bad}
                   OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 60)
   if(NOT rc EQUAL 2 OR NOT err MATCHES "soda: error: ")

@@ -123,9 +123,10 @@ TEST(Mpi, AFailingRankStopsEveryRankWithItsError) {
   } catch (const std::exception& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("watchdog: step 10"), std::string::npos) << "rank " << g_group->rank() << ": " << what;
-    if (g_group->rank_of(w, 4) != g_group->rank())
+    if (g_group->rank_of(w, 4) != g_group->rank()) {
       EXPECT_NE(what.find("rank " + std::to_string(g_group->rank_of(w, 4)) + " failed: world 3"), std::string::npos)
           << what;
+    }
   }
 }
 

@@ -172,8 +172,10 @@ struct PartitionedOptions {
   /// (std::invalid_argument) with anticipation > 0, SyncTest, validation,
   /// load balancing or the watchdog's Heal. Under a group, step() and the
   /// whole-scene readers (body_states, state_hash, sleeping_count,
-  /// body_count) are collective: every rank calls them in the same order;
-  /// rank 0 gets the whole scene's answer, the others their own worlds'.
+  /// body_count, metrics) are collective: every rank calls them in the same
+  /// order; rank 0 gets the whole scene's answer, the others their own
+  /// worlds'. snapshot() over ranks throws std::logic_error (not done
+  /// yet: docs/mpi.md).
   /// Null: every world in this process.
   std::shared_ptr<ProcessGroup> group = {};
 };
@@ -333,6 +335,7 @@ class PartitionedWorld {
   void run_on_ranks(std::int64_t internal_target);
   std::vector<BodyState> gathered_states() const;
   std::size_t gathered_count(bool sleeping) const;
+  WorldSnapshot gathered_snapshot() const;
   std::vector<WorldMetrics> gathered_metrics(std::vector<WorldMetrics> local) const;
   void sync_test_step();
   void restore_before(const WatchdogError& error);

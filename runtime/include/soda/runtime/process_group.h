@@ -70,6 +70,8 @@ class ProcessGroup {
   /// Collective (every rank calls it, in the same order): rank 0 gets every
   /// rank's bytes, by rank; the other ranks get an empty vector.
   virtual std::vector<std::vector<std::uint8_t>> gather(const std::vector<std::uint8_t>& mine) = 0;
+  /// Collective: every rank gets every rank's bytes, by rank.
+  virtual std::vector<std::vector<std::uint8_t>> all_gather(const std::vector<std::uint8_t>& mine) = 0;
   /// Messages and bytes this rank exchanged with the others, and pump time.
   virtual RankTraffic traffic() const = 0;
 };
