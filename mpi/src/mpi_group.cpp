@@ -29,6 +29,27 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
+// The receive side of a gather: each rank's bytes at its offset in `all`.
+struct Layout {
+  std::vector<int> offsets;
+  std::vector<std::uint8_t> all;
+  explicit Layout(const std::vector<int>& counts) : offsets(counts.size()) {
+    long long total = 0;
+    for (std::size_t r = 0; r < counts.size(); ++r) {
+      offsets[r] = static_cast<int>(total);
+      total += counts[r];
+    }
+    if (total > INT_MAX) throw std::length_error("MpiGroup: more than 2 GiB to gather");
+    all.resize(static_cast<std::size_t>(total));
+  }
+  std::vector<std::vector<std::uint8_t>> split(const std::vector<int>& counts) const {
+    std::vector<std::vector<std::uint8_t>> out;
+    for (std::size_t r = 0; r < counts.size(); ++r)
+      out.emplace_back(all.begin() + offsets[r], all.begin() + offsets[r] + counts[r]);
+    return out;
+  }
+};
+
 class MpiGroup final : public ProcessGroup {
  public:
   explicit MpiGroup(std::vector<int> rank_of_world) : comm_(MPI_COMM_WORLD), explicit_(std::move(rank_of_world)) {
@@ -106,21 +127,11 @@ class MpiGroup final : public ProcessGroup {
     const int count = static_cast<int>(mine.size());
     std::vector<int> counts(rank_ == 0 ? static_cast<std::size_t>(size_) : 0);
     mpi::check(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm_.get()), "MPI_Gather");
-    std::vector<int> offsets(counts.size());
-    long long total = 0;
-    for (std::size_t r = 0; r < counts.size(); ++r) {
-      offsets[r] = static_cast<int>(total);
-      total += counts[r];
-    }
-    if (total > INT_MAX) throw std::length_error("MpiGroup::gather: more than 2 GiB to gather");
-    std::vector<std::uint8_t> all(static_cast<std::size_t>(total));
-    mpi::check(MPI_Gatherv(mine.data(), count, MPI_BYTE, all.data(), counts.data(), offsets.data(), MPI_BYTE, 0,
+    Layout l(counts);
+    mpi::check(MPI_Gatherv(mine.data(), count, MPI_BYTE, l.all.data(), counts.data(), l.offsets.data(), MPI_BYTE, 0,
                            comm_.get()),
                "MPI_Gatherv");
-    std::vector<std::vector<std::uint8_t>> out;
-    for (std::size_t r = 0; r < counts.size(); ++r)
-      out.emplace_back(all.begin() + offsets[r], all.begin() + offsets[r] + counts[r]);
-    return out;
+    return l.split(counts);
   }
 
   std::vector<std::vector<std::uint8_t>> all_gather(const std::vector<std::uint8_t>& mine) override {
@@ -128,21 +139,11 @@ class MpiGroup final : public ProcessGroup {
     const int count = static_cast<int>(mine.size());
     std::vector<int> counts(static_cast<std::size_t>(size_));
     mpi::check(MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, comm_.get()), "MPI_Allgather");
-    std::vector<int> offsets(counts.size());
-    long long total = 0;
-    for (std::size_t r = 0; r < counts.size(); ++r) {
-      offsets[r] = static_cast<int>(total);
-      total += counts[r];
-    }
-    if (total > INT_MAX) throw std::length_error("MpiGroup::all_gather: more than 2 GiB to gather");
-    std::vector<std::uint8_t> all(static_cast<std::size_t>(total));
-    mpi::check(MPI_Allgatherv(mine.data(), count, MPI_BYTE, all.data(), counts.data(), offsets.data(), MPI_BYTE,
+    Layout l(counts);
+    mpi::check(MPI_Allgatherv(mine.data(), count, MPI_BYTE, l.all.data(), counts.data(), l.offsets.data(), MPI_BYTE,
                               comm_.get()),
                "MPI_Allgatherv");
-    std::vector<std::vector<std::uint8_t>> out;
-    for (std::size_t r = 0; r < counts.size(); ++r)
-      out.emplace_back(all.begin() + offsets[r], all.begin() + offsets[r] + counts[r]);
-    return out;
+    return l.split(counts);
   }
 
   RankTraffic traffic() const override {
