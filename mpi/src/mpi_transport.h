@@ -47,8 +47,16 @@ class MpiTransport final : public Transport {
   bool park(WorldId world) override { return local_->park(world); }
   void set_wake_hook(std::function<void(WorldId)> hook) override { local_->set_wake_hook(std::move(hook)); }
   void close() override { local_->close(); }
-  std::uint64_t messages_sent() const override { return local_->messages_sent() + out_messages_.load(); }
-  std::uint64_t bytes_sent() const override { return local_->bytes_sent() + out_bytes_.load(); }
+  // The messages this rank's worlds sent: the local transport also counts
+  // those progress() hands it from other ranks (a serialising one their
+  // bytes too, re-encoded to the same size), so they are taken out.
+  std::uint64_t messages_sent() const override {
+    return local_->messages_sent() - in_messages_.load() + out_messages_.load();
+  }
+  std::uint64_t bytes_sent() const override {
+    const std::uint64_t local = local_->bytes_sent();
+    return (local > 0 ? local - in_bytes_.load() : 0) + out_bytes_.load();
+  }
 
   /// The communication loop's one round (MPI thread only): posts the
   /// outbox, completes finished sends, receives what has arrived. True if
