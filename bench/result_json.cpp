@@ -218,6 +218,23 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
     j["reach_cells"] = r.reach_cells;
     j["message_bytes"] = r.message_bytes;
     j["slowest_world_cpu_seconds"] = slowest_world_cpu_seconds(r.world_metrics);
+    if (!r.ranks.empty()) {  // under mpirun (docs/mpi.md)
+      nlohmann::json ranks = nlohmann::json::array();
+      for (const RankTraffic& t : r.ranks)
+        ranks.push_back({{"rank", t.rank},
+                         {"worlds", t.worlds},
+                         {"cpu_seconds", t.cpu_seconds},
+                         {"blocked_seconds", t.blocked_seconds},
+                         {"messages", t.messages},
+                         {"bytes", t.bytes},
+                         {"messages_to_other_ranks", t.messages_out},
+                         {"bytes_to_other_ranks", t.bytes_out},
+                         {"messages_from_other_ranks", t.messages_in},
+                         {"bytes_from_other_ranks", t.bytes_in},
+                         {"communication_loop_seconds", t.pump_seconds},
+                         {"communication_loop_idle_seconds", t.pump_idle_seconds}});
+      j["ranks"] = std::move(ranks);
+    }
     nlohmann::json worlds = nlohmann::json::array();
     for (const WorldMetrics& m : r.world_metrics) {
       nlohmann::json row = {{"world", m.world},

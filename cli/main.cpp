@@ -26,6 +26,10 @@
 #include "soda/scene/scene_json.h"
 #include "soda/scene/validate.h"
 #include "soda/worlds/body_state.h"
+#ifdef SODA_HAVE_MPI
+#include "soda/mpi/mpi_group.h"
+#include "soda/mpi/mpi_session.h"
+#endif
 
 namespace {
 
@@ -63,6 +67,7 @@ struct Options {
   std::optional<int> serve_port;  // run --serve: the browser viewer, live (docs/viewer.md)
   double serve_linger = soda::cli::ServeOptions{}.linger_seconds;
   bool serve_wait = false;
+  std::string ranks_worlds;  // run under mpirun: the rank of each world (docs/mpi.md)
 };
 
 void add_scene_options(CLI::App& cmd, Options& o) {
@@ -232,6 +237,12 @@ void print_summary(const soda::RunResult& r) {
                 static_cast<long long>(t.bodies_moved), t.cpu_seconds(), t.gather_cpu_seconds + t.decide_cpu_seconds,
                 t.apply_cpu_seconds);
   }
+  for (const soda::RankTraffic& t : r.ranks)
+    std::printf("  rank %d: %d world(s), CPU %.3f s, worlds blocked %.3f s; to other ranks %llu messages %llu bytes, "
+                "from them %llu messages %llu bytes; communication loop %.3f s (%.3f s idle)\n",
+                t.rank, t.worlds, t.cpu_seconds, t.blocked_seconds, static_cast<unsigned long long>(t.messages_out),
+                static_cast<unsigned long long>(t.bytes_out), static_cast<unsigned long long>(t.messages_in),
+                static_cast<unsigned long long>(t.bytes_in), t.pump_seconds, t.pump_idle_seconds);
   if (r.sync_rollbacks)
     std::printf("  SyncTest: %llu rollbacks re-run bit-identical\n", static_cast<unsigned long long>(r.sync_rollbacks));
   for (std::int64_t step : r.healed_steps)
@@ -259,8 +270,11 @@ int cmd_run(Options& o) {
     o.config.inputs = std::move(own);
     o.config.inputs_source = "scene '" + o.scene + "' (its inputs)";
   }
+  if (o.serve_port && o.config.group)
+    throw std::invalid_argument("--serve is not supported under mpirun yet (docs/mpi.md)");
   if (o.serve_port) return soda::cli::serve_run(scene, o.config, {*o.serve_port, o.serve_linger, o.serve_wait});
   const soda::RunResult r = soda::run_scene(scene, o.config);
+  if (o.config.group && o.config.group->rank() != 0) return 0;  // rank 0 prints the whole scene's result
   print_summary(r);
   if (!o.config.record_path.empty())
     std::printf("  recorded %llu frames, %llu bytes to %s (recording thread CPU %.3f s)\n",
@@ -373,7 +387,9 @@ void add_balance_options(CLI::App& cmd, BalanceOptions& balance) {
 
 }  // namespace soda::cli
 
-int main(int argc, char** argv) {
+namespace {
+
+int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
   CLI::App app{"soda: one rigid-body scene, many Bullet worlds (" + std::string(soda::kPrecisionName) +
                " precision build)"};
   app.require_subcommand(1);
@@ -408,6 +424,9 @@ int main(int argc, char** argv) {
   run->add_option("--serve-linger", run_o.serve_linger,
                   "With --serve: seconds to go on serving after the run ends (< 0: until Ctrl-C)")
       ->capture_default_str();
+  run->add_option("--ranks-worlds", run_o.ranks_worlds,
+                  "Under mpirun: the rank that steps each world, by world id (e.g. 0,0,1,1 for 4 territories on 2 "
+                  "ranks; default round-robin, world w on rank w mod ranks); docs/mpi.md");
   run->add_flag("--serve-wait", run_o.serve_wait,
                 "With --serve: start stepping once a browser has opened the page and asked for a frame (to watch from step 0)");
   CLI::App* bench = app.add_subcommand("bench", "Run a scene and a stock Bullet baseline side by side");
@@ -456,6 +475,17 @@ int main(int argc, char** argv) {
   spdlog::set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
 
   try {
+#ifdef SODA_HAVE_MPI
+    if (under_mpi) {
+      if (!*run)
+        throw std::invalid_argument("under mpirun only `soda run` spreads its worlds over the ranks (docs/mpi.md)");
+      run_o.config.group =
+          soda::make_mpi_group(run_o.ranks_worlds.empty() ? std::vector<int>{}
+                                                          : soda::parse_ranks_worlds(run_o.ranks_worlds));
+    }
+#endif
+    if (!run_o.ranks_worlds.empty() && !run_o.config.group)
+      throw std::invalid_argument("--ranks-worlds needs the run to be started by mpirun (docs/mpi.md)");
     for (const soda::cli::Command& c : more)
       if (*c.app) return c.run();  // before `bench`: these are its subcommands
     if (*run) return cmd_run(run_o);
@@ -486,4 +516,25 @@ int main(int argc, char** argv) {
     return kExitFailure;
   }
   return kExitBadInput;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+#ifdef SODA_HAVE_MPI
+  // Started by mpirun: MPI for the whole process, finalised after the run
+  // (docs/mpi.md). A plain `soda ...` never initialises MPI.
+  std::optional<soda::MpiSession> mpi;
+  if (soda::MpiSession::launched_by_mpirun()) {
+    try {
+      mpi.emplace(&argc, &argv);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "soda: failed: %s\n", e.what());
+      return kExitFailure;
+    }
+  }
+  return soda_main(argc, argv, mpi.has_value());
+#else
+  return soda_main(argc, argv, false);
+#endif
 }

@@ -14,6 +14,7 @@ packages=(
   libcpp-httplib-dev     # the viewer's frame server (soda view, soda run --serve)
   libjs-three            # three.js for the browser viewer (served from /usr/share/javascript/three)
   chromium               # the browser tests (headless, WebGL on SwiftShader)
+  libopenmpi-dev openmpi-bin  # territories on MPI ranks (mpi/, docs/mpi.md; mpirun for its tests)
 )
 # node (>= 20: playwright-core's requirement; the machine's own) runs the
 # browser tests; Debian's nodejs if there is none at all.

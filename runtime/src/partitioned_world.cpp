@@ -12,6 +12,7 @@
 #include "input_queue.h"
 #include "message_tally.h"
 #include "partitioned_internals.h"
+#include "soda/runtime/process_group.h"
 #include "soda/worlds/world_snapshot.h"
 #include "testing_hooks.h"
 
@@ -160,6 +161,11 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   in.map = map;
   in.graph = std::make_unique<WorldGraph>(map);
   in.transport = options_.serialise ? make_serialising_transport(k) : make_in_memory_transport(k);
+  if (options_.group) {
+    check_group_options();
+    for (WorldId w = 0; w < k; ++w) options_.group->rank_of(w, k);  // a mapping that does not fit throws
+    in.transport = options_.group->make_transport(k, std::move(in.transport));
+  }
   if (hooks.fuzz_seed) in.transport = make_fuzzing_transport(std::move(in.transport), hooks.fuzz_seed);
   if (options_.validate && !scene) throw std::logic_error("PartitionedWorld::build: validation needs the scene");
   in.validator = options_.validate ? std::make_unique<Validator>(*scene, k) : nullptr;
@@ -226,6 +232,7 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
 }
 
 WorldSnapshot PartitionedWorld::snapshot() const {
+  if (options_.group) return gathered_snapshot();
   std::vector<WorldSnapshot> parts;
   for (const auto& w : in_->worlds) parts.push_back(w->part_snapshot());
   return in_->assemble(steps_done_, std::move(parts));
@@ -302,6 +309,12 @@ void PartitionedWorld::sync_test_step() {
 void PartitionedWorld::run_to(std::int64_t scene_step) {
   const std::int64_t target = scene_step * substeps_;
   for (auto& p : in_->processes) p->set_target(target);
+  if (options_.group) {
+    run_on_ranks(target);
+    steps_done_ = scene_step;
+    collect_step_loads();
+    return;
+  }
   Scheduler::Options o;
   o.schedule = options_.schedule;
   o.threads = options_.threads;
@@ -347,6 +360,7 @@ void PartitionedWorld::restore(WorldSnapshot state) {
 }
 
 std::vector<BodyState> PartitionedWorld::body_states() const {
+  if (options_.group) return gathered_states();
   std::vector<BodyState> out = in_->worlds.front()->static_states();
   for (const auto& w : in_->worlds) {
     std::vector<BodyState> s = w->owned_states();
@@ -359,12 +373,14 @@ std::vector<BodyState> PartitionedWorld::body_states() const {
 std::uint64_t PartitionedWorld::state_hash() const { return soda::state_hash(body_states()); }
 
 std::size_t PartitionedWorld::sleeping_count() const {
+  if (options_.group) return gathered_count(true);
   std::size_t n = 0;
   for (const auto& w : in_->worlds) n += w->sleeping_count();
   return n;
 }
 
 std::size_t PartitionedWorld::body_count() const {
+  if (options_.group) return in_->worlds.front()->static_count() + gathered_count(false);
   std::size_t n = in_->worlds.front()->static_count();
   for (const auto& w : in_->worlds) n += w->owned_count();
   return n;
@@ -396,7 +412,7 @@ std::vector<WorldMetrics> PartitionedWorld::metrics() const {
     }
     out.push_back(std::move(m));
   }
-  return out;
+  return options_.group ? gathered_metrics(std::move(out)) : out;
 }
 
 WorldMetrics total_metrics(const std::vector<WorldMetrics>& worlds) {

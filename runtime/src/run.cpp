@@ -1,6 +1,7 @@
 #include "soda/runtime/run.h"
 
 #include <algorithm>
+#include <cstring>
 #include <chrono>
 #include <memory>
 #include <numeric>
@@ -129,6 +130,37 @@ RunResult build_run_destroy(const Scene& scene, const RunConfig& config, const S
 // steps); progress and step times come from world 0's thread. Every world
 // inserts its bodies in the order of config.shuffle_seed. Inputs (when not
 // through a Simulation: inputs_through_simulation) go to the PartitionedWorld.
+// Ranks: every rank's traffic and its worlds' CPU and blocked time, to rank
+// 0, whose message counts become the whole run's.
+void gather_rank_traffic(ProcessGroup& group, const PartitionedWorld& world, RunResult& r) {
+  RankTraffic mine = group.traffic();
+  mine.messages = world.messages_sent();
+  mine.bytes = world.bytes_sent();
+  mine.worlds = 0;
+  for (WorldId w = 0; w < world.world_count(); ++w) {
+    if (group.rank_of(w, world.world_count()) != group.rank()) continue;
+    ++mine.worlds;
+    const WorldMetrics& m = r.world_metrics[static_cast<std::size_t>(w)];
+    mine.blocked_seconds += m.blocked_seconds;
+    mine.cpu_seconds += m.cpu_seconds;
+  }
+  static_assert(std::is_trivially_copyable_v<RankTraffic>);
+  std::vector<std::uint8_t> bytes(sizeof mine);
+  std::memcpy(bytes.data(), &mine, sizeof mine);
+  for (const std::vector<std::uint8_t>& part : group.gather(bytes)) {
+    if (part.size() != sizeof mine) throw std::logic_error("run_scene: a rank's traffic record is truncated");
+    RankTraffic t;
+    std::memcpy(&t, part.data(), sizeof t);
+    r.ranks.push_back(t);
+  }
+  if (r.ranks.empty()) return;
+  r.messages = r.message_bytes = 0;
+  for (const RankTraffic& t : r.ranks) {
+    r.messages += t.messages;
+    r.message_bytes += t.bytes;
+  }
+}
+
 RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   const Scene scene = in_insertion_order(scene_in, config.shuffle_seed);
   if (config.world != WorldKind::Canonical)
@@ -175,6 +207,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   options.balance = config.balance;
   if (config.inputs) options.inputs = *config.inputs;
   options.solver_threads = config.solver_threads;
+  options.group = config.group;
   r.solver_threads = config.solver_threads;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
   step_ends.reserve(static_cast<std::size_t>(config.steps));
@@ -226,6 +259,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.messages = world.messages_sent();
   r.reach_cells = world.world(0).map().reach();
   r.message_bytes = world.bytes_sent();
+  if (config.group) gather_rank_traffic(*config.group, world, r);
   r.state_hash = world.state_hash();
   r.sleeping_bodies = world.sleeping_count();
   if (config.inputs) {  // at the end: the inputs added and removed bodies
@@ -337,6 +371,14 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   const SleepingSwitch sleeping(config.sleeping);
   const Stamp start;
   check_run_memory(scene, config);
+  if (config.group) {
+    if (config.world != WorldKind::Canonical) throw std::invalid_argument("over MPI ranks: the canonical world only");
+    if (!config.record_path.empty())
+      throw std::invalid_argument("over MPI ranks: --record is not supported yet (docs/mpi.md)");
+    if (config.inputs)
+      throw std::invalid_argument("over MPI ranks: inputs are not supported yet (docs/mpi.md)");
+    return run_partitioned(scene, config);
+  }
   if (!config.record_path.empty() || (config.inputs && inputs_through_simulation(config)))
     return run_with_inputs(scene, config);
   if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0 ||

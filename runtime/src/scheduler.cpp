@@ -33,6 +33,20 @@ Scheduler::Scheduler(Options options, std::vector<WorldTask*> tasks, Transport& 
       on_error_(std::move(on_error)) {
   if (options_.schedule == Schedule::Pool && options_.threads < 1)
     throw std::invalid_argument("Scheduler: the pool schedule needs threads >= 1");
+  if (!options_.local.empty() && options_.local.size() != tasks_.size())
+    throw std::invalid_argument("Scheduler: the local-world mask must have one entry per world");
+  if (!options_.local.empty() && options_.schedule == Schedule::Sequential)
+    throw std::invalid_argument("Scheduler: the sequential schedule steps every world (no local-world mask)");
+}
+
+bool Scheduler::local(WorldId world) const {
+  return options_.local.empty() || options_.local[static_cast<std::size_t>(world)];
+}
+
+std::size_t Scheduler::local_count() const {
+  std::size_t n = 0;
+  for (WorldId w = 0; w < static_cast<WorldId>(tasks_.size()); ++w) n += local(w) ? 1 : 0;
+  return n;
 }
 
 Scheduler::~Scheduler() {
@@ -58,14 +72,22 @@ void Scheduler::launch() {
       threads_.emplace_back([this] {
         if (options_.pin) pin_current_thread(0, "round-robin thread");
         run_sequential();
+        ++ended_;
       });
       break;
     case Schedule::ThreadPerWorld:
-      for (WorldId w = 0; w < k; ++w) threads_.emplace_back([this, w] { run_world(w); });
+      for (WorldId w = 0; w < k; ++w)
+        if (local(w))
+          threads_.emplace_back([this, w] {
+            run_world(w);
+            ++ended_;
+          });
       break;
     case Schedule::Pool: {
       pool_ = std::make_shared<Pool>(tasks_.size());
-      for (WorldId w = 0; w < k; ++w) pool_->ready.push_back(w);
+      pool_->stop = local_count() == 0;  // a rank without worlds
+      for (WorldId w = 0; w < k; ++w)
+        if (local(w)) pool_->ready.push_back(w);
       transport_.set_wake_hook([pool = pool_](WorldId w) {
         {
           std::lock_guard lock(pool->mutex);
@@ -82,10 +104,15 @@ void Scheduler::launch() {
           }
           pool->cv.notify_all();
         });
-      for (int i = 0; i < options_.threads; ++i) threads_.emplace_back([this, i] { run_pool_worker(i); });
+      for (int i = 0; i < options_.threads; ++i)
+        threads_.emplace_back([this, i] {
+          run_pool_worker(i);
+          ++ended_;
+        });
       break;
     }
   }
+  launched_ = threads_.size();
 }
 
 void Scheduler::join() {
@@ -221,7 +248,7 @@ void Scheduler::run_pool_worker(int index) {
         if (a.done) {
           if (!control_ || control_->finished(task.steps_done())) {
             std::lock_guard lock(pool.mutex);
-            if (++pool.finished == tasks_.size()) {
+            if (++pool.finished == local_count()) {
               pool.stop = true;
               pool.cv.notify_all();
             }

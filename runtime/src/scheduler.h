@@ -32,6 +32,7 @@
 //     gated: RunControl::finished) or the run is shut down.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <exception>
 #include <functional>
@@ -84,6 +85,10 @@ class Scheduler {
     bool pin = false;
     /// Names the driver in deadlock reports ("PartitionedWorld", "Simulation").
     std::string name = "PartitionedWorld";
+    /// The worlds this process steps, by id (a ProcessGroup's rank:
+    /// process_group.h); empty: all. Not with Sequential (whose deadlock
+    /// check cannot see messages still on their way from another rank).
+    std::vector<bool> local = {};
   };
   /// Called once, on the failing thread, with the first error and the world
   /// it came from (kNoWorld if unknown), before the transport is closed.
@@ -110,6 +115,8 @@ class Scheduler {
   void join();
   /// The first error of any world, or null. After join().
   std::exception_ptr error() const;
+  /// True once every thread launch() started has ended (any thread).
+  bool finished() const { return ended_.load() == launched_; }
 
  private:
   struct Pool;
@@ -117,6 +124,8 @@ class Scheduler {
   void run_sequential();
   void run_world(WorldId world);
   void run_pool_worker(int index);
+  bool local(WorldId world) const;
+  std::size_t local_count() const;
 
   const Options options_;
   const std::vector<WorldTask*> tasks_;
@@ -125,6 +134,8 @@ class Scheduler {
   const ErrorHook on_error_;
   std::shared_ptr<Pool> pool_;  // shared with the wake hooks, which may run late
   std::vector<std::thread> threads_;
+  std::size_t launched_ = 0;          // threads launch() started
+  std::atomic<std::size_t> ended_{0};  // ... that have ended
   mutable std::mutex error_mutex_;
   std::exception_ptr error_;
 };

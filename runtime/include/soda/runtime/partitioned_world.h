@@ -44,6 +44,7 @@ namespace detail {
 struct TestingHooks;  // internal (runtime/src/testing_hooks.h)
 }
 class InputQueue;  // internal (runtime/src/input_queue.h)
+class ProcessGroup;  // soda/runtime/process_group.h
 
 /// How the worlds' steps are scheduled onto threads. Results never depend
 /// on it (tests check); speed does.
@@ -165,6 +166,19 @@ struct PartitionedOptions {
   /// world that finds it busy solves alone. Results never depend on it.
   /// 1: no pool. >= 1.
   int solver_threads = 1;
+  /// Ranks (process_group.h; docs/mpi.md): this process steps only the
+  /// worlds group->rank_of() gives its rank, and messages to other ranks'
+  /// worlds go through the group. Every rank builds the same world from the
+  /// same scene, map and options. Lockstep only so far: refused
+  /// (std::invalid_argument) with anticipation > 0, SyncTest, validation,
+  /// load balancing or the watchdog's Heal. Under a group, step() and the
+  /// whole-scene readers (body_states, state_hash, sleeping_count,
+  /// body_count, metrics) are collective: every rank calls them in the same
+  /// order; rank 0 gets the whole scene's answer, the others their own
+  /// worlds'. snapshot() over ranks throws std::logic_error (not done
+  /// yet: docs/mpi.md).
+  /// Null: every world in this process.
+  std::shared_ptr<ProcessGroup> group = {};
 };
 
 /// Thrown when the validation mode finds a broken invariant; the message names
@@ -322,6 +336,14 @@ class PartitionedWorld {
   void restore(WorldSnapshot state);
   void init_inputs(const Scene& scene);
   void run_to(std::int64_t scene_step);
+  // Over the ranks of options_.group (partitioned_ranks.cpp).
+  bool steps_world(WorldId w) const;
+  void check_group_options() const;
+  void run_on_ranks(std::int64_t internal_target);
+  std::vector<BodyState> gathered_states() const;
+  std::size_t gathered_count(bool sleeping) const;
+  WorldSnapshot gathered_snapshot() const;
+  std::vector<WorldMetrics> gathered_metrics(std::vector<WorldMetrics> local) const;
   void sync_test_step();
   void restore_before(const WatchdogError& error);
   void resimulate_with_substeps();

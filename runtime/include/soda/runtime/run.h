@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "soda/runtime/partitioned_world.h"
+#include "soda/runtime/process_group.h"
 #include "soda/runtime/simulation.h"
 #include "soda/runtime/user_input.h"
 #include "soda/scene/scene.h"
@@ -113,6 +114,13 @@ struct RunConfig {
   /// K = 1, the canonical world's pool; K > 1, PartitionedOptions::solver_threads.
   /// Results never depend on it. 1: none. >= 1. Not with the stock world.
   int solver_threads = 1;
+  /// Ranks (MPI: docs/mpi.md; PartitionedOptions::group): the worlds are
+  /// spread over the group's processes, every rank running run_scene with
+  /// the same config; rank 0's result is the whole scene's (state hash,
+  /// bodies, per-world metrics, `ranks`), the other ranks' hold their own
+  /// worlds only. Lockstep partitioned runs only (not with --record, a
+  /// Simulation's inputs, the stock world). Null: one process.
+  std::shared_ptr<ProcessGroup> group;
 };
 
 /// Summary statistics of per-step times, in milliseconds.
@@ -165,6 +173,8 @@ struct RunResult {
   double record_cpu_seconds = 0;
   int solver_threads = 1;                   // RunConfig::solver_threads
   std::uint64_t coloured_islands = 0;       // islands solved coloured, summed over steps (and worlds)
+  /// RunConfig::group, rank 0: every rank's traffic, by rank (else empty).
+  std::vector<RankTraffic> ranks;
 };
 
 /// Insertion order of the scene's bodies for a shuffle seed (0: scene order).

@@ -1,0 +1,95 @@
+// Internal: the transport of one PartitionedWorld over MPI ranks. A message
+// to a world of this rank goes straight into the local transport (values
+// or bytes, as without MPI); one to another rank's world is encoded
+// (message_codec.h) by the sending world's thread and queued in the outbox.
+// The communication loop (progress(), on the thread that initialised MPI:
+// MPI_THREAD_FUNNELED) sends the outbox with MPI_Isend and takes arriving
+// messages with MPI_Improbe/MPI_Mrecv, decodes them and hands them to the
+// local transport, whose mailboxes the world threads read as before.
+//
+// Invariants:
+//  1. Messages from one world to another arrive in the order sent: the
+//     outbox is FIFO, Isends are posted in outbox order on one
+//     communicator and tag, and MPI does not let them overtake.
+//  2. Only progress() and the destructor call MPI (the caller's thread).
+//  3. The transport owns its communicator (a duplicate): nothing of
+//     another PartitionedWorld's traffic can match its receives.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "mpi_handles.h"
+#include "soda/runtime/process_group.h"
+#include "soda/runtime/transport.h"
+
+namespace soda::mpi {
+
+class MpiTransport final : public Transport {
+ public:
+  static constexpr int kTagMessage = 1;  // a Message's bytes
+  static constexpr int kTagFailure = 2;  // a failed rank's error text
+
+  /// Collective over `parent` (duplicates it). `rank_of_world`: by world id.
+  MpiTransport(MPI_Comm parent, std::vector<int> rank_of_world, std::unique_ptr<Transport> local);
+  ~MpiTransport() override;
+
+  // Transport: any thread.
+  void send(WorldId to, Message message) override;
+  std::optional<Message> try_receive(WorldId world) override { return local_->try_receive(world); }
+  Message receive(WorldId world) override { return local_->receive(world); }
+  bool park(WorldId world) override { return local_->park(world); }
+  void set_wake_hook(std::function<void(WorldId)> hook) override { local_->set_wake_hook(std::move(hook)); }
+  void close() override { local_->close(); }
+  // The messages this rank's worlds sent: the local transport also counts
+  // those progress() hands it from other ranks (a serialising one their
+  // bytes too, re-encoded to the same size), so they are taken out.
+  std::uint64_t messages_sent() const override {
+    return local_->messages_sent() - in_messages_.load() + out_messages_.load();
+  }
+  std::uint64_t bytes_sent() const override {
+    const std::uint64_t local = local_->bytes_sent();
+    return (local > 0 ? local - in_bytes_.load() : 0) + out_bytes_.load();
+  }
+
+  /// The communication loop's one round (MPI thread only): posts the
+  /// outbox, completes finished sends, receives what has arrived. True if
+  /// anything moved. A failure text from another rank closes the local
+  /// transport and is kept (remote_failure()).
+  bool progress();
+  /// Nothing queued or being sent (MPI thread only).
+  bool idle();
+  /// Tells every other rank that this one failed (MPI thread only).
+  void send_failure(const std::string& what);
+  /// Waits up to `seconds` for the sends to complete (MPI thread only).
+  void flush(double seconds);
+  /// Sleeps until a send is queued or `micros` passed (MPI thread only).
+  void wait_for_outbox(int micros);
+  std::string remote_failure() const;
+  void add_traffic(RankTraffic& t) const;
+
+ private:
+  struct Outgoing {
+    int rank = 0;
+    std::vector<std::uint8_t> bytes;
+  };
+
+  Communicator comm_;
+  const int rank_;
+  const std::vector<int> rank_of_world_;
+  std::unique_ptr<Transport> local_;
+  mutable std::mutex mutex_;  // outbox_, failure_
+  std::condition_variable queued_;
+  std::deque<Outgoing> outbox_;
+  std::string failure_;  // another rank's, first one
+  std::deque<std::unique_ptr<PendingSend>> pending_;  // MPI thread only
+  std::atomic<std::uint64_t> out_messages_{0}, out_bytes_{0}, in_messages_{0}, in_bytes_{0};
+};
+
+}  // namespace soda::mpi
