@@ -5,6 +5,8 @@
 #include <stdexcept>
 
 #include <BulletDynamics/ConstraintSolver/btNNCGConstraintSolver.h>
+#include <BulletDynamics/MLCPSolvers/btDantzigSolver.h>
+#include <BulletDynamics/MLCPSolvers/btMLCPSolver.h>
 #include <btBulletDynamicsCommon.h>
 
 namespace soda {
@@ -44,6 +46,10 @@ void apply_solver_variant(btDiscreteDynamicsWorld& world, const std::string& var
       });
     else if (key == "nncg") {
       solver_out = std::make_unique<btNNCGConstraintSolver>();
+      world.setConstraintSolver(solver_out.get());
+    } else if (key == "mlcp") {
+      static btDantzigSolver dantzig;  // stateless between solves; diagnosis only
+      solver_out = std::make_unique<btMLCPSolver>(&dantzig);
       world.setConstraintSolver(solver_out.get());
     } else {
       throw std::invalid_argument("--variant: unknown key '" + key + "'");

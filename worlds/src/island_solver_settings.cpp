@@ -16,6 +16,7 @@ void configure_canonical_solver(btContactSolverInfo& info, const SceneSettings& 
 IslandProfile profile_island(btCollisionObject* const* bodies, int body_count,
                              btPersistentManifold* const* manifolds, int manifold_count) {
   IslandProfile p;
+  p.bodies = body_count;
   if (manifold_count == 0) return p;
   for (int i = 0; i < body_count; ++i) bodies[i]->setCompanionId(i);
   auto index_of = [&](const btCollisionObject* o) {
@@ -81,18 +82,24 @@ int island_iterations(int base, const IslandProfile& profile) {
     factor = std::max(factor, h * h);
   }
   if (profile.mass_ratio > kPlainMassRatio) factor = std::max(factor, std::sqrt(profile.mass_ratio));
-  factor = std::min(factor, kMaxIterationFactor);
+  if (profile.stiff() && profile.bodies <= kSmallStiffIsland)
+    factor = std::min(std::sqrt(profile.mass_ratio) * profile.height, kMaxStiffFactor);
+  else
+    factor = std::min(factor, kMaxIterationFactor);
   return static_cast<int>(std::ceil(base * factor));
 }
 
 const btContactSolverInfo& island_solver_info(const btContactSolverInfo& base, btContactSolverInfo& scratch,
                                               btCollisionObject* const* bodies, int body_count,
                                               btPersistentManifold* const* manifolds, int manifold_count) {
-  const int iterations =
-      island_iterations(base.m_numIterations, profile_island(bodies, body_count, manifolds, manifold_count));
-  if (iterations == base.m_numIterations) return base;
+  const IslandProfile profile = profile_island(bodies, body_count, manifolds, manifold_count);
+  const int iterations = island_iterations(base.m_numIterations, profile);
+  const bool tall = profile.height > kPlainHeight;
+  if (iterations == base.m_numIterations && !tall && !profile.stiff()) return base;
   scratch = base;
   scratch.m_numIterations = iterations;
+  if (tall) scratch.m_warmstartingFactor = kTallWarmStartingFactor;
+  if (profile.stiff()) scratch.m_splitImpulsePenetrationThreshold = 0;
   return scratch;
 }
 
