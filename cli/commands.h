@@ -40,6 +40,9 @@ Command add_speculation_command(CLI::App& bench);
 /// alone, #18). cmd_sleepers.cpp; docs/skip.md.
 Command add_sleepers_command(CLI::App& bench);
 
+/// `soda bench idle-territories` (cmd_idle.cpp).
+Command add_idle_command(CLI::App& bench);
+
 /// `stress`: the numerical-stability suite. cmd_stress.cpp; docs/stress.md.
 Command add_stress_command(CLI::App& app);
 

@@ -118,6 +118,9 @@ void add_run_options(CLI::App& cmd, Options& o) {
   cmd.add_flag("--no-parking{false}", o.config.parking,
                "One territory: keep sleeping islands inside Bullet's world instead of parking them outside it "
                "(same state hash; docs/skip.md)");
+  cmd.add_flag("--no-idle-skip{false}", o.config.idle_territories,
+               "K > 1: every world runs every stage of every step, idle territories too (same state hash; "
+               "docs/skip.md)");
   cmd.add_option("--sync-test", o.config.sync_test,
                  "SyncTest: after every step roll every world back this many steps, re-run them and require "
                  "bit-identical state (0: off; costs that many extra steps per step)")
@@ -457,6 +460,7 @@ int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
   std::vector<soda::cli::Command> more = soda::cli::add_accuracy_commands(*bench);  // bench accuracy|accuracy-trace|analytic
   more.push_back(soda::cli::add_speculation_command(*bench));
   more.push_back(soda::cli::add_sleepers_command(*bench));
+  more.push_back(soda::cli::add_idle_command(*bench));
   more.push_back(soda::cli::add_stress_command(app));
   more.push_back(soda::cli::add_lb_command(app));
   more.push_back(soda::cli::add_replay_info_command(app));

@@ -65,6 +65,7 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.fragments_relayed += m.fragments_relayed;
   t.messages_sent += m.messages_sent;
   add_traffic(t.traffic, m.traffic);
+  t.idle_steps += m.idle_steps;
   t.bets += m.bets;
   t.bets_lost += m.bets_lost;
   t.rollbacks += m.rollbacks;
@@ -203,6 +204,7 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   safety.checkpoint_every = options_.checkpoint_every;
   safety.recompute = options_.rollback == PartitionedOptions::Rollback::Recompute;
   safety.eager_bets = options_.eager_bets;
+  safety.skip_idle = options_.idle_territories;
   safety.verify_replay = hooks.verify_replay;
   in.board = std::make_unique<RollbackBoard>(k, *in.horizon, wake);
   safety.board = in.board.get();

@@ -35,6 +35,7 @@ struct ProcessSafety {
   bool recompute = false;            // speculation: discard and recompute instead of propagate
   bool eager_bets = false;           // speculation: bet on neighbours whose newest ghosts were not empty
   bool verify_replay = false;        // speculation: solve replayed islands anyway and compare
+  bool skip_idle = true;             // idle territories: skip the steps that cannot change this world
   RollbackBoard* board = nullptr;    // speculation: rollbacks of every world
   /// Speculation: replaces this world by one rebuilt from its own part of
   /// the state (as kept) at an internal step boundary; returns it.

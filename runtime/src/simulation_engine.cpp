@@ -31,6 +31,7 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
   o.rollback = c.rollback;
   o.checkpoint_every = c.checkpoint_every;
   o.eager_bets = c.eager_bets;
+  o.idle_territories = c.idle_territories;
   o.watchdog = c.watchdog;
   if (c.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument("SimulationConfig: watchdog heal is not supported by a Simulation (off or stop)");

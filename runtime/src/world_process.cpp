@@ -183,6 +183,11 @@ bool PartitionedWorld::Process::run_phase() {
       return true;
     case StepPhase::AwaitGhosts:  // waits for: Ghosts(t) of every neighbour (or bets on them)
       if (!have_or_bet(MessageKind::Ghosts)) return false;
+      if (s_.idle && !woken()) {  // idle: no ghost for it, the step changes nothing here
+        skip_idle_step();
+        s_.phase = StepPhase::AwaitMigrants;
+        return true;
+      }
       exchange_ghosts();
       collide();
       build_islands();
@@ -227,7 +232,51 @@ void PartitionedWorld::Process::predict() {
   StageClock::Scope stage(clock_, Stage::Predict);
   if (output_.inputs && s_.step % substeps_ == 0) apply_inputs();
   if (spec_) spec_->before_predict();
+  s_.idle = safety_.skip_idle && !fault_due() && s_.world->idle_ready();
+  if (s_.idle) {
+    s_.world->begin_idle_step();
+  } else {
+    s_.world->predict();
+  }
+}
+
+// Idle territories (docs/skip.md): the injected fault of a test is due at
+// the end of this step (check_watchdog): the step is not skipped.
+bool PartitionedWorld::Process::fault_due() const {
+  return safety_.fault_fired && !safety_.fault_fired->load() && safety_.fault.step == s_.step / substeps_ + 1;
+}
+
+// An idle step whose Ghosts (had or bet on) hold something wakes: predict()
+// now writes what it would have written at the step's start (every owned
+// body is settled, no input came) and finds no ghost to send, as the empty
+// Ghosts already sent said.
+bool PartitionedWorld::Process::woken() {
+  bool touched = false;
+  for (WorldId n : neighbours_) {
+    const GhostBatch& b = std::get<GhostBatch>(s_.inbox.at(message_key(MessageKind::Ghosts, s_.step, n)).payload);
+    touched = touched || !b.ghosts.empty() || !b.kept_manifolds.empty();
+  }
+  if (!touched) return false;
+  StageClock::Scope stage(clock_, Stage::Predict);
+  s_.idle = false;
   s_.world->predict();
+  for (WorldId n : neighbours_)
+    if (s_.world->sends_ghosts_to(n))
+      throw std::logic_error("world " + std::to_string(s_.world->id()) + ", step " + std::to_string(s_.step) +
+                             ": a woken idle step has ghosts for world " + std::to_string(n));
+  return true;
+}
+
+// The rest of an idle step up to the migrants: the neighbours' (empty)
+// Ghosts taken, nothing collided, solved or integrated, no body leaves.
+void PartitionedWorld::Process::skip_idle_step() {
+  {
+    StageClock::Scope stage(clock_, Stage::ExchangeGhosts);
+    take_all<GhostBatch>(MessageKind::Ghosts, neighbours_);
+  }
+  ++sums_.idle_steps;
+  StageClock::Scope stage(clock_, Stage::Migrate);
+  for (WorldId n : neighbours_) send(n, Message{.payload = MigrantBatch{}});
 }
 
 void PartitionedWorld::Process::send_ghosts() {

@@ -147,6 +147,10 @@ class PartitionedWorld::Process {
   void end_step();
   void check_watchdog();
   void apply_inputs();
+  // Idle territories (docs/skip.md).
+  bool fault_due() const;
+  bool woken();
+  void skip_idle_step();
   bool may_start();
   // Publishing (world_publish.cpp).
   bool try_publish();

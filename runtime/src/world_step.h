@@ -40,6 +40,7 @@ struct WorldStep {
   TerritoryWorld* world = nullptr;  // replaced when the world is rebuilt (a rollback)
   std::int64_t step = 0;            // internal step in progress (= steps done)
   StepPhase phase = StepPhase::Predict;
+  bool idle = false;                // an idle step: no Bullet stage unless a ghost arrives (docs/skip.md)
   std::map<MessageKey, Message> inbox;
   std::map<std::int64_t, std::vector<Message>> fragments;  // Fragments, Gather, Results, by step
   IslandMerger merger;
@@ -60,6 +61,7 @@ struct WorldStep {
     world = &w;
     step = at;
     phase = StepPhase::Predict;
+    idle = false;
     merger = IslandMerger{};
     islands.clear();
     early_gathers.clear();

@@ -37,6 +37,8 @@ Scene make_border_shuttle(const SceneParams& params);
 Scene make_sleepers(const SceneParams& params);
 /// Active cubes of a sleepers scene with this many sleepers: ceil(n / 100).
 int sleepers_active_count(int sleepers);
+// idle_territories_scene.cpp: eight regions along x, activity in one (#18).
+Scene make_idle_territories(const SceneParams& params);
 
 // stress_scenes.cpp: numerical stability (stress) and closed-form answers
 // (analytic).

@@ -80,6 +80,12 @@ const std::vector<SceneGenerator>& scene_registry() {
        "ceil(N / 100) active unit cubes in columns 1.8 m apart, 5 layers from y = 3 m, falling onto the "
        "middle of the field and waking the sleepers they hit",
        detail::make_sleepers},
+      {"idle-territories",
+       "eight regions along x (cut them with --territories 8 --partition grid:8x1x1), 16 m of bare "
+       "ground apart: in the first, N unit cubes (default 200) falling in columns 1.8 m apart, 5 layers "
+       "from y = 3 m; in each of the seven others, N unit cubes created asleep 1.5 m apart: activity in "
+       "one territory, the others idle",
+       detail::make_idle_territories},
       // Stress scenes (numerical stability).
       {"tower", "N unit boxes (default 10, N <= 100) stacked exactly resting on the origin",
        detail::make_tower},

@@ -16,37 +16,10 @@
 #include "canonical_dynamics_world.h"
 #include "pair_cache.h"
 #include "pair_manifold.h"
+#include "settled.h"
 
 namespace soda {
 namespace {
-
-bool same_bits(const btVector3& a, const btVector3& b) {
-  return std::memcmp(&a[0], &b[0], 3 * sizeof(btScalar)) == 0;
-}
-
-bool same_bits(const btTransform& a, const btTransform& b) {
-  for (int r = 0; r < 3; ++r)
-    if (!same_bits(a.getBasis()[r], b.getBasis()[r])) return false;
-  return same_bits(a.getOrigin(), b.getOrigin());
-}
-
-// Rule 1 of parking.h: a step leaves the body's state as it is.
-bool settled(const btRigidBody& b, btScalar h) {
-  if (b.getActivationState() != ISLAND_SLEEPING || b.getDeactivationTime() == btScalar(0)) return false;
-  const btVector3 zero(0, 0, 0);
-  if (!(b.getLinearVelocity() == zero) || !(b.getAngularVelocity() == zero)) return false;
-  btTransform predicted;  // as btRigidBody::predictIntegratedTransform
-  btTransformUtil::integrateTransform(b.getWorldTransform(), b.getLinearVelocity(), b.getAngularVelocity(), h,
-                                      predicted);
-  return same_bits(predicted, b.getInterpolationWorldTransform());
-}
-
-// Rule 2 of parking.h: points only while AABBs overlap (the bound the
-// territory worlds check, docs/partitioned-step.md).
-bool within_contract(const btRigidBody& b) {
-  const btScalar limit = btScalar(std::sqrt(2.0)) * gContactBreakingThreshold;
-  return b.getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold) <= limit;
-}
 
 // The parked tree is rebuilt top down whenever its leaf count reaches a
 // power of two from this one on: bodies are parked in id order, mostly
@@ -107,7 +80,7 @@ void Parking::park_lone_settled(btScalar h) {
   leaving_.clear();
   const std::vector<btRigidBody*> candidates = world_.dynamic_bodies();
   for (btRigidBody* b : candidates)
-    if (b->getBroadphaseHandle() && settled(*b, h) && within_contract(*b)) {
+    if (b->getBroadphaseHandle() && body_settled(*b, h) && within_contract(*b)) {
       btCollisionObject* one[] = {b};
       add_island(one, 1);
     }
@@ -125,7 +98,7 @@ void Parking::park_settled(btScalar h) {
     bool park = n > 0;
     for (int j = 0; j < n && park; ++j) {
       const btRigidBody* b = btRigidBody::upcast(bodies[j]);
-      park = b && b->getBroadphaseHandle() && settled(*b, h) && within_contract(*b);
+      park = b && b->getBroadphaseHandle() && body_settled(*b, h) && within_contract(*b);
     }
     if (!park) continue;
     island_state_[static_cast<std::size_t>(k)] = static_cast<int>(add_island(bodies, n));

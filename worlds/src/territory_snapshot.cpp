@@ -122,6 +122,7 @@ std::vector<WatchdogFinding> TerritoryWorld::watchdog_findings(const WatchdogLim
 bool TerritoryWorld::set_velocity(BodyId id, const Vec3& linear, const Vec3& angular) {
   auto it = entries_.find(id);
   if (it == entries_.end() || it->second->role != Role::Owned) return false;
+  quiet_ = -1;
   btRigidBody& rb = *it->second->body;
   rb.setLinearVelocity(btVector3(btScalar(linear.x()), btScalar(linear.y()), btScalar(linear.z())));
   rb.setAngularVelocity(btVector3(btScalar(angular.x()), btScalar(angular.y()), btScalar(angular.z())));
@@ -133,6 +134,7 @@ bool TerritoryWorld::set_velocity(BodyId id, const Vec3& linear, const Vec3& ang
 bool TerritoryWorld::apply_impulse(BodyId id, const Vec3& impulse) {
   auto it = entries_.find(id);
   if (it == entries_.end() || it->second->role != Role::Owned) return false;
+  quiet_ = -1;
   btRigidBody& rb = *it->second->body;
   rb.applyCentralImpulse(btVector3(btScalar(impulse.x()), btScalar(impulse.y()), btScalar(impulse.z())));
   rb.forceActivationState(ACTIVE_TAG);

@@ -138,6 +138,8 @@ void TerritoryWorld::insert_static(const Body& b) {
 
 TerritoryWorld::Entry& TerritoryWorld::insert_dynamic(const Body& description, const BodyDynamicState* state,
                                                       bool owned, WorldId owner) {
+  quiet_ = -1;
+  halos_unknown_ = halos_unknown_ || owned;
   auto e = std::make_unique<Entry>();
   e->description = description;
   e->shape = make_collision_shape(description.shape);
@@ -162,6 +164,7 @@ TerritoryWorld::Entry& TerritoryWorld::insert_dynamic(const Body& description, c
 }
 
 void TerritoryWorld::remove_entry(BodyId id) {
+  quiet_ = -1;
   auto it = entries_.find(id);
   if (it == entries_.end()) throw std::logic_error("TerritoryWorld: removing an unknown body");
   Entry* e = it->second.get();
@@ -192,6 +195,8 @@ const std::vector<WorldId>& TerritoryWorld::neighbours() const { return map_.nei
 // before collision detection (applyGravity, predictUnconstraintMotion,
 // createPredictiveContacts without CCD), for owned bodies only; then halos.
 void TerritoryWorld::predict() {
+  quiet_ = -1;
+  halos_unknown_ = false;
   counters_ = TerritoryCounters{};
   coloured_before_ = parts_->solver.stats().coloured_islands;
   sort_lists();

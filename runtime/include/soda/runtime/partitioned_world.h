@@ -120,6 +120,15 @@ struct PartitionedOptions {
   /// rollbacks eager, 8 not; docs/rollback.md). On: as many bets and
   /// rollbacks as possible (tests of the rollback machinery use it).
   bool eager_bets = false;
+  /// Idle territories (#18, docs/skip.md): a world whose owned bodies are
+  /// all settled asleep (or that has none), that holds no ghost and sent
+  /// none, skips its Bullet stages at a step no neighbour sends it a ghost
+  /// for: it sends its (empty) Ghosts and Migrants and advances its clock.
+  /// A ghost arriving wakes it for that step (under speculation, a late one
+  /// through the usual rollback). Exact: the state hash is the same on and
+  /// off (tests/runtime/idle_territories_test.cpp). False: every world runs
+  /// every stage of every step (for comparison and measurement).
+  bool idle_territories = true;
   /// Internal: the knobs only tests set (an injected fault, fuzzing, the
   /// solve-everywhere protocol variant, replay verification); set through
   /// runtime/src/testing_hooks.h. Leave empty.
@@ -236,6 +245,7 @@ struct WorldMetrics {
   /// rounds per step and merge-tree depths (message_traffic.h), over the
   /// finished internal steps.
   MessageTraffic traffic = {};
+  std::uint64_t idle_steps = 0;              // internal steps skipped idle (PartitionedOptions::idle_territories)
   // Speculation (PartitionedOptions::anticipation):
   std::uint64_t bets = 0;                    // neighbour messages assumed empty before they arrived
   std::uint64_t bets_lost = 0;               // ... that were not empty

@@ -56,6 +56,10 @@ struct RunConfig {
   /// the state hash is the same on and off. `--no-parking` turns it off. No
   /// effect on the territory worlds (not yet parked there) or stock Bullet.
   bool parking = true;
+  /// K > 1: idle territories skip their Bullet stages
+  /// (PartitionedOptions::idle_territories; #18, docs/skip.md). Exact.
+  /// `--no-idle-skip` turns it off.
+  bool idle_territories = true;
   double progress_seconds = 1.0;     // progress line period (<= 0: none)
   /// Checked after every step (watchdog.h; not the stock world, the
   /// baseline). Heal runs every territory count, 1 included, through the

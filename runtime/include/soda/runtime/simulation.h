@@ -89,6 +89,9 @@ struct SimulationConfig {
   PartitionedOptions::Rollback rollback = PartitionedOptions::Rollback::Propagate;
   int checkpoint_every = 8;
   bool eager_bets = false;
+  /// Idle territories skip their Bullet stages
+  /// (PartitionedOptions::idle_territories; docs/skip.md). Exact.
+  bool idle_territories = true;
   /// After every step each world checks its bodies and contacts
   /// (watchdog.h): off or stop (a WatchdogError is the cause of the
   /// SimulationError); heal is not supported by a Simulation.

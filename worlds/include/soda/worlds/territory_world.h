@@ -218,6 +218,23 @@ class TerritoryWorld {
   /// hold a ghost or were glued by a neighbour are always solved; so is one
   /// with a body or manifold `after` lacks (a body that left the world).
   void set_replay(const StepReplay& replay);
+  /// Idle territories (docs/skip.md): true if this world's next step can
+  /// be skipped unless a neighbour sends it a ghost — every owned body is
+  /// settled (ISLAND_SLEEPING, timer > 0, velocities and forces +0, hit
+  /// fraction 1, interpolation transform what predict() would write), it
+  /// holds no ghost, sent no ghost at its last step, keeps no contact state
+  /// of pairs held elsewhere, no replay is set and Bullet's sleeping is on.
+  /// Such a step with no ghost arriving changes nothing: no gravity, solve,
+  /// integration, narrowphase (two inactive bodies) or migration.
+  /// O(owned bodies) at the first call after a change, O(1) after it. Call
+  /// at a step boundary (before predict() or begin_idle_step()).
+  bool idle_ready() const;
+  /// Begins an idle step in place of predict() (idle_ready() was true): the
+  /// step's counters are reset, no stage of it touches Bullet. The step ends
+  /// with absorb_migrants() as every step; if a neighbour's ghost arrives
+  /// instead, predict() is called (it writes the bits a settled body holds)
+  /// and the step goes on as a full one.
+  void begin_idle_step();
   /// The islands solved (or replayed) in place in the last step.
   const LocalIslands& local_islands() const { return local_islands_; }
 
@@ -342,6 +359,12 @@ class TerritoryWorld {
   std::vector<std::uint64_t> interior_;  // bit per box cell: owned here with all 26 neighbours
   std::int64_t steps_done_ = 0;
   TerritoryCounters counters_;
+  // idle_ready()'s cache: -1 unknown (a step ran or a body changed), else
+  // its last answer about the owned bodies.
+  mutable int quiet_ = -1;
+  // An owned body came in (built, restored, added, migrated) since the last
+  // predict(): its halo, hence whether it is a border body, is unknown.
+  bool halos_unknown_ = true;
   std::size_t coloured_before_ = 0;  // the solver's coloured islands at predict()
 
   // Contact state kept here for pairs held elsewhere (or whose live manifold

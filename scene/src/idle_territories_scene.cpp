@@ -1,0 +1,67 @@
+// idle-territories (#18): eight regions along x, cut grid:8x1x1 into eight
+// territories; activity in the first only (docs/scenes.md, `soda bench
+// idle-territories`, docs/skip.md "Idle territories").
+#include <algorithm>
+#include <cmath>
+
+#include "generators.h"
+#include "random.h"
+
+namespace soda::detail {
+namespace {
+
+constexpr int kDefaultPerRegion = 200;
+constexpr int kRegions = 8;
+// Sleepers: unit cubes resting on the ground 1.5 m apart (no two share a
+// contact or a broadphase pair), as in the sleepers scene.
+constexpr double kSleeperSpacing = 1.5;
+// Active cubes: columns 1.8 m apart (> sqrt(3): randomly oriented unit
+// cubes cannot touch at the start), layers 1.8 m apart from y = 3 m.
+constexpr double kActiveSpacing = 1.8;
+constexpr int kActiveLayers = 5;
+constexpr double kFirstActiveY = 3.0;
+// Empty ground between the regions' bodies: wider than a grid slab's
+// rounding (a cell of about 1.7 m) plus where a falling pile spreads, so
+// that no body of one region comes near another region's territory.
+constexpr double kRegionGap = 16.0;
+constexpr double kGroundMargin = 10.0;
+
+}  // namespace
+
+Scene make_idle_territories(const SceneParams& params) {
+  Scene scene;
+  scene.name = "idle-territories";
+  scene.seed = params.seed;
+  SceneRandom rng(params.seed);
+  const int n = params.n > 0 ? params.n : kDefaultPerRegion;
+  const int side = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
+  const int columns = static_cast<int>(std::ceil(std::sqrt(n / static_cast<double>(kActiveLayers))));
+  const double width = std::max(side * kSleeperSpacing, columns * kActiveSpacing) + kRegionGap;
+  const double first_centre = -0.5 * width * (kRegions - 1);
+  scene.bodies.push_back(flat_ground(0.5 * width * kRegions + kGroundMargin, 0.5));
+  scene.bodies.reserve(static_cast<std::size_t>(kRegions * n + 1));
+  BodyId id = 1;
+  // Region 0: n active cubes falling onto the bare ground.
+  const double active_offset = 0.5 * kActiveSpacing * (columns - 1);
+  int placed = 0;
+  for (int layer = 0; placed < n; ++layer)
+    for (int ix = 0; ix < columns && placed < n; ++ix)
+      for (int iz = 0; iz < columns && placed < n; ++iz, ++placed) {
+        const Vec3 p(first_centre + ix * kActiveSpacing - active_offset, kFirstActiveY + layer * kActiveSpacing,
+                     iz * kActiveSpacing - active_offset);
+        scene.bodies.push_back(dynamic_box(id++, Vec3::Constant(0.5), 1.0, p, rng.rotation()));
+      }
+  // Regions 1..7: n sleepers each (Body::asleep), in a square.
+  const double sleeper_offset = 0.5 * kSleeperSpacing * (side - 1);
+  for (int r = 1; r < kRegions; ++r)
+    for (int i = 0; i < n; ++i) {
+      const Vec3 p(first_centre + r * width + (i / side) * kSleeperSpacing - sleeper_offset, 0.5,
+                   (i % side) * kSleeperSpacing - sleeper_offset);
+      Body b = dynamic_box(id++, Vec3::Constant(0.5), 1.0, p);
+      b.asleep = true;
+      scene.bodies.push_back(b);
+    }
+  return scene;
+}
+
+}  // namespace soda::detail

@@ -1,0 +1,137 @@
+// Idle territories (#18, docs/skip.md): a world whose bodies all sleep
+// settled skips its Bullet stages at steps no neighbour sends it a ghost
+// for. Exact: the state hash is the same with the skip on and off, and
+// equals the one-territory run's, in lockstep, with speculation
+// (anticipation 8) and under SyncTest; worlds woken by a neighbour's body
+// or by a user input run their steps as before. Each case also checks that
+// the skip happened (idle steps counted), so the comparisons are not
+// vacuous. Small scenes (a few hundred bodies, 120 steps).
+#include <cstdio>
+
+#include "runtime/partitioned_test_util.h"
+#include "soda/runtime/run.h"
+
+namespace soda {
+namespace {
+
+constexpr int kSteps = 120;
+
+std::uint64_t idle_steps(const RunResult& r) {
+  std::uint64_t n = 0;
+  for (const WorldMetrics& m : r.world_metrics) n += m.idle_steps;
+  return n;
+}
+
+struct Case {
+  const char* name;
+  int anticipation;
+  int sync_test;
+};
+
+// idle-territories with one more cube thrown from region 0 towards region
+// 1 (23.5 m wide regions, region 1's sleepers at x in [-61.75, -55.75]):
+// world 1 idles until the cube's halo reaches it (its ghosts wake it), the
+// cube lands on its sleepers and wakes them.
+constexpr int kPerRegion = 24;
+Scene thrown_into_sleepers() {
+  Scene s = test::scene("idle-territories", kPerRegion);
+  Body cube = s.bodies.back();
+  cube.id = 8 * kPerRegion + 1;
+  cube.asleep = false;
+  cube.position = Vec3(-74.0, 2.0, 0.0);
+  cube.linear_velocity = Vec3(17.0, 4.0, 0.0);
+  s.bodies.push_back(cube);
+  return s;
+}
+
+RunConfig config(int territories, const std::string& partition, const Case& c, bool idle) {
+  RunConfig r;
+  r.steps = kSteps;
+  r.progress_seconds = 0;
+  r.territories = territories;
+  r.partition = partition;
+  r.threads = 1;
+  r.serialise = true;
+  r.anticipation = c.anticipation;
+  r.sync_test = c.sync_test;
+  r.idle_territories = idle;
+  return r;
+}
+
+class IdleTerritories : public ::testing::TestWithParam<Case> {};
+
+// Activity in one of eight territories: the seven others idle from the
+// first step to the last.
+TEST_P(IdleTerritories, EightTerritoriesActivityInOneSameHashOnOffAndAsOne) {
+  const Case c = GetParam();
+  const Scene s = test::scene("idle-territories", kPerRegion);
+  RunConfig one;
+  one.steps = kSteps;
+  one.progress_seconds = 0;
+  const RunResult reference = run_scene(s, one);
+  const RunResult on = run_scene(s, config(8, "grid:8x1x1", c, true));
+  const RunResult off = run_scene(s, config(8, "grid:8x1x1", c, false));
+  EXPECT_EQ(hash_hex(on.state_hash), hash_hex(reference.state_hash));
+  EXPECT_EQ(hash_hex(off.state_hash), hash_hex(reference.state_hash));
+  EXPECT_EQ(idle_steps(off), 0u);
+  // Worlds 1..7 idle at every step (re-runs of SyncTest and rollbacks add more).
+  // (The first step is a full one: halos unknown.)
+  EXPECT_GE(idle_steps(on), 7u * (kSteps - 1));
+  EXPECT_EQ(on.world_metrics.at(0).idle_steps, 0u);
+  std::printf("[ %s ] %s, %llu idle steps\n", c.name, hash_hex(on.state_hash).c_str(),
+              static_cast<unsigned long long>(idle_steps(on)));
+}
+
+// A body flies from a busy territory into an idle one and wakes its sleepers.
+TEST_P(IdleTerritories, AGhostWakesAnIdleTerritory) {
+  const Case c = GetParam();
+  const Scene s = thrown_into_sleepers();
+  RunConfig one;
+  one.steps = kSteps;
+  one.progress_seconds = 0;
+  const RunResult reference = run_scene(s, one);
+  const RunResult on = run_scene(s, config(8, "grid:8x1x1", c, true));
+  const RunResult off = run_scene(s, config(8, "grid:8x1x1", c, false));
+  EXPECT_EQ(hash_hex(on.state_hash), hash_hex(reference.state_hash));
+  EXPECT_EQ(hash_hex(off.state_hash), hash_hex(reference.state_hash));
+  EXPECT_GT(on.world_metrics.at(1).idle_steps, 0u);
+  EXPECT_LT(on.world_metrics.at(1).idle_steps, static_cast<std::uint64_t>(kSteps - 1)) << "world 1 was never woken";
+  std::printf("[ %s ] %s, idle steps of world 1: %llu, asleep at the end %zu\n", c.name,
+              hash_hex(on.state_hash).c_str(), static_cast<unsigned long long>(on.world_metrics.at(1).idle_steps),
+              reference.sleeping_bodies);
+}
+
+// A user input (an impulse on a sleeper of an idle territory) wakes it.
+TEST_P(IdleTerritories, AnInputWakesAnIdleTerritory) {
+  const Case c = GetParam();
+  if (c.sync_test > 0) GTEST_SKIP() << "SyncTest does not take inputs";
+  const Scene s = test::scene("idle-territories", kPerRegion);
+  UserInput push;
+  push.kind = UserInput::Kind::ApplyImpulse;
+  push.step = 40;
+  push.id = s.bodies.back().id;  // a sleeper of the last region
+  push.linear = Vec3(0.0, 8.0, 3.0);
+  RunConfig one;
+  one.steps = kSteps;
+  one.progress_seconds = 0;
+  one.inputs = std::vector<UserInput>{push};
+  RunConfig on = config(8, "grid:8x1x1", c, true);
+  on.inputs = one.inputs;
+  RunConfig off = on;
+  off.idle_territories = false;
+  const RunResult reference = run_scene(s, one);
+  const RunResult r_on = run_scene(s, on);
+  const RunResult r_off = run_scene(s, off);
+  EXPECT_EQ(hash_hex(r_on.state_hash), hash_hex(reference.state_hash));
+  EXPECT_EQ(hash_hex(r_off.state_hash), hash_hex(reference.state_hash));
+  EXPECT_GT(r_on.world_metrics.at(7).idle_steps, 0u);
+  EXPECT_LT(r_on.world_metrics.at(7).idle_steps, static_cast<std::uint64_t>(kSteps)) << "world 7 was never woken";
+}
+
+INSTANTIATE_TEST_SUITE_P(Runtime, IdleTerritories,
+                         ::testing::Values(Case{"lockstep", 0, 0}, Case{"anticipation8", 8, 0},
+                                           Case{"synctest2", 0, 2}),
+                         [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.name); });
+
+}  // namespace
+}  // namespace soda

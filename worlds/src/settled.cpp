@@ -1,0 +1,36 @@
+#include "settled.h"
+
+#include <cmath>
+#include <cstring>
+
+namespace soda {
+namespace {
+
+bool same_bits(const btVector3& a, const btVector3& b) {
+  return std::memcmp(&a[0], &b[0], 3 * sizeof(btScalar)) == 0;
+}
+
+bool same_bits(const btTransform& a, const btTransform& b) {
+  for (int r = 0; r < 3; ++r)
+    if (!same_bits(a.getBasis()[r], b.getBasis()[r])) return false;
+  return same_bits(a.getOrigin(), b.getOrigin());
+}
+
+}  // namespace
+
+bool body_settled(const btRigidBody& b, btScalar h) {
+  if (b.getActivationState() != ISLAND_SLEEPING || b.getDeactivationTime() == btScalar(0)) return false;
+  const btVector3 zero(0, 0, 0);
+  if (!same_bits(b.getLinearVelocity(), zero) || !same_bits(b.getAngularVelocity(), zero)) return false;
+  btTransform predicted;  // as btRigidBody::predictIntegratedTransform
+  btTransformUtil::integrateTransform(b.getWorldTransform(), b.getLinearVelocity(), b.getAngularVelocity(), h,
+                                      predicted);
+  return same_bits(predicted, b.getInterpolationWorldTransform());
+}
+
+bool within_contract(const btRigidBody& b) {
+  const btScalar limit = btScalar(std::sqrt(2.0)) * gContactBreakingThreshold;
+  return b.getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold) <= limit;
+}
+
+}  // namespace soda
