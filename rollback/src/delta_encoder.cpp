@@ -89,6 +89,7 @@ std::shared_ptr<const TransformEntry<Real>> full_entry(const StoredEntry<Real>& 
 template <class Real>
 auto DeltaEncoder<Real>::make_key(TransformEntry<Real>&& full) -> Encoded {
   Encoded e;
+  full.poses.shrink_to_fit();  // a key may be held for long: no growth slack (a no-op when reserved)
   e.new_key = std::make_shared<TransformEntry<Real>>(std::move(full));
   e.stored = std::make_shared<StoredEntry<Real>>();
   e.stored->step = e.new_key->step;
