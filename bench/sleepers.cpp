@@ -81,6 +81,14 @@ SleepersBenchResult bench_sleepers(const Scene& scene, const SleepersBenchConfig
   out.ratio_vs_active_only_wall = ratio(sf.wall_seconds, sa.wall_seconds);
   out.stock_ratio_vs_active_only = ratio(tf.cpu_seconds, ta.cpu_seconds);
   out.stock_ratio_vs_active_only_wall = ratio(tf.wall_seconds, ta.wall_seconds);
+  if (config.buffer_steps > 0)
+    for (bool delta : {true, false})
+      for (const Scene* s : {&scene, &active}) {
+        BufferMemoryRun r =
+            buffer_memory_run(*s, config.run.territories, config.buffer_from, config.buffer_steps, delta);
+        r.name = std::string(s == &scene ? "full" : "active-only") + (delta ? "-delta" : "-no-delta");
+        out.buffer_runs.push_back(std::move(r));
+      }
   return out;
 }
 
@@ -110,6 +118,7 @@ nlohmann::json sleepers_bench_json(const RunDescription& d, const SleepersBenchC
           {"ratio_vs_active_only_wall", r.ratio_vs_active_only_wall},
           {"stock_ratio_vs_active_only", r.stock_ratio_vs_active_only},
           {"stock_ratio_vs_active_only_wall", r.stock_ratio_vs_active_only_wall},
+          {"buffer_memory", buffer_memory_json(r.buffer_runs)},
           {"ratio_note",
            "per-step thread CPU of the scene with its sleepers over the same scene without them (the active bodies "
            "alone, same ids), the least of the repeats of each, measured in one process; _wall: the same with wall "

@@ -38,6 +38,10 @@ int run_sleepers(SleepersOptions& o) {
   std::fprintf(stderr, "  ratio_vs_active_only: soda %.2f (wall %.2f), stock Bullet %.2f (wall %.2f)\n",
                r.ratio_vs_active_only, r.ratio_vs_active_only_wall, r.stock_ratio_vs_active_only,
                r.stock_ratio_vs_active_only_wall);
+  for (const BufferMemoryRun& b : r.buffer_runs)
+    std::fprintf(stderr, "  buffer %-22s %zu entries, %zu keys: %zu B per buffered step (%zu B with keys)\n",
+                 b.name.c_str(), b.memory.entries, b.memory.key_entries, b.bytes_per_step(),
+                 b.bytes_per_step_with_keys());
   write_json(j, "-");
   if (!o.out.empty()) write_json(j, o.out);
   return 0;
@@ -63,6 +67,13 @@ Command add_sleepers_command(CLI::App& bench) {
                 "SODA keeps sleeping islands inside Bullet's world (the comparison without parking)");
   cmd->add_option("--repeat", o->bench.repeat, "Interleaved repeats; the least thread CPU of each run is kept")
       ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  cmd->add_option("--buffer-steps", o->bench.buffer_steps,
+                  "Also measure the transform buffers' memory per buffered step with this many entries (0: no)")
+      ->check(CLI::Range(0, 1 << 16))
+      ->capture_default_str();
+  cmd->add_option("--buffer-from", o->bench.buffer_from, "First step the buffer memory runs hold")
+      ->check(CLI::Range(0, 1 << 24))
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Also write the JSON to this file");
   return {cmd, [o] { return run_sleepers(*o); }};

@@ -2,6 +2,9 @@
 // by one mutex. See transform_buffer.h for the invariants and contracts.
 #include "soda/rollback/transform_buffer.h"
 
+#include "delta_encoder.h"
+#include "stored_entry.h"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -18,10 +21,11 @@ std::string reader_text(BufferReaderId reader) {
 }  // namespace
 
 template <class Real>
-TransformBuffer<Real>::TransformBuffer(std::size_t capacity) : capacity_(capacity) {
+TransformBuffer<Real>::TransformBuffer(std::size_t capacity, bool delta) : capacity_(capacity) {
   if (capacity == 0) {
     throw std::invalid_argument("TransformBuffer: capacity must be at least 1 entry");
   }
+  encoder_ = std::make_unique<DeltaEncoder<Real>>(delta, capacity);
   ring_.resize(capacity);
 }
 
@@ -32,32 +36,35 @@ TransformBuffer<Real>::~TransformBuffer() = default;
 
 template <class Real>
 bool TransformBuffer<Real>::try_publish(Entry&& entry) {
-  check_entry(entry);
-  Garbage garbage;  // freed entries, destroyed after the lock is released
-  bool freed = false;
-  {
-    std::lock_guard lock(mutex_);
-    check_order(entry);
-    if (count_ == capacity_) return false;
-    freed = push(std::move(entry), garbage);
-  }
-  if (freed) room_cv_.notify_all();
-  data_cv_.notify_all();
-  return true;
+  return publish_with(std::move(entry), false);
 }
 
 template <class Real>
 bool TransformBuffer<Real>::publish(Entry&& entry) {
+  return publish_with(std::move(entry), true);
+}
+
+// Room is found under the lock, the entry encoded outside it (O(poses)), then
+// pushed under it. Only the writer adds entries and the writer mutex is held
+// throughout, so the room found is still there when the entry is pushed.
+template <class Real>
+bool TransformBuffer<Real>::publish_with(Entry&& entry, bool wait) {
   check_entry(entry);
-  Garbage garbage;
-  bool freed = false;
+  std::lock_guard writer(writer_mutex_);
   {
     std::unique_lock lock(mutex_);
-    check_order(entry);  // report misuse before waiting
-    room_cv_.wait(lock, [&] { return count_ < capacity_ || stopped_; });
-    if (count_ == capacity_) return false;  // stopped while full
-    check_order(entry);  // another thread may have invalidated meanwhile
-    freed = push(std::move(entry), garbage);
+    check_order(entry.step, entry.time);  // report misuse before waiting
+    if (wait) room_cv_.wait(lock, [&] { return count_ < capacity_ || stopped_; });
+    if (count_ == capacity_) return false;  // full (stopped while full)
+    check_order(entry.step, entry.time);    // another thread may have invalidated meanwhile
+  }
+  auto encoded = encoder_->encode(std::move(entry));
+  Garbage garbage;  // freed entries, destroyed after the lock is released
+  bool freed = false;
+  {
+    std::lock_guard lock(mutex_);
+    check_order(encoded.stored->step, encoded.stored->time);
+    freed = push(std::move(encoded.stored), encoded.new_key, garbage);
   }
   if (freed) room_cv_.notify_all();
   data_cv_.notify_all();
@@ -76,7 +83,7 @@ void TransformBuffer<Real>::invalidate_from(std::int64_t step) {
     }
     if (!next_step_ || step >= *next_step_) return;  // nothing at or after `step`
     while (count_ > 0 && held(count_ - 1)->step >= step) {
-      EntryPtr& slot = ring_[(head_ + count_ - 1) % capacity_];
+      StoredPtr& slot = ring_[(head_ + count_ - 1) % capacity_];
       std::uint64_t& last = dropped_revisions_[slot->step];
       last = std::max(last, slot->revision);
       garbage.push_back(std::move(slot));
@@ -142,7 +149,7 @@ void TransformBuffer<Real>::remove_reader(ReaderId reader) {
 template <class Real>
 auto TransformBuffer<Real>::read_next(ReaderId reader) -> EntryPtr {
   Garbage garbage;
-  EntryPtr entry;
+  StoredPtr entry;
   bool freed = false;
   {
     std::lock_guard lock(mutex_);
@@ -154,13 +161,13 @@ auto TransformBuffer<Real>::read_next(ReaderId reader) -> EntryPtr {
     freed = free_entries(garbage);
   }
   if (freed) room_cv_.notify_all();
-  return entry;
+  return full_entry(*entry);
 }
 
 template <class Real>
 auto TransformBuffer<Real>::wait_next(ReaderId reader) -> EntryPtr {
   Garbage garbage;
-  EntryPtr entry;
+  StoredPtr entry;
   bool freed = false;
   {
     std::unique_lock lock(mutex_);
@@ -176,14 +183,14 @@ auto TransformBuffer<Real>::wait_next(ReaderId reader) -> EntryPtr {
     freed = free_entries(garbage);
   }
   if (freed) room_cv_.notify_all();
-  return entry;
+  return full_entry(*entry);
 }
 
 template <class Real>
 auto TransformBuffer<Real>::read_at(ReaderId reader, double time) -> EntryPtr {
   if (std::isnan(time)) throw std::invalid_argument("TransformBuffer::read_at: time is NaN");
   Garbage garbage;
-  EntryPtr entry;
+  StoredPtr entry;
   bool freed = false;
   {
     std::lock_guard lock(mutex_);
@@ -195,23 +202,28 @@ auto TransformBuffer<Real>::read_at(ReaderId reader, double time) -> EntryPtr {
     freed = free_entries(garbage);
   }
   if (freed) room_cv_.notify_all();
-  return entry;
+  return full_entry(*entry);
 }
 
 template <class Real>
 auto TransformBuffer<Real>::read_at(double time) const -> EntryPtr {
   if (std::isnan(time)) throw std::invalid_argument("TransformBuffer::read_at: time is NaN");
-  std::lock_guard lock(mutex_);
-  const std::size_t n = count_at_or_before(time);
-  return n == 0 ? nullptr : held(n - 1);
+  StoredPtr entry;
+  {
+    std::lock_guard lock(mutex_);
+    const std::size_t n = count_at_or_before(time);
+    if (n == 0) return nullptr;
+    entry = held(n - 1);
+  }
+  return full_entry(*entry);
 }
 
 template <class Real>
 auto TransformBuffer<Real>::interpolate(ReaderId reader, double time) -> std::optional<Sample> {
   if (std::isnan(time)) throw std::invalid_argument("TransformBuffer::interpolate: time is NaN");
   Garbage garbage;
-  EntryPtr before;
-  EntryPtr after;
+  StoredPtr before;
+  StoredPtr after;
   bool freed = false;
   {
     std::lock_guard lock(mutex_);
@@ -224,14 +236,15 @@ auto TransformBuffer<Real>::interpolate(ReaderId reader, double time) -> std::op
     freed = free_entries(garbage);
   }
   if (freed) room_cv_.notify_all();
-  return interpolate_entries(*before, *after, time);
+  const EntryPtr b = full_entry(*before);
+  return interpolate_entries(*b, before == after ? *b : *full_entry(*after), time);
 }
 
 template <class Real>
 auto TransformBuffer<Real>::interpolate(double time) const -> std::optional<Sample> {
   if (std::isnan(time)) throw std::invalid_argument("TransformBuffer::interpolate: time is NaN");
-  EntryPtr before;
-  EntryPtr after;
+  StoredPtr before;
+  StoredPtr after;
   {
     std::lock_guard lock(mutex_);
     const std::size_t n = count_at_or_before(time);
@@ -239,7 +252,8 @@ auto TransformBuffer<Real>::interpolate(double time) const -> std::optional<Samp
     before = held(n - 1);
     after = n < count_ ? held(n) : before;
   }
-  return interpolate_entries(*before, *after, time);
+  const EntryPtr b = full_entry(*before);
+  return interpolate_entries(*b, before == after ? *b : *full_entry(*after), time);
 }
 
 template <class Real>
@@ -313,6 +327,28 @@ bool TransformBuffer<Real>::stopped() const {
   return stopped_;
 }
 
+template <class Real>
+bool TransformBuffer<Real>::delta() const noexcept {
+  return encoder_->delta();
+}
+
+template <class Real>
+BufferMemory TransformBuffer<Real>::memory() const {
+  BufferMemory m;
+  std::vector<const Entry*> keys;
+  std::lock_guard lock(mutex_);
+  for (std::size_t i = 0; i < count_; ++i) {
+    const StoredEntry<Real>& e = *held(i);
+    ++m.entries;
+    m.delta_bytes += e.delta_bytes();
+    if (std::find(keys.begin(), keys.end(), e.key.get()) != keys.end()) continue;
+    keys.push_back(e.key.get());
+    m.key_bytes += sizeof(Entry) + e.key->poses.capacity() * sizeof(Pose);
+  }
+  m.key_entries = keys.size();
+  return m;
+}
+
 // --- internals (all but check_entry expect mutex_ held) ------------------
 
 template <class Real>
@@ -336,40 +372,43 @@ void TransformBuffer<Real>::check_entry(const Entry& entry) {
 }
 
 template <class Real>
-void TransformBuffer<Real>::check_order(const Entry& entry) const {
-  if (next_step_ && entry.step != *next_step_) {
-    throw std::logic_error("TransformBuffer::publish: step " + std::to_string(entry.step) +
+void TransformBuffer<Real>::check_order(std::int64_t step, double time) const {
+  if (next_step_ && step != *next_step_) {
+    throw std::logic_error("TransformBuffer::publish: step " + std::to_string(step) +
                            " out of order, expected step " + std::to_string(*next_step_) +
                            " (steps are published one after another; after "
                            "invalidate_from(t) publishing restarts at t)");
   }
   const std::optional<StepTime> previous = latest();
-  if (previous && previous->step == entry.step - 1 && !(entry.time > previous->time)) {
-    throw std::logic_error("TransformBuffer::publish: step " + std::to_string(entry.step) +
-                           " has time " + std::to_string(entry.time) +
+  if (previous && previous->step == step - 1 && !(time > previous->time)) {
+    throw std::logic_error("TransformBuffer::publish: step " + std::to_string(step) +
+                           " has time " + std::to_string(time) +
                            ", not later than step " + std::to_string(previous->step) + "'s " +
                            std::to_string(previous->time));
   }
 }
 
 template <class Real>
-bool TransformBuffer<Real>::push(Entry&& entry, Garbage& garbage) {
-  const auto dropped = dropped_revisions_.find(entry.step);
+bool TransformBuffer<Real>::push(std::shared_ptr<StoredEntry<Real>> entry, const std::shared_ptr<Entry>& new_key,
+                                 Garbage& garbage) {
+  const auto dropped = dropped_revisions_.find(entry->step);
   if (dropped != dropped_revisions_.end()) {
-    entry.revision = dropped->second + 1;
+    entry->revision = dropped->second + 1;
     dropped_revisions_.erase(dropped);
   } else {
-    entry.revision = 0;
+    entry->revision = 0;
   }
-  next_step_ = entry.step + 1;
-  // Only this thread can reach the new entry until it is stored in the ring.
-  ring_[(head_ + count_) % capacity_] = std::make_shared<const Entry>(std::move(entry));
+  if (new_key) new_key->revision = entry->revision;
+  next_step_ = entry->step + 1;
+  // Only this thread can reach the new entry (and its new key) until it is
+  // stored in the ring.
+  ring_[(head_ + count_) % capacity_] = std::move(entry);
   ++count_;
   return free_entries(garbage);  // a step at or below the commit step goes at once
 }
 
 template <class Real>
-auto TransformBuffer<Real>::held(std::size_t index) const -> const EntryPtr& {
+auto TransformBuffer<Real>::held(std::size_t index) const -> const StoredPtr& {
   return ring_[(head_ + index) % capacity_];
 }
 
@@ -402,7 +441,7 @@ std::size_t TransformBuffer<Real>::next_index(const Reader& reader) const {
 template <class Real>
 auto TransformBuffer<Real>::latest() const -> std::optional<StepTime> {
   if (count_ > 0) {
-    const EntryPtr& newest = held(count_ - 1);
+    const StoredPtr& newest = held(count_ - 1);
     return StepTime{newest->step, newest->time};
   }
   // Nothing held: the newest step is the last freed one, unless it was
@@ -445,7 +484,7 @@ bool TransformBuffer<Real>::free_entries(Garbage& garbage) {
   for (const Reader& r : readers_) pinned_from = std::min(pinned_from, r.cursor);
   bool freed = false;
   while (count_ > 0) {
-    EntryPtr& oldest = ring_[head_];
+    StoredPtr& oldest = ring_[head_];
     if (oldest->step > commit_step_ || oldest->step >= pinned_from) break;
     last_freed_ = StepTime{oldest->step, oldest->time};
     garbage.push_back(std::move(oldest));

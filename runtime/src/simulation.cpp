@@ -95,6 +95,12 @@ void Simulation::apply_impulse(double time, BodyId id, const Vec3& impulse) {
 }
 
 std::vector<std::int64_t> Simulation::published_steps() const { return engine_->core->control.published_steps(); }
+
+std::vector<BufferMemory> Simulation::buffer_memory() const {
+  std::vector<BufferMemory> out;
+  for (const auto& b : engine_->core->buffers) out.push_back(b->memory());
+  return out;
+}
 std::int64_t Simulation::commit_horizon_step() const { return engine_->commit_horizon_step(); }
 std::uint64_t Simulation::rollbacks() const { return engine_->rollbacks(); }
 

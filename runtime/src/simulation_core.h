@@ -14,9 +14,9 @@
 namespace soda {
 
 struct SimulationCore {
-  SimulationCore(int worlds, int substeps, double dt, std::size_t dynamic_bodies, std::size_t capacity)
+  SimulationCore(int worlds, int substeps, double dt, std::size_t dynamic_bodies, std::size_t capacity, bool delta)
       : dt(dt), dynamic_bodies(dynamic_bodies), control(worlds, substeps) {
-    for (int w = 0; w < worlds; ++w) buffers.push_back(std::make_unique<TransformBuffer<btScalar>>(capacity));
+    for (int w = 0; w < worlds; ++w) buffers.push_back(std::make_unique<TransformBuffer<btScalar>>(capacity, delta));
   }
 
   /// The scene step at or before `time`; within 1e-9 of a step counts as it

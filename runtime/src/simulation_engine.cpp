@@ -65,7 +65,7 @@ SimulationEngine::SimulationEngine(const Scene& scene, TerritoryMap map, Simulat
   threads = schedule == Schedule::ThreadPerWorld ? k : schedule == Schedule::Pool ? options.threads : 1;
   world = std::make_unique<PartitionedWorld>(scene, std::move(map), options);
   core = std::make_shared<SimulationCore>(k, substeps_, scene.settings.dt, scene.dynamic_count(),
-                                          config_.buffer_capacity);
+                                          config_.buffer_capacity, config_.delta_entries);
   for (WorldId w = 0; w < k; ++w) {
     TransformBuffer<btScalar>& buffer = *core->buffers[static_cast<std::size_t>(w)];
     parts().process(w).attach({&core->control, &buffer, scene.settings.dt, config_.after_step, &inputs_,

@@ -15,6 +15,7 @@
 
 #include "soda/bench/bench.h"
 #include "soda/bench/result_json.h"
+#include "soda/rollback/transform_buffer.h"
 
 namespace soda {
 
@@ -23,6 +24,25 @@ struct SleepersBenchConfig {
   /// world is Canonical for them and Stock for the baselines.
   RunConfig run;
   int repeat = 1;  // interleaved repeats; the fastest (thread CPU) of each run is kept
+  /// > 0: also measure the transform buffers' memory per buffered step
+  /// (buffer_memory_run) with this capacity, from step `buffer_from`, for
+  /// the full scene and the active bodies alone, delta entries on and off.
+  std::size_t buffer_steps = 0;
+  int buffer_from = 120;
+};
+
+/// What the transform buffers of a Simulation hold when full.
+struct BufferMemoryRun {
+  std::string name;  // full-delta | active-only-delta | full-no-delta | active-only-no-delta
+  bool delta = true;
+  std::size_t bodies = 0;           // dynamic bodies of the scene
+  std::size_t sleeping_bodies = 0;  // at the last step
+  int from = 0;                     // first held step
+  BufferMemory memory;              // summed over the worlds
+  /// Bytes each buffered step adds (the entries' own storage).
+  std::size_t bytes_per_step() const { return memory.entries ? memory.delta_bytes / memory.entries : 0; }
+  /// The same with the key entries shared out over the held entries.
+  std::size_t bytes_per_step_with_keys() const { return memory.entries ? memory.total() / memory.entries : 0; }
 };
 
 /// One configuration and its repeats.
@@ -41,6 +61,7 @@ struct SleepersBenchResult {
   double ratio_vs_active_only_wall = 0;  // the same with wall seconds
   double stock_ratio_vs_active_only = 0;  // stock-full over stock-active-only, thread CPU
   double stock_ratio_vs_active_only_wall = 0;
+  std::vector<BufferMemoryRun> buffer_runs;  // with buffer_steps > 0
 };
 
 /// The scene without its sleepers (bodies with Body::asleep): the active
@@ -51,6 +72,13 @@ Scene without_sleepers(const Scene& scene);
 /// repeats and in reverse order on odd ones. Throws what run_scene throws;
 /// repeat < 1 is std::invalid_argument.
 SleepersBenchResult bench_sleepers(const Scene& scene, const SleepersBenchConfig& config);
+
+/// Runs `scene` under a Simulation of `territories` worlds (transform
+/// buffers of `capacity` entries, delta entries on or off) to step `from`,
+/// reads it, then runs capacity - 1 steps more with the reader left there:
+/// every buffer then holds `capacity` entries, which are measured.
+BufferMemoryRun buffer_memory_run(const Scene& scene, int territories, int from, std::size_t capacity, bool delta);
+nlohmann::json buffer_memory_json(const std::vector<BufferMemoryRun>& runs);
 
 /// The benchmark's JSON document (docs/skip.md).
 nlohmann::json sleepers_bench_json(const RunDescription& d, const SleepersBenchConfig& config,

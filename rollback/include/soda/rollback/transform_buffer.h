@@ -55,6 +55,21 @@ namespace soda {
 /// Handle of one reader of one TransformBuffer; never reused by that buffer.
 enum class BufferReaderId : std::uint32_t {};
 
+template <class Real>
+struct StoredEntry;  // internal (rollback/src/stored_entry.h)
+template <class Real>
+class DeltaEncoder;  // internal (rollback/src/delta_encoder.h)
+
+/// What a buffer's held entries take in memory (TransformBuffer::memory()),
+/// bytes. Readers' copies of rebuilt entries are theirs, not counted.
+struct BufferMemory {
+  std::size_t entries = 0;      // held entries
+  std::size_t key_entries = 0;  // distinct key entries they use (held or not)
+  std::size_t delta_bytes = 0;  // the held entries' own storage (bookkeeping, changed poses, removed ids)
+  std::size_t key_bytes = 0;    // the key entries' poses and bookkeeping, each key once
+  std::size_t total() const { return delta_bytes + key_bytes; }
+};
+
 /// Circular transform buffer of one world. Real: float or double (explicitly
 /// instantiated for both).
 ///
@@ -88,8 +103,11 @@ class TransformBuffer {
   static constexpr std::int64_t kNoStep = std::numeric_limits<std::int64_t>::min();
 
   /// capacity: the most entries held at once (the maximum anticipation, in
-  /// steps). Throws std::invalid_argument if 0.
-  explicit TransformBuffer(std::size_t capacity);
+  /// steps). delta: store each entry as the poses that differ from a shared
+  /// key entry (docs/transform-buffer.md, "Delta entries"; readers get the
+  /// same full entries either way); false stores every pose of every entry.
+  /// Throws std::invalid_argument if capacity is 0.
+  explicit TransformBuffer(std::size_t capacity, bool delta = true);
   TransformBuffer(const TransformBuffer&) = delete;
   TransformBuffer& operator=(const TransformBuffer&) = delete;
   ~TransformBuffer();
@@ -196,6 +214,10 @@ class TransformBuffer {
   std::int64_t cursor(ReaderId reader) const;
   std::size_t reader_count() const;
   bool stopped() const;
+  /// Whether entries are stored as deltas (the constructor's `delta`).
+  bool delta() const noexcept;
+  /// Bytes the held entries take now: O(held entries) under the lock.
+  BufferMemory memory() const;
 
  private:
   struct Reader {
@@ -206,12 +228,14 @@ class TransformBuffer {
     std::int64_t step;
     double time;
   };
-  using Garbage = std::vector<EntryPtr>;  // freed under the lock, destroyed after
+  using StoredPtr = std::shared_ptr<const StoredEntry<Real>>;
+  using Garbage = std::vector<StoredPtr>;  // freed under the lock, destroyed after
 
   static void check_entry(const Entry& entry);
-  void check_order(const Entry& entry) const;
-  bool push(Entry&& entry, Garbage& garbage);
-  const EntryPtr& held(std::size_t index) const;
+  void check_order(std::int64_t step, double time) const;
+  bool push(std::shared_ptr<StoredEntry<Real>> stored, const std::shared_ptr<Entry>& new_key, Garbage& garbage);
+  bool publish_with(Entry&& entry, bool wait);
+  const StoredPtr& held(std::size_t index) const;
   std::size_t count_at_or_before(double time) const;
   std::size_t next_index(const Reader& reader) const;
   std::optional<StepTime> latest() const;
@@ -221,10 +245,12 @@ class TransformBuffer {
   bool free_entries(Garbage& garbage);
 
   const std::size_t capacity_;
+  std::mutex writer_mutex_;                  // the encoder (publish, try_publish)
+  std::unique_ptr<DeltaEncoder<Real>> encoder_;
   mutable std::mutex mutex_;
   mutable std::condition_variable room_cv_;  // writer: entries freed or dropped, stop
   mutable std::condition_variable data_cv_;  // readers: entry published, reader removed, stop
-  std::vector<EntryPtr> ring_;               // capacity_ slots
+  std::vector<StoredPtr> ring_;              // capacity_ slots
   std::size_t head_ = 0;                     // slot of the oldest held entry
   std::size_t count_ = 0;                    // held entries
   std::optional<std::int64_t> next_step_;    // step the next publish must carry

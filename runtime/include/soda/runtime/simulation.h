@@ -62,6 +62,11 @@ struct SimulationConfig {
   bool pin = false;                  // pin world threads (pool workers) to cores, i mod #CPUs
   std::size_t buffer_capacity = 64;  // entries per world's transform buffer (>= 2): how far a
                                      // world may run ahead of the slowest reader, in steps
+  /// Transform buffers store each step as the poses that changed since a
+  /// shared key step (docs/transform-buffer.md, "Delta entries"): memory per
+  /// buffered step follows the moving bodies. Readers get the same frames
+  /// either way; false stores every pose of every step.
+  bool delta_entries = true;
   bool serialise = false;            // every message between worlds through bytes
   bool validate = false;             // check ownership and pair holders every step (slow)
   /// Called by a world's thread after each of its scene steps (world id,
@@ -241,6 +246,9 @@ class Simulation {
   int world_count() const;
   Schedule schedule() const;
   int thread_count() const;  // threads that step the worlds
+  /// Per world, what its transform buffer's held entries take now
+  /// (TransformBuffer::memory()). Any thread; a snapshot.
+  std::vector<BufferMemory> buffer_memory() const;
 
   // --- readouts: wait until every world is parked at the step limit, or
   //     stopped; throw std::logic_error while the worlds run without limit
