@@ -90,18 +90,28 @@ SimulationConfig simulation_config(const RunConfig& config) {
   return sc;
 }
 
+namespace {
+// What a Simulation does not run, other than the world kind: these send
+// --inputs to the PartitionedWorld instead.
+const char* feature_a_simulation_lacks(const RunConfig& config) {
+  if (config.sync_test > 0) return "--sync-test";
+  if (config.balance.policy != "none") return "load balancing (--lb): its map is fixed";
+  if (config.watchdog.response == WatchdogResponse::Heal) return "--watchdog heal";
+  return nullptr;
+}
+}  // namespace
+
 std::string simulation_unsupported(const RunConfig& config) {
-  const char* what = config.world != WorldKind::Canonical      ? "--world stock"
-                     : config.shuffle_seed != 0                 ? "--shuffle-seed"
-                     : config.sync_test > 0                     ? "--sync-test"
-                     : config.balance.policy != "none"          ? "load balancing (--lb): its map is fixed"
-                     : config.watchdog.response == WatchdogResponse::Heal ? "--watchdog heal"
-                                                                : nullptr;
+  const char* what = config.world != WorldKind::Canonical ? "--world stock"
+                     : config.shuffle_seed != 0            ? "--shuffle-seed"
+                                                           : feature_a_simulation_lacks(config);
   return what ? std::string("which does not support ") + what : std::string();
 }
 
+// --world stock and --shuffle-seed stay on this path: check_supported
+// refuses them there, naming --inputs.
 bool inputs_through_simulation(const RunConfig& config) {
-  return config.inputs_via_simulation && simulation_unsupported(config).empty();
+  return config.inputs_via_simulation && feature_a_simulation_lacks(config) == nullptr;
 }
 
 RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {

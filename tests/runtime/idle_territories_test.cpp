@@ -104,7 +104,6 @@ TEST_P(IdleTerritories, AGhostWakesAnIdleTerritory) {
 // A user input (an impulse on a sleeper of an idle territory) wakes it.
 TEST_P(IdleTerritories, AnInputWakesAnIdleTerritory) {
   const Case c = GetParam();
-  if (c.sync_test > 0) GTEST_SKIP() << "SyncTest does not take inputs";
   const Scene s = test::scene("idle-territories", kPerRegion);
   UserInput push;
   push.kind = UserInput::Kind::ApplyImpulse;
