@@ -8,11 +8,11 @@
 // never read. Lockstep only: speculation's commit horizon and rollback
 // board are still shared memory (docs/mpi.md, "What is not done").
 #include <algorithm>
-#include <cstring>
 #include <stdexcept>
 #include <type_traits>
 
 #include "partitioned_internals.h"
+#include "plain_bytes.h"
 #include "soda/runtime/process_group.h"
 
 namespace soda {
@@ -22,23 +22,16 @@ namespace {
 static_assert(std::is_trivially_copyable_v<BodyState>);
 static_assert(std::is_trivially_copyable_v<StageCosts>);
 
-// Plain bytes of trivially copyable values: every rank runs the same build
-// (the message codec checks the precision of every message it decodes).
+constexpr const char* kReadout = "PartitionedWorld: a rank's gathered readout";
+
 template <class T>
 void put(std::vector<std::uint8_t>& out, const T& v) {
-  static_assert(std::is_trivially_copyable_v<T>);
-  const auto* p = reinterpret_cast<const std::uint8_t*>(&v);
-  out.insert(out.end(), p, p + sizeof(T));
+  put_plain(out, v);
 }
 
 template <class T>
 T take(const std::vector<std::uint8_t>& in, std::size_t& at) {
-  static_assert(std::is_trivially_copyable_v<T>);
-  if (at + sizeof(T) > in.size()) throw std::logic_error("PartitionedWorld: a rank's gathered readout is truncated");
-  T v;
-  std::memcpy(&v, in.data() + at, sizeof(T));
-  at += sizeof(T);
-  return v;
+  return take_plain<T>(in, at, kReadout);
 }
 
 // The counters of WorldMetrics that add up across worlds; the per-step

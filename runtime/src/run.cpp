@@ -1,7 +1,6 @@
 #include "soda/runtime/run.h"
 
 #include <algorithm>
-#include <cstring>
 #include <chrono>
 #include <memory>
 #include <numeric>
@@ -14,6 +13,7 @@
 #include <BulletDynamics/Dynamics/btRigidBody.h>
 #include <spdlog/spdlog.h>
 
+#include "plain_bytes.h"
 #include "run_inputs.h"
 #include "soda/grid/partition.h"
 #include "soda/loadbalance/thread_clock.h"
@@ -126,10 +126,6 @@ RunResult build_run_destroy(const Scene& scene, const RunConfig& config, const S
   return r;
 }
 
-// K > 1: all steps in one call (the worlds run without a barrier between
-// steps); progress and step times come from world 0's thread. Every world
-// inserts its bodies in the order of config.shuffle_seed. Inputs (when not
-// through a Simulation: inputs_through_simulation) go to the PartitionedWorld.
 // Ranks: every rank's traffic and its worlds' CPU and blocked time, to rank
 // 0, whose message counts become the whole run's.
 void gather_rank_traffic(ProcessGroup& group, const PartitionedWorld& world, RunResult& r) {
@@ -144,14 +140,12 @@ void gather_rank_traffic(ProcessGroup& group, const PartitionedWorld& world, Run
     mine.blocked_seconds += m.blocked_seconds;
     mine.cpu_seconds += m.cpu_seconds;
   }
-  static_assert(std::is_trivially_copyable_v<RankTraffic>);
-  std::vector<std::uint8_t> bytes(sizeof mine);
-  std::memcpy(bytes.data(), &mine, sizeof mine);
+  std::vector<std::uint8_t> bytes;
+  put_plain(bytes, mine);
   for (const std::vector<std::uint8_t>& part : group.gather(bytes)) {
-    if (part.size() != sizeof mine) throw std::logic_error("run_scene: a rank's traffic record is truncated");
-    RankTraffic t;
-    std::memcpy(&t, part.data(), sizeof t);
-    r.ranks.push_back(t);
+    std::size_t at = 0;
+    r.ranks.push_back(take_plain<RankTraffic>(part, at, "run_scene: a rank's traffic record"));
+    if (at != part.size()) throw std::logic_error("run_scene: a rank's traffic record has extra bytes");
   }
   if (r.ranks.empty()) return;
   r.messages = r.message_bytes = 0;
@@ -161,6 +155,10 @@ void gather_rank_traffic(ProcessGroup& group, const PartitionedWorld& world, Run
   }
 }
 
+// K > 1: all steps in one call (the worlds run without a barrier between
+// steps); progress and step times come from world 0's thread. Every world
+// inserts its bodies in the order of config.shuffle_seed. Inputs (when not
+// through a Simulation: inputs_through_simulation) go to the PartitionedWorld.
 RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   const Scene scene = in_insertion_order(scene_in, config.shuffle_seed);
   if (config.world != WorldKind::Canonical)
