@@ -18,10 +18,11 @@ bool same_bits(const btTransform& a, const btTransform& b) {
 
 }  // namespace
 
+bool zero_bits(const btVector3& v) { return same_bits(v, btVector3(0, 0, 0)); }
+
 bool body_settled(const btRigidBody& b, btScalar h) {
   if (b.getActivationState() != ISLAND_SLEEPING || b.getDeactivationTime() == btScalar(0)) return false;
-  const btVector3 zero(0, 0, 0);
-  if (!same_bits(b.getLinearVelocity(), zero) || !same_bits(b.getAngularVelocity(), zero)) return false;
+  if (!zero_bits(b.getLinearVelocity()) || !zero_bits(b.getAngularVelocity())) return false;
   btTransform predicted;  // as btRigidBody::predictIntegratedTransform
   btTransformUtil::integrateTransform(b.getWorldTransform(), b.getLinearVelocity(), b.getAngularVelocity(), h,
                                       predicted);

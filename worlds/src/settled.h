@@ -6,6 +6,9 @@
 
 namespace soda {
 
+/// True if every component of `v` is +0, bit for bit (not -0).
+bool zero_bits(const btVector3& v);
+
 /// True if a step leaves `b`'s state as it is, bit for bit: ISLAND_SLEEPING
 /// with a sleep timer > 0, velocities +0 (the bits a step's
 /// updateActivationState writes), and its interpolation transform equal, bit

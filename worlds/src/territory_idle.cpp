@@ -14,19 +14,10 @@
 // forces are cleared to the +0 they hold; no origin moved, so nothing
 // migrates. What differs is not state: the broadphase's internal tree and
 // its pairs without points (docs/determinism.md).
-#include <cmath>
-
 #include "settled.h"
 #include "territory_world_parts.h"
 
 namespace soda {
-namespace {
-
-bool zero_bits(const btVector3& v) { return v[0] == btScalar(0) && !std::signbit(v[0]) && v[1] == btScalar(0) &&
-                                            !std::signbit(v[1]) && v[2] == btScalar(0) && !std::signbit(v[2]); }
-
-}  // namespace
-
 bool TerritoryWorld::idle_ready() const {
   if (gDisableDeactivation || halos_unknown_ || replay_.before || !ghosts_.empty() || !ghost_senders_.empty() || !outgoing_.empty() ||
       !kept_.empty() || !parts_->speculative.empty())
