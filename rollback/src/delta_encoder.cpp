@@ -13,36 +13,34 @@ namespace {
 // rebuild entries from it.
 constexpr std::size_t kKeyShareDivisor = 2;
 
-// Ids in exactly one of two ascending lists, or in both with different
-// poses.
-template <class Real>
-std::size_t changed_between(const std::vector<BodyPose<Real>>& a, const std::vector<BodyPose<Real>>& b) {
+// Items in exactly one of two lists ascending by id_of, plus those in both
+// that `same` finds different.
+template <class T, class IdOf, class Same>
+std::size_t count_differing(const std::vector<T>& a, const std::vector<T>& b, IdOf id_of, Same same) {
   std::size_t i = 0, j = 0, n = 0;
   while (i < a.size() && j < b.size()) {
-    if (a[i].id < b[j].id) {
+    if (id_of(a[i]) < id_of(b[j])) {
       ++n, ++i;
-    } else if (b[j].id < a[i].id) {
+    } else if (id_of(b[j]) < id_of(a[i])) {
       ++n, ++j;
     } else {
-      n += same_pose_bits(a[i], b[j]) ? 0 : 1;
+      n += same(a[i], b[j]) ? 0 : 1;
       ++i, ++j;
     }
   }
   return n + (a.size() - i) + (b.size() - j);
 }
 
+// Ids in exactly one of two ascending pose lists, or in both with different
+// poses.
+template <class Real>
+std::size_t changed_between(const std::vector<BodyPose<Real>>& a, const std::vector<BodyPose<Real>>& b) {
+  return count_differing(a, b, [](const BodyPose<Real>& p) { return p.id; }, same_pose_bits<Real>);
+}
+
+// Ids in exactly one of two ascending id lists.
 std::size_t ids_between(const std::vector<BodyId>& a, const std::vector<BodyId>& b) {
-  std::size_t i = 0, j = 0, n = 0;
-  while (i < a.size() && j < b.size()) {
-    if (a[i] < b[j]) {
-      ++n, ++i;
-    } else if (b[j] < a[i]) {
-      ++n, ++j;
-    } else {
-      ++i, ++j;
-    }
-  }
-  return n + (a.size() - i) + (b.size() - j);
+  return count_differing(a, b, [](BodyId id) { return id; }, [](BodyId, BodyId) { return true; });
 }
 
 }  // namespace
