@@ -60,19 +60,28 @@ RunConfig config(int territories, const std::string& partition, const Case& c, b
 
 class IdleTerritories : public ::testing::TestWithParam<Case> {};
 
+// The one-territory run of `s`, then eight territories with the skip on and
+// off, both checked against it.
+struct OneOnOff {
+  RunResult reference, on, off;
+};
+OneOnOff one_on_off(const Scene& s, const Case& c) {
+  RunConfig one;
+  one.steps = kSteps;
+  one.progress_seconds = 0;
+  OneOnOff r{run_scene(s, one), run_scene(s, config(8, "grid:8x1x1", c, true)),
+             run_scene(s, config(8, "grid:8x1x1", c, false))};
+  EXPECT_EQ(hash_hex(r.on.state_hash), hash_hex(r.reference.state_hash));
+  EXPECT_EQ(hash_hex(r.off.state_hash), hash_hex(r.reference.state_hash));
+  return r;
+}
+
 // Activity in one of eight territories: the seven others idle from the
 // first step to the last.
 TEST_P(IdleTerritories, EightTerritoriesActivityInOneSameHashOnOffAndAsOne) {
   const Case c = GetParam();
   const Scene s = test::scene("idle-territories", kPerRegion);
-  RunConfig one;
-  one.steps = kSteps;
-  one.progress_seconds = 0;
-  const RunResult reference = run_scene(s, one);
-  const RunResult on = run_scene(s, config(8, "grid:8x1x1", c, true));
-  const RunResult off = run_scene(s, config(8, "grid:8x1x1", c, false));
-  EXPECT_EQ(hash_hex(on.state_hash), hash_hex(reference.state_hash));
-  EXPECT_EQ(hash_hex(off.state_hash), hash_hex(reference.state_hash));
+  const auto [reference, on, off] = one_on_off(s, c);
   EXPECT_EQ(idle_steps(off), 0u);
   // Worlds 1..7 idle at every step (re-runs of SyncTest and rollbacks add more).
   // (The first step is a full one: halos unknown.)
@@ -86,14 +95,7 @@ TEST_P(IdleTerritories, EightTerritoriesActivityInOneSameHashOnOffAndAsOne) {
 TEST_P(IdleTerritories, AGhostWakesAnIdleTerritory) {
   const Case c = GetParam();
   const Scene s = thrown_into_sleepers();
-  RunConfig one;
-  one.steps = kSteps;
-  one.progress_seconds = 0;
-  const RunResult reference = run_scene(s, one);
-  const RunResult on = run_scene(s, config(8, "grid:8x1x1", c, true));
-  const RunResult off = run_scene(s, config(8, "grid:8x1x1", c, false));
-  EXPECT_EQ(hash_hex(on.state_hash), hash_hex(reference.state_hash));
-  EXPECT_EQ(hash_hex(off.state_hash), hash_hex(reference.state_hash));
+  const auto [reference, on, off] = one_on_off(s, c);
   EXPECT_GT(on.world_metrics.at(1).idle_steps, 0u);
   EXPECT_LT(on.world_metrics.at(1).idle_steps, static_cast<std::uint64_t>(kSteps - 1)) << "world 1 was never woken";
   std::printf("[ %s ] %s, idle steps of world 1: %llu, asleep at the end %zu\n", c.name,
