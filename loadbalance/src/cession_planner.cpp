@@ -24,6 +24,11 @@ CessionPlanner::CessionPlanner(const LoadView& view, const LoadMonitor& monitor,
   role_.assign(k, Role::None);
   given_.assign(k, 0);
   mean_ = monitor.mean();
+  cap_.assign(k, options.max_cells_per_move);
+  for (std::size_t w = 0; w < k && mean_ > 0; ++w) {
+    const double factor = std::clamp((load_[w] / mean_ - 1.0) / (options.overload - 1.0), 1.0, kMaxCapFactor);
+    cap_[w] = static_cast<int>(std::min(factor * options.max_cells_per_move, 1e9));
+  }
 }
 
 std::vector<WorldId> CessionPlanner::recipients_of(WorldId g, bool givers_too) const {
@@ -92,7 +97,7 @@ double CessionPlanner::cede(WorldId g, WorldId r, double want) {
   block.assign(candidates.size(), -1);
   double given_cost = 0;
   std::vector<int> distance;  // to g's load, computed when first needed
-  while (given(g) < options_.max_cells_per_move && want - given_cost > 0) {
+  while (given(g) < cap(g) && want - given_cost > 0) {
     const double still = want - given_cost;
     // Loaded cells by score; the gain is relative to the most any eligible
     // cell can deliver now, so it ranks cells however fine the grid.

@@ -49,6 +49,14 @@ inline constexpr double kEmptyShare = 1e-3;
 /// loaded within a few percent of each other.
 inline constexpr double kNeighbourWeight = 0.05;
 inline constexpr double kSurfaceWeight = 0.05;
+/// Largest factor the cap on loaded cells a world gives per balance step
+/// grows by with its excess (CessionPlanner::cap): "the more important the
+/// divergence, the faster the load must be rebalanced" (§3.3.2). 8 x the
+/// default 64 cells lets a world holding a whole block (drift 900 on 2
+/// worlds: load twice the mean at the first balance step) hand half of it
+/// over in one step; the bound keeps one step's decision — taken on a cost
+/// model that is a rough one — from moving a whole territory.
+inline constexpr double kMaxCapFactor = 8.0;
 
 class CessionPlanner {
  public:
@@ -63,6 +71,14 @@ class CessionPlanner {
   double mean() const { return mean_; }
   Role role(WorldId w) const { return role_[static_cast<std::size_t>(w)]; }
   int given(WorldId w) const { return given_[static_cast<std::size_t>(w)]; }
+  /// The most loaded cells w may give in this balance step:
+  /// max_cells_per_move times its excess over the mean in units of the
+  /// overload threshold's, (load / mean - 1) / (overload - 1), at least 1
+  /// and at most kMaxCapFactor, from w's estimated load when the planner
+  /// was made. A world just past the threshold gives as before; one at
+  /// twice the mean (overload 1.15) gives 6.7 x as many (§3.3.2: the
+  /// larger the divergence, the faster it is rebalanced).
+  int cap(WorldId w) const { return cap_[static_cast<std::size_t>(w)]; }
   const OwnerGrid& grid() const { return grid_; }
 
   /// Neighbours of g that may receive from it now (less loaded than g, and
@@ -126,6 +142,7 @@ class CessionPlanner {
   std::vector<double> kappa_;  // calibration per world
   std::vector<Role> role_;
   std::vector<int> given_;
+  std::vector<int> cap_;       // per world: cap()
   std::vector<char> moved_;    // per box cell
   std::vector<CellMove> moves_;
   double mean_ = 0;

@@ -18,7 +18,6 @@ std::vector<CellMove> DiffusivePolicy::decide(const LoadView& view) {
   const std::vector<LoadClass>& cls = monitor_.classes();
   const auto is = [&](WorldId w, LoadClass c) { return cls[static_cast<std::size_t>(w)] == c; };
   CessionPlanner plan(view, monitor_, options_);
-  const int cap = options_.max_cells_per_move;
 
   std::vector<WorldId> by_load(static_cast<std::size_t>(k));
   std::iota(by_load.begin(), by_load.end(), 0);
@@ -31,6 +30,16 @@ std::vector<CellMove> DiffusivePolicy::decide(const LoadView& view) {
   // moving it away would hand that space to one neighbour).
   const double share = static_cast<double>(view.map->box().count()) / k;
   const auto small = [&](WorldId w) { return static_cast<double>(view.map->cell_count(w)) < share; };
+  // A desert: every neighbour of w is underloaded too, so no load can reach
+  // w through them before they are loaded themselves — a load crossing
+  // towards w is at least a world away. Such a world starves whatever its
+  // share of cells, and relocates sooner (kDesertFaminePeriods).
+  const auto desert = [&](WorldId w) {
+    const std::vector<WorldId>& n = view.map->neighbours(w);
+    return !n.empty() && std::all_of(n.begin(), n.end(), [&](WorldId v) { return is(v, LoadClass::Underloaded); });
+  };
+  std::vector<char> deserted(static_cast<std::size_t>(k), 0);
+  for (WorldId w = 0; w < k; ++w) deserted[static_cast<std::size_t>(w)] = desert(w) ? 1 : 0;
 
   // 0. Famine (§3.3.5), before any cession so that the most loaded world
   //    still has its cells to spare: a world that starved for
@@ -40,7 +49,8 @@ std::vector<CellMove> DiffusivePolicy::decide(const LoadView& view) {
   const bool any_overloaded = std::any_of(cls.begin(), cls.end(), [](LoadClass c) { return c == LoadClass::Overloaded; });
   for (auto it = by_load.rbegin(); it != by_load.rend() && any_overloaded; ++it) {
     const WorldId u = *it;
-    if (famine_periods_[static_cast<std::size_t>(u)] < kFaminePeriods || !is(u, LoadClass::Underloaded)) continue;
+    const int needed = deserted[static_cast<std::size_t>(u)] ? kDesertFaminePeriods : kFaminePeriods;
+    if (famine_periods_[static_cast<std::size_t>(u)] < needed || !is(u, LoadClass::Underloaded)) continue;
     const WorldId h = by_load.front();  // the most loaded
     if (h == u || !is(h, LoadClass::Overloaded)) break;
     if (plan.relocate(u, h)) break;
@@ -52,7 +62,13 @@ std::vector<CellMove> DiffusivePolicy::decide(const LoadView& view) {
     double want = plan.load(g) - plan.mean();
     bool gave = false;
     for (WorldId r : plan.recipients_of(g, givers_too)) {
-      if (!(want > 0) || plan.given(g) >= cap) break;
+      if (!(want > 0) || plan.given(g) >= plan.cap(g)) break;
+      // An overloaded neighbour that has not given yet gives in its turn:
+      // receiving now would stop it (rule d), and its own less loaded
+      // neighbours would get nothing (hotspot on 8 worlds, step 10: world 1
+      // gave to world 2, which then could not give to idle world 3). The
+      // cascade gives to it once it has given on.
+      if (!givers_too && is(r, LoadClass::Overloaded) && plan.role(r) == CessionPlanner::Role::None) continue;
       const double delta = std::min(want, 0.5 * (plan.load(g) - plan.load(r)));
       if (delta > 0) {
         const double given = plan.cede(g, r, delta);
@@ -87,7 +103,7 @@ std::vector<CellMove> DiffusivePolicy::decide(const LoadView& view) {
     WorldId best = kNoWorld;
     for (WorldId n : view.map->neighbours(u)) {
       if (plan.role(n) == CessionPlanner::Role::Recipient || is(n, LoadClass::Underloaded) ||
-          !(plan.load(n) > plan.mean()) || plan.given(n) >= cap || !(plan.load(n) > plan.load(u)))
+          !(plan.load(n) > plan.mean()) || plan.given(n) >= plan.cap(n) || !(plan.load(n) > plan.load(u)))
         continue;
       if (best == kNoWorld || plan.load(n) > plan.load(best)) best = n;
     }
@@ -100,7 +116,8 @@ std::vector<CellMove> DiffusivePolicy::decide(const LoadView& view) {
   //    a cell it could give — while some world is overloaded starves.
   for (WorldId u = 0; u < k; ++u) {
     const bool starving = any_overloaded && is(u, LoadClass::Underloaded) &&
-                          plan.role(u) == CessionPlanner::Role::None && small(u);
+                          plan.role(u) == CessionPlanner::Role::None &&
+                          (small(u) || deserted[static_cast<std::size_t>(u)]);
     int& periods = famine_periods_[static_cast<std::size_t>(u)];
     periods = starving ? periods + 1 : 0;
   }

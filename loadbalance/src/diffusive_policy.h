@@ -44,6 +44,10 @@ namespace soda::detail {
 /// crossing towards it — is waited for, and a transient dip does not move a
 /// whole territory.
 inline constexpr int kFaminePeriods = 3;
+/// The same for a world in a desert (every neighbour underloaded too): no
+/// load can come through its neighbours within a period, so there is
+/// nothing to wait for.
+inline constexpr int kDesertFaminePeriods = 1;
 
 class DiffusivePolicy final : public BalancePolicy {
  public:
