@@ -154,5 +154,33 @@ TEST(LoadMonitor, EstimatesFollowFreshContentsAtTheMeasuredScale) {
   EXPECT_NEAR(monitor.estimated()[1], steady, 0.05 * steady);
 }
 
+// A world that held next to nothing measured mostly overhead and noise (here
+// 3.5 x the model where the loaded world measures 2 x): once it is given
+// bodies its estimate takes the scene's scale, not its own ratio (which
+// would put it at 3.5 x, the drift case of kCalibrationPrior).
+TEST(LoadMonitor, AWorldThatHeldNothingTakesTheScenesScale) {
+  const CellBox box{{0, 0, 0}, {3, 0, 0}};
+  const TerritoryMap map = test::make_map(box, 2, [](const CellCoord& c) { return c.x < 2 ? 0 : 1; });
+  LoadMonitor monitor(BalanceOptions{});
+  test::CellBodies bodies{{{0, 0, 0}, 400}, {{2, 0, 0}, 1}};
+  const auto measured = [&](const test::CellBodies& b) {
+    LoadView v = test::make_view(map, b, kTruth);
+    v.worlds[0].busy *= 2.0;
+    v.worlds[1].busy *= 3.5;
+    return v;
+  };
+  for (int period = 0; period < 3; ++period) monitor.update(measured(bodies));
+  bodies[{0, 0, 0}] = 200;
+  bodies[{2, 0, 0}] = 201;  // half of world 0's bodies go to world 1
+  monitor.update(measured(bodies));
+  const CostModel truth(kTruth);
+  const double scene_scale = 2.0 * truth.predict(201, 201, 201);
+  // Without the pull towards the scene's scale: 5.3 ms, 3.2 x world 0's
+  // estimate (its own ratio); with it 2.1 ms, 1.27 x. World 0's estimate
+  // itself is 1.27 x scene_scale (its measurements still lag).
+  EXPECT_LT(monitor.estimated()[1], 2.0 * scene_scale);
+  EXPECT_LT(monitor.estimated()[1] / monitor.estimated()[0], 1.5) << "the two halves are estimated alike";
+}
+
 }  // namespace
 }  // namespace soda

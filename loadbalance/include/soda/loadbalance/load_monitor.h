@@ -29,6 +29,13 @@ inline constexpr int kCostHistoryPeriods = 8;
 /// island solved elsewhere, a cold start) and the factor mostly carries
 /// noise.
 inline constexpr double kCalibrationLimit = 4.0;
+/// Weight of the whole scene's calibration in each world's, as a share of
+/// the mean smoothed prediction: kappa_w = (measured_w + p * kappa_all) /
+/// (predicted_w + p), p = kCalibrationPrior x mean predicted, kappa_all =
+/// sum measured / sum predicted. A world that held its share of the load
+/// keeps 80 % of its own ratio; one that held next to nothing (its
+/// measurement mostly overhead and timer noise) takes the scene's.
+inline constexpr double kCalibrationPrior = 0.25;
 
 class LoadMonitor {
  public:
@@ -46,8 +53,9 @@ class LoadMonitor {
   const std::vector<double>& smoothed() const { return busy_.smoothed(); }
   /// The load each world holds now, s per internal step: the model's
   /// prediction for what it holds at the balance step, times its
-  /// calibration kappa = smoothed measured / smoothed predicted load
-  /// (clamped to [1/kCalibrationLimit, kCalibrationLimit]). The contents are
+  /// calibration kappa = smoothed measured / smoothed predicted load,
+  /// shrunk towards the scene's (kCalibrationPrior) and clamped to
+  /// [1/kCalibrationLimit, kCalibrationLimit]. The contents are
   /// fresh — bodies that moved in during the period count, cells a policy
   /// moved count where they are now — while the scale comes from the
   /// measurements, smoothed so that a spike does not move it. With no
