@@ -10,13 +10,15 @@
 //     is above the mean and not underloaded (the thesis' condition);
 //  3. famine (§3.3.5): an underloaded world that obtained nothing from its
 //     neighbours (none above the mean, or none with a cell it could give)
-//     for kFaminePeriods balance steps running while some world is
+//     for kFaminePeriods balance steps running (kDesertFaminePeriods when
+//     all its neighbours are underloaded too) while some world is
 //     overloaded bestows all its cells on its neighbours and takes over a
 //     connected piece of the most loaded world's territory — the one move
 //     between worlds that need not be neighbours (the thesis' request "to
 //     all worlds"), at most one per balance step.
 // Invariants of every decision:
-//  a. a world gives at most max_cells_per_move cells per balance step (the
+//  a. a world gives at most CessionPlanner::cap() loaded cells per balance
+//     step — max_cells_per_move, more the larger its excess (the
 //     famine bestowal excepted: it gives everything it has, and the world
 //     receives at least one cell in the same step, so no world is left
 //     without cells by this policy);
