@@ -38,6 +38,10 @@ int run_sleepers(SleepersOptions& o) {
   std::fprintf(stderr, "  ratio_vs_active_only: soda %.2f (wall %.2f), stock Bullet %.2f (wall %.2f)\n",
                r.ratio_vs_active_only, r.ratio_vs_active_only_wall, r.stock_ratio_vs_active_only,
                r.stock_ratio_vs_active_only_wall);
+  std::fprintf(stderr,
+               "  ratio_vs_near_only: %.2f (the far sleepers' cost; same bodies awake: %s); near over active only: "
+               "%.2f (landing on sleepers)\n",
+               r.ratio_vs_near_only, r.near_same_awake ? "yes" : "NO", r.near_ratio_vs_active_only);
   for (const BufferMemoryRun& b : r.buffer_runs)
     std::fprintf(stderr, "  buffer %-22s %zu entries, %zu keys: %zu B per buffered step (%zu B with keys)\n",
                  b.name.c_str(), b.memory.entries, b.memory.key_entries, b.bytes_per_step(),

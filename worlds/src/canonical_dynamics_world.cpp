@@ -86,6 +86,7 @@ CanonicalDynamicsWorld::CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtB
 void CanonicalDynamicsWorld::add_body(btRigidBody* body) {
   add_body_with_canonical_proxy(*this, *broadphase_, body);
   if (!body->isStaticOrKinematicObject()) {
+    if (bodies_sorted_) sorted_count_ = dynamic_bodies_.size();
     dynamic_bodies_.push_back(body);
     bodies_sorted_ = false;
   } else {
@@ -93,9 +94,14 @@ void CanonicalDynamicsWorld::add_body(btRigidBody* body) {
   }
 }
 
+// Bodies added since the last sort (parked islands woken, parking.h) are
+// sorted alone and merged into the sorted ones: O(world bodies) per step
+// instead of a sort of them all (ids are unique: the same order).
 void CanonicalDynamicsWorld::sort_dynamic_bodies() {
-  std::sort(dynamic_bodies_.begin(), dynamic_bodies_.end(),
-            [](const btRigidBody* a, const btRigidBody* b) { return id_of(a) < id_of(b); });
+  const auto by_id = [](const btRigidBody* a, const btRigidBody* b) { return id_of(a) < id_of(b); };
+  const auto middle = dynamic_bodies_.begin() + static_cast<std::ptrdiff_t>(sorted_count_);
+  std::sort(middle, dynamic_bodies_.end(), by_id);
+  std::inplace_merge(dynamic_bodies_.begin(), middle, dynamic_bodies_.end(), by_id);
   for (std::size_t i = 0; i < dynamic_bodies_.size(); ++i)
     dynamic_bodies_[i]->setUserIndex2(static_cast<int>(i));
   bodies_sorted_ = true;
@@ -126,10 +132,15 @@ void CanonicalDynamicsWorld::forget_detached_bodies() {
   for (int i = 0; i < m_nonStaticRigidBodies.size(); ++i)
     if (m_nonStaticRigidBodies[i]->getBroadphaseHandle()) m_nonStaticRigidBodies[w++] = m_nonStaticRigidBodies[i];
   m_nonStaticRigidBodies.resize(w);
-  std::size_t d = 0;
-  for (btRigidBody* b : dynamic_bodies_)
-    if (b->getBroadphaseHandle()) dynamic_bodies_[d++] = b;
+  std::size_t d = 0, sorted_kept = 0;
+  for (std::size_t i = 0; i < dynamic_bodies_.size(); ++i) {
+    btRigidBody* b = dynamic_bodies_[i];
+    if (!b->getBroadphaseHandle()) continue;
+    dynamic_bodies_[d++] = b;
+    if (i < sorted_count_) ++sorted_kept;
+  }
   dynamic_bodies_.resize(d);
+  sorted_count_ = sorted_kept;  // the order is kept: the sorted prefix stays one
   if (bodies_sorted_)
     for (std::size_t i = 0; i < d; ++i) dynamic_bodies_[i]->setUserIndex2(static_cast<int>(i));
 }

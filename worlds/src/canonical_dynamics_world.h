@@ -118,6 +118,7 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
   StepStats stats_;
   bool bodies_sorted_ = true;
   std::vector<btRigidBody*> dynamic_bodies_;  // sorted by id; user index 2 = position
+  std::size_t sorted_count_ = 0;  // while !bodies_sorted_: its first ones, sorted by id
 
   // Per-step scratch, kept to avoid reallocation.
   struct IslandManifold {

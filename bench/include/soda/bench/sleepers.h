@@ -47,20 +47,30 @@ struct BufferMemoryRun {
 
 /// One configuration and its repeats.
 struct SleepersRun {
-  std::string name;  // soda-full | soda-active-only | stock-full | stock-active-only
+  std::string name;  // soda-full | soda-active-only | soda-near-only | stock-full | stock-active-only
   RunResult best;    // the repeat with the least thread CPU
   std::vector<double> cpu_seconds;  // every repeat
 };
 
 struct SleepersBenchResult {
   std::vector<SleepersRun> runs;  // in the order of `names`
-  static constexpr const char* names[] = {"soda-full", "soda-active-only", "stock-full", "stock-active-only"};
+  static constexpr const char* names[] = {"soda-full", "soda-active-only", "soda-near-only", "stock-full",
+                                          "stock-active-only"};
   const SleepersRun& run(const std::string& name) const;
   /// Thread CPU per step of soda-full over soda-active-only (the figure).
   double ratio_vs_active_only = 0;
   double ratio_vs_active_only_wall = 0;  // the same with wall seconds
   double stock_ratio_vs_active_only = 0;  // stock-full over stock-active-only, thread CPU
   double stock_ratio_vs_active_only_wall = 0;
+  /// soda-full over soda-near-only (the scene without the sleepers far from
+  /// the active bodies, near_sleepers): what the far sleepers cost, the
+  /// activity being the same; and soda-near-only over soda-active-only:
+  /// what landing on sleepers instead of the ground costs (physics).
+  double ratio_vs_near_only = 0;
+  double near_ratio_vs_active_only = 0;
+  /// True if soda-near-only ended with as many bodies awake as soda-full
+  /// (a check that the far sleepers were never touched).
+  bool near_same_awake = false;
   std::vector<BufferMemoryRun> buffer_runs;  // with buffer_steps > 0
 };
 
@@ -68,7 +78,10 @@ struct SleepersBenchResult {
 /// bodies and the statics, same ids and settings.
 Scene without_sleepers(const Scene& scene);
 
-/// Runs the four configurations `config.repeat` times, in order on even
+/// The scene without its sleepers farther than `margin` metres (in x or z)
+/// from the box around its active bodies' start positions.
+Scene near_sleepers(const Scene& scene, double margin);
+/// Runs the five configurations `config.repeat` times, in order on even
 /// repeats and in reverse order on odd ones. Throws what run_scene throws;
 /// repeat < 1 is std::invalid_argument.
 SleepersBenchResult bench_sleepers(const Scene& scene, const SleepersBenchConfig& config);
