@@ -24,6 +24,10 @@
 //     setupContactConstraint does it (the row's impulse from its point,
 //     applied to both solver bodies' deltas). It is the only part that adds
 //     into shared state, and it adds in Bullet's order.
+// convertBodies likewise: when every body of the island is dynamic (mass,
+// not kinematic: each one gets the next solver body in Bullet's loop, so
+// body i gets solver body i), the solver bodies are initialised on the pool,
+// each by Bullet's initSolverBody plus Bullet's gyroscopic terms.
 // Rolling friction (a third pool whose row count depends on the contact's
 // geometry) takes Bullet's serial loop, as do small islands and a pool of
 // one thread.
@@ -33,6 +37,42 @@
 #include "parallel_stages.h"
 
 namespace soda {
+
+void ColouredSolver::convertBodies(btCollisionObject** bodies, int count, const btContactSolverInfo& info) {
+  SolverPool* pool = pool_ && pool_->threads() > 1 ? pool_.get() : nullptr;
+  bool dynamic = pool && count >= kParallelMinSolverBodies;
+  for (int i = 0; dynamic && i < count; ++i) {
+    const btRigidBody* rb = btRigidBody::upcast(bodies[i]);
+    dynamic = rb && !rb->isStaticOrKinematicObject() && rb->getInvMass() != 0;
+  }
+  if (!dynamic) {
+    btSequentialImpulseConstraintSolver::convertBodies(bodies, count, info);
+    return;
+  }
+  // Bullet's bookkeeping of an empty island (its kinematic table cleared),
+  // then body i -> solver body i.
+  btSequentialImpulseConstraintSolver::convertBodies(bodies, 0, info);
+  m_tmpSolverBodyPool.reserve(count + 1);
+  m_tmpSolverBodyPool.resizeNoInitialize(count);
+  const btScalar dt = info.m_timeStep;
+  const int threads =
+      run_in_chunks(pool, count, kParallelMinSolverBodies, kSolverBodiesPerTask, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      btRigidBody* body = btRigidBody::upcast(bodies[i]);
+      btSolverBody& solver_body = m_tmpSolverBodyPool[i];
+      initSolverBody(&solver_body, body, dt);
+      body->setCompanionId(i);
+      if (body->getFlags() & BT_ENABLE_GYROSCOPIC_FORCE_EXPLICIT)
+        solver_body.m_externalTorqueImpulse -=
+            body->computeGyroscopicForceExplicit(info.m_maxGyroscopicForce) * body->getInvInertiaTensorWorld() * dt;
+      if (body->getFlags() & BT_ENABLE_GYROSCOPIC_FORCE_IMPLICIT_WORLD)
+        solver_body.m_externalTorqueImpulse += body->computeGyroscopicImpulseImplicit_World(dt);
+      if (body->getFlags() & BT_ENABLE_GYROSCOPIC_FORCE_IMPLICIT_BODY)
+        solver_body.m_externalTorqueImpulse += body->computeGyroscopicImpulseImplicit_Body(dt);
+    }
+  });
+  stats_.body_setup_threads_max = std::max(stats_.body_setup_threads_max, threads);
+}
 
 void ColouredSolver::convertContacts(btPersistentManifold** manifolds, int count, const btContactSolverInfo& info) {
   SolverPool* pool = pool_ && pool_->threads() > 1 ? pool_.get() : nullptr;

@@ -66,6 +66,11 @@ constexpr int kRunsPerTask = 16;
 constexpr int kParallelMinManifolds = 64;
 /// Manifolds per pool task of the row setup (~10-20 us of work per claim).
 constexpr int kManifoldsPerTask = 16;
+/// Island bodies from which the solver bodies are initialised on the pool
+/// (~800 instructions a body with Bullet's implicit gyroscopic term).
+constexpr int kParallelMinSolverBodies = 256;
+/// Bodies per pool task of that stage.
+constexpr int kSolverBodiesPerTask = 64;
 
 class ColouredSolver final : public btSequentialImpulseConstraintSolver {
  public:
@@ -77,6 +82,7 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
     int colours_max = 0;               // most colours of one island (overflow excluded)
     int threads_max = 0;               // most threads a job of a coloured island could use
     int setup_threads_max = 0;         // most threads a row setup could use (0: never on the pool)
+    int body_setup_threads_max = 0;    // most threads a solver body setup could use (0: never on the pool)
   };
 
   /// How an island that qualifies (colour() succeeds) is solved.
@@ -111,6 +117,9 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
   /// kParallelMinManifolds manifolds (coloured_setup.cpp): the same rows, at
   /// the same indices, and the same warm-start deltas as Bullet's loop.
   void convertContacts(btPersistentManifold** manifolds, int count, const btContactSolverInfo& info) override;
+  /// Bullet's solver bodies, initialised on the pool above kParallelMinSolverBodies
+  /// bodies when all are dynamic (coloured_setup.cpp): the same bodies.
+  void convertBodies(btCollisionObject** bodies, int count, const btContactSolverInfo& info) override;
 
  private:
   enum class Sweep { Split, Contact, Friction, Rolling };
