@@ -144,8 +144,8 @@ TEST(ColouredSolve, EqualsBulletsLoopInTheColourOrder) {
 }
 
 // The solver bodies and the contact and friction rows built on the pool
-// (coloured_setup.cpp) equal Bullet's serial convertBodies and
-// convertContacts: the same solver, with and without
+// and the write-back on the pool (coloured_setup.cpp) equal Bullet's serial
+// convertBodies, convertContacts and solveGroupCacheFriendlyFinish: the same solver, with and without
 // a pool, under the solver modes whose friction rows differ (one or two
 // directions, velocity-dependent or fixed directions, direction caching)
 // and with and without warm starting (the only part that adds into the
@@ -156,6 +156,7 @@ struct SetupRun {
   std::size_t coloured_islands = 0;
   int setup_threads = 0;
   int body_setup_threads = 0;
+  int finish_threads = 0;
 };
 
 SetupRun run_setup_world(int solver_mode, int threads) {
@@ -168,7 +169,7 @@ SetupRun run_setup_world(int solver_mode, int threads) {
   world.bullet().getSolverInfo().m_solverMode = solver_mode;
   test::run(world, 60);
   return SetupRun{world.state_hash(), solver.stats().coloured_islands, solver.stats().setup_threads_max,
-                  solver.stats().body_setup_threads_max};
+                  solver.stats().body_setup_threads_max, solver.stats().finish_threads_max};
 }
 
 TEST(ColouredSolve, RowSetupOnThePoolEqualsBulletsLoop) {
@@ -184,11 +185,13 @@ TEST(ColouredSolve, RowSetupOnThePoolEqualsBulletsLoop) {
     ASSERT_GT(serial.coloured_islands, std::size_t{0}) << "nothing was coloured: the test tests nothing";
     EXPECT_EQ(serial.setup_threads, 0) << "no pool: Bullet's loop";
     EXPECT_EQ(serial.body_setup_threads, 0) << "no pool: Bullet's loop";
+    EXPECT_EQ(serial.finish_threads, 0) << "no pool: Bullet's loop";
     const SetupRun pooled = run_setup_world(mode, 3);
     std::printf("[ cube-pile 300 %s ] solver mode 0x%x: serial rows %s, rows on %d threads %s\n", kPrecisionName, mode,
                 hash_hex(serial.hash).c_str(), pooled.setup_threads, hash_hex(pooled.hash).c_str());
     EXPECT_EQ(pooled.setup_threads, 3) << "the rows were not built on the pool: the test tests nothing";
     EXPECT_EQ(pooled.body_setup_threads, 3) << "the solver bodies were not set up on the pool";
+    EXPECT_EQ(pooled.finish_threads, 3) << "the write-back did not run on the pool";
     EXPECT_EQ(hash_hex(pooled.hash), hash_hex(serial.hash)) << "solver mode 0x" << std::hex << mode;
   }
 }

@@ -1,6 +1,6 @@
-// ColouredSolver::convertContacts: Bullet's contact and friction rows of a
-// large island built on the pool's threads (docs/coloured-solve.md, "Row
-// setup on the pool"). The rows, their indices and the solver bodies'
+// ColouredSolver's setup and finish on the pool (docs/coloured-solve.md,
+// "Setup and finish on the pool"). convertContacts: Bullet's contact and
+// friction rows of a large island built on the pool's threads. The rows, their indices and the solver bodies'
 // warm-start deltas are the bits Bullet's serial convertContacts gives:
 //
 //  1. on the calling thread, in manifold order: each manifold's two solver
@@ -28,6 +28,9 @@
 // not kinematic: each one gets the next solver body in Bullet's loop, so
 // body i gets solver body i), the solver bodies are initialised on the pool,
 // each by Bullet's initSolverBody plus Bullet's gyroscopic terms.
+// solveGroupCacheFriendlyFinish likewise: Bullet's writeBackContacts and
+// writeBackBodies on ranges of rows and bodies (each writes its row's own
+// contact point or its solver body's own rigid body), on the pool.
 // Rolling friction (a third pool whose row count depends on the contact's
 // geometry) takes Bullet's serial loop, as do small islands and a pool of
 // one thread.
@@ -214,6 +217,28 @@ void ColouredSolver::convert_manifold(btPersistentManifold& m, const ManifoldRow
     setFrictionConstraintImpulse(c, a, b, cp, info);
     ++row;
   }
+}
+
+btScalar ColouredSolver::solveGroupCacheFriendlyFinish(btCollisionObject** bodies, int count,
+                                                       const btContactSolverInfo& info) {
+  SolverPool* pool = pool_ && pool_->threads() > 1 ? pool_.get() : nullptr;
+  if (!pool || m_tmpSolverNonContactConstraintPool.size() != 0)
+    return btSequentialImpulseConstraintSolver::solveGroupCacheFriendlyFinish(bodies, count, info);
+  int threads = 1;
+  if (info.m_solverMode & SOLVER_USE_WARMSTARTING)
+    threads = run_in_chunks(pool, m_tmpSolverContactConstraintPool.size(), kColouredMinContactRows,
+                            kRowsPerWriteBackTask, [&](int begin, int end) { writeBackContacts(begin, end, info); });
+  threads = std::max(threads, run_in_chunks(pool, m_tmpSolverBodyPool.size(), kParallelMinSolverBodies,
+                                            kSolverBodiesPerTask,
+                                            [&](int begin, int end) { writeBackBodies(begin, end, info); }));
+  stats_.finish_threads_max = std::max(stats_.finish_threads_max, threads);
+  // As Bullet's finish: the island's pools emptied.
+  m_tmpSolverContactConstraintPool.resizeNoInitialize(0);
+  m_tmpSolverNonContactConstraintPool.resizeNoInitialize(0);
+  m_tmpSolverContactFrictionConstraintPool.resizeNoInitialize(0);
+  m_tmpSolverContactRollingFrictionConstraintPool.resizeNoInitialize(0);
+  m_tmpSolverBodyPool.resizeNoInitialize(0);
+  return 0;
 }
 
 }  // namespace soda

@@ -11,7 +11,9 @@
 //                                         same rows: coloured_setup.cpp)
 //     solveGroupCacheFriendlyIterations  OVERRIDDEN for islands of at least
 //                                         kColouredMinContactRows contact rows
-//     solveGroupCacheFriendlyFinish      (stock: per body and per row)
+//     solveGroupCacheFriendlyFinish      (stock: per body and per row;
+//                                         OVERRIDDEN to run those loops on
+//                                         the pool: coloured_setup.cpp)
 //
 // The coloured loop, a pure function of the rows that setup produced:
 //  1. runs: maximal sequences of consecutive contact rows with the same two
@@ -69,8 +71,11 @@ constexpr int kManifoldsPerTask = 16;
 /// Island bodies from which the solver bodies are initialised on the pool
 /// (~800 instructions a body with Bullet's implicit gyroscopic term).
 constexpr int kParallelMinSolverBodies = 256;
-/// Bodies per pool task of that stage.
+/// Bodies per pool task of that stage (and of the bodies' write-back).
 constexpr int kSolverBodiesPerTask = 64;
+/// Contact rows per pool task of the write-back of impulses to the points
+/// (a few dozen instructions a row).
+constexpr int kRowsPerWriteBackTask = 256;
 
 class ColouredSolver final : public btSequentialImpulseConstraintSolver {
  public:
@@ -83,6 +88,7 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
     int threads_max = 0;               // most threads a job of a coloured island could use
     int setup_threads_max = 0;         // most threads a row setup could use (0: never on the pool)
     int body_setup_threads_max = 0;    // most threads a solver body setup could use (0: never on the pool)
+    int finish_threads_max = 0;        // most threads a write-back could use (0: never with a pool)
   };
 
   /// How an island that qualifies (colour() succeeds) is solved.
@@ -120,6 +126,11 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
   /// Bullet's solver bodies, initialised on the pool above kParallelMinSolverBodies
   /// bodies when all are dynamic (coloured_setup.cpp): the same bodies.
   void convertBodies(btCollisionObject** bodies, int count, const btContactSolverInfo& info) override;
+  /// Bullet's finish (impulses to the points, velocities and split-impulse
+  /// transforms to the bodies), on the pool for large islands
+  /// (coloured_setup.cpp): the same writes.
+  btScalar solveGroupCacheFriendlyFinish(btCollisionObject** bodies, int count,
+                                         const btContactSolverInfo& info) override;
 
  private:
   enum class Sweep { Split, Contact, Friction, Rolling };
