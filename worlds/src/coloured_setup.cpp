@@ -1,7 +1,8 @@
 // ColouredSolver's setup and finish on the pool (docs/coloured-solve.md,
 // "Setup and finish on the pool"). convertContacts: Bullet's contact and
-// friction rows of a large island built on the pool's threads. The rows, their indices and the solver bodies'
-// warm-start deltas are the bits Bullet's serial convertContacts gives:
+// friction rows of a large island built on the pool's threads. The rows,
+// their indices and the solver bodies' warm-start deltas are the bits
+// Bullet's serial convertContacts gives:
 //
 //  1. on the calling thread, in manifold order: each manifold's two solver
 //     bodies (getOrInitSolverBody: it may append the fixed body or a
