@@ -143,6 +143,62 @@ TEST(ColouredSolve, EqualsBulletsLoopInTheColourOrder) {
   }
 }
 
+// The solver bodies and the contact and friction rows built on the pool
+// and the write-back on the pool (coloured_setup.cpp) equal Bullet's serial
+// convertBodies, convertContacts and solveGroupCacheFriendlyFinish: the same solver, with and without
+// a pool, under the solver modes whose friction rows differ (one or two
+// directions, velocity-dependent or fixed directions, direction caching)
+// and with and without warm starting (the only part that adds into the
+// solver bodies). The sweeps give the same bits on any thread count
+// (EqualsBulletsLoopInTheColourOrder), so a difference is the row setup's.
+struct SetupRun {
+  std::uint64_t hash = 0;
+  std::size_t coloured_islands = 0;
+  int setup_threads = 0;
+  int body_setup_threads = 0;
+  int finish_threads = 0;
+};
+
+SetupRun run_setup_world(int solver_mode, int threads) {
+  // One island above kParallelMinSolverBodies; coloured from step ~56 on.
+  Scene scene = test::scene("cube-pile", 300);
+  ColouredSolver solver;  // outlives the world that points to it
+  if (threads > 1) solver.set_pool(std::make_shared<SolverPool>(threads));
+  StockWorld world(scene);
+  world.bullet().setConstraintSolver(&solver);
+  configure_canonical_solver(world.bullet().getSolverInfo(), scene.settings);
+  world.bullet().getSolverInfo().m_solverMode = solver_mode;
+  test::run(world, 60);
+  return SetupRun{world.state_hash(), solver.stats().coloured_islands, solver.stats().setup_threads_max,
+                  solver.stats().body_setup_threads_max, solver.stats().finish_threads_max};
+}
+
+TEST(ColouredSolve, RowSetupOnThePoolEqualsBulletsLoop) {
+  const int modes[] = {
+#if !defined(__SANITIZE_THREAD__)  // TSan looks for races: the canonical mode suffices
+      SOLVER_SIMD | SOLVER_USE_WARMSTARTING | SOLVER_USE_2_FRICTION_DIRECTIONS,
+      SOLVER_SIMD | SOLVER_USE_WARMSTARTING,
+      SOLVER_SIMD | SOLVER_USE_2_FRICTION_DIRECTIONS,
+#endif
+      SOLVER_SIMD | SOLVER_USE_WARMSTARTING | SOLVER_USE_2_FRICTION_DIRECTIONS |
+          SOLVER_DISABLE_VELOCITY_DEPENDENT_FRICTION_DIRECTION | SOLVER_ENABLE_FRICTION_DIRECTION_CACHING,
+  };
+  for (int mode : modes) {
+    const SetupRun serial = run_setup_world(mode, 1);
+    ASSERT_GT(serial.coloured_islands, std::size_t{0}) << "nothing was coloured: the test tests nothing";
+    EXPECT_EQ(serial.setup_threads, 0) << "no pool: Bullet's loop";
+    EXPECT_EQ(serial.body_setup_threads, 0) << "no pool: Bullet's loop";
+    EXPECT_EQ(serial.finish_threads, 0) << "no pool: Bullet's loop";
+    const SetupRun pooled = run_setup_world(mode, 3);
+    std::printf("[ cube-pile 300 %s ] solver mode 0x%x: serial rows %s, rows on %d threads %s\n", kPrecisionName, mode,
+                hash_hex(serial.hash).c_str(), pooled.setup_threads, hash_hex(pooled.hash).c_str());
+    EXPECT_EQ(pooled.setup_threads, 3) << "the rows were not built on the pool: the test tests nothing";
+    EXPECT_EQ(pooled.body_setup_threads, 3) << "the solver bodies were not set up on the pool";
+    EXPECT_EQ(pooled.finish_threads, 3) << "the write-back did not run on the pool";
+    EXPECT_EQ(hash_hex(pooled.hash), hash_hex(serial.hash)) << "solver mode 0x" << std::hex << mode;
+  }
+}
+
 TEST(SolverPool, RunsEveryTaskOnceOnItsThreads) {
   SolverPool pool(3);
   EXPECT_EQ(pool.threads(), 3);

@@ -5,10 +5,15 @@
 //   solveGroup
 //     solveGroupCacheFriendlySetup       (stock: solver bodies, contact and
 //                                         friction rows, in body and
-//                                         manifold order)
+//                                         manifold order; its convertContacts
+//                                         OVERRIDDEN to build the rows of
+//                                         large islands on the pool, the
+//                                         same rows: coloured_setup.cpp)
 //     solveGroupCacheFriendlyIterations  OVERRIDDEN for islands of at least
 //                                         kColouredMinContactRows contact rows
-//     solveGroupCacheFriendlyFinish      (stock: per body and per row)
+//     solveGroupCacheFriendlyFinish      (stock: per body and per row;
+//                                         OVERRIDDEN to run those loops on
+//                                         the pool: coloured_setup.cpp)
 //
 // The coloured loop, a pure function of the rows that setup produced:
 //  1. runs: maximal sequences of consecutive contact rows with the same two
@@ -57,6 +62,20 @@ constexpr int kMinRunsPerColour = 16;
 /// Runs per pool task: a few microseconds of rows, so that two threads
 /// share a colour evenly while a task still amortises its claim.
 constexpr int kRunsPerTask = 16;
+/// Manifolds from which the contact and friction rows are built on the pool
+/// (coloured_setup.cpp): a manifold's rows are ~2,000-4,000 instructions, so
+/// below this a pool job costs more than it gains. Results never depend on it.
+constexpr int kParallelMinManifolds = 64;
+/// Manifolds per pool task of the row setup (~10-20 us of work per claim).
+constexpr int kManifoldsPerTask = 16;
+/// Island bodies from which the solver bodies are initialised on the pool
+/// (~800 instructions a body with Bullet's implicit gyroscopic term).
+constexpr int kParallelMinSolverBodies = 256;
+/// Bodies per pool task of that stage (and of the bodies' write-back).
+constexpr int kSolverBodiesPerTask = 64;
+/// Contact rows per pool task of the write-back of impulses to the points
+/// (a few dozen instructions a row).
+constexpr int kRowsPerWriteBackTask = 256;
 
 class ColouredSolver final : public btSequentialImpulseConstraintSolver {
  public:
@@ -67,6 +86,9 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
     std::size_t overflow_runs = 0;     // ... solved in the overflow colour
     int colours_max = 0;               // most colours of one island (overflow excluded)
     int threads_max = 0;               // most threads a job of a coloured island could use
+    int setup_threads_max = 0;         // most threads a row setup could use (0: never on the pool)
+    int body_setup_threads_max = 0;    // most threads a solver body setup could use (0: never on the pool)
+    int finish_threads_max = 0;        // most threads a write-back could use (0: never with a pool)
   };
 
   /// How an island that qualifies (colour() succeeds) is solved.
@@ -97,6 +119,18 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
                                              btTypedConstraint** constraints, int numConstraints,
                                              const btContactSolverInfo& infoGlobal,
                                              btIDebugDraw* debugDrawer) override;
+  /// Bullet's contact and friction rows, built on the pool above
+  /// kParallelMinManifolds manifolds (coloured_setup.cpp): the same rows, at
+  /// the same indices, and the same warm-start deltas as Bullet's loop.
+  void convertContacts(btPersistentManifold** manifolds, int count, const btContactSolverInfo& info) override;
+  /// Bullet's solver bodies, initialised on the pool above kParallelMinSolverBodies
+  /// bodies when all are dynamic (coloured_setup.cpp): the same bodies.
+  void convertBodies(btCollisionObject** bodies, int count, const btContactSolverInfo& info) override;
+  /// Bullet's finish (impulses to the points, velocities and split-impulse
+  /// transforms to the bodies), on the pool for large islands
+  /// (coloured_setup.cpp): the same writes.
+  btScalar solveGroupCacheFriendlyFinish(btCollisionObject** bodies, int count,
+                                         const btContactSolverInfo& info) override;
 
  private:
   enum class Sweep { Split, Contact, Friction, Rolling };
@@ -114,6 +148,15 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
     void merge(const Residual& o);
   };
 
+  /// One manifold's place in the row pools (coloured_setup.cpp, step 1).
+  struct ManifoldRows {
+    int body_a, body_b;  // solver body indices
+    int first_contact;   // its first contact row
+    int contacts;        // its contact rows (0: skipped)
+  };
+  void convert_manifold(btPersistentManifold& m, const ManifoldRows& rows, int first_friction,
+                        int frictions_per_contact, const btContactSolverInfo& info);
+
   bool colour(const btContactSolverInfo& info);
   Residual sweep(Sweep kind);
   void solve_runs(Sweep kind, const int* runs, int count, Residual& residual);
@@ -126,6 +169,7 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
   int threads_ = 1;  // of the current island
 
   // Per-island scratch, kept to avoid reallocation.
+  std::vector<ManifoldRows> manifold_rows_;
   std::vector<Run> runs_;
   std::vector<int> friction_rows_, rolling_rows_;
   std::vector<int> run_of_contact_;
