@@ -81,13 +81,24 @@ class MpiGroup final : public ProcessGroup {
     return t;
   }
 
+  void share_rollbacks(SharedMemoryHorizon& horizon, RollbackBoard& board) override {
+    if (!transport_) throw std::logic_error("MpiGroup::share_rollbacks before make_transport");
+    transport_->share_rollbacks(horizon, board);
+  }
+
+  void set_horizon_goal(std::int64_t step) override {
+    if (!transport_) throw std::logic_error("MpiGroup::set_horizon_goal before make_transport");
+    transport_->set_horizon_goal(step);
+  }
+
   void pump(const std::function<bool()>& done) override {
     if (!transport_) throw std::logic_error("MpiGroup::pump before make_transport");
     const auto start = std::chrono::steady_clock::now();
     int quiet = 0;
     bool told = false;
     for (;;) {
-      const bool moved = transport_->progress();
+      bool moved = transport_->progress();
+      if (transport_->poll_horizon()) moved = true;
       if (!transport_->remote_failure().empty()) break;
       std::string mine;
       {
@@ -99,7 +110,7 @@ class MpiGroup final : public ProcessGroup {
         transport_->flush(kFailureFlushSeconds);
         told = true;
       }
-      if (done() && (told || transport_->idle())) break;
+      if (done() && (told || (transport_->idle() && transport_->horizon_settled()))) break;
       if (moved) {
         quiet = 0;
         continue;

@@ -2,15 +2,42 @@
 
 #include <chrono>
 #include <climits>
+#include <initializer_list>
 #include <stdexcept>
 #include <thread>
 
 #include "soda/runtime/message_codec.h"
 
 namespace soda::mpi {
+namespace {
+
+// The fields of requests and entries: little-endian 64-bit words.
+void put_word(std::vector<std::uint8_t>& out, std::uint64_t v) {
+  for (int i = 0; i < 8; ++i) out.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+}
+
+std::uint64_t take_word(const std::vector<std::uint8_t>& in, std::size_t& at) {
+  if (at + 8 > in.size()) throw std::runtime_error("MpiTransport: a truncated rollback request or entry");
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v |= static_cast<std::uint64_t>(in[at + static_cast<std::size_t>(i)]) << (8 * i);
+  at += 8;
+  return v;
+}
+
+std::vector<std::uint8_t> words(std::initializer_list<std::uint64_t> values) {
+  std::vector<std::uint8_t> out;
+  for (std::uint64_t v : values) put_word(out, v);
+  return out;
+}
+
+}  // namespace
 
 MpiTransport::MpiTransport(MPI_Comm parent, std::vector<int> rank_of_world, std::unique_ptr<Transport> local)
-    : comm_(parent), rank_(comm_.rank()), rank_of_world_(std::move(rank_of_world)), local_(std::move(local)) {}
+    : comm_(parent),
+      rank_(comm_.rank()),
+      rank_of_world_(std::move(rank_of_world)),
+      local_(std::move(local)),
+      rounds_(comm_.get(), comm_.size()) {}
 
 MpiTransport::~MpiTransport() = default;  // unfinished sends are cancelled (PendingSend)
 
@@ -23,17 +50,69 @@ void MpiTransport::send(WorldId to, Message message) {
     return;
   }
   if (message.to != to) throw std::invalid_argument("Transport::send: message.to differs from the receiver");
-  Outgoing out{rank, encode_message(message)};
+  Outgoing out{rank, kMessage, encode_message(message), message.step, std::nullopt};
   if (out.bytes.size() > static_cast<std::size_t>(INT_MAX))
     throw std::length_error("MpiTransport: a message of " + std::to_string(out.bytes.size()) +
                             " bytes, more than one MPI send carries (" + describe(message) + ")");
+  if (const Control* c = std::get_if<Control>(&message.payload); c && c->type == Control::Type::Notice)
+    out.timestamp = c->pinned, out.pinned = c->pinned;  // the sender pinned it (speculation.cpp)
   out_messages_.fetch_add(1, std::memory_order_relaxed);
   out_bytes_.fetch_add(out.bytes.size(), std::memory_order_relaxed);
+  queue(std::move(out));
+}
+
+void MpiTransport::queue(Outgoing out) {
   {
     std::lock_guard lock(mutex_);
     outbox_.push_back(std::move(out));
   }
   queued_.notify_one();
+}
+
+void MpiTransport::close() {
+  local_->close();
+  if (board_) board_->close();
+}
+
+void MpiTransport::share_rollbacks(SharedMemoryHorizon& horizon, RollbackBoard& board) {
+  horizon_ = &horizon;
+  board_ = &board;
+  RollbackBoard::Ranks ranks;
+  for (int r : rank_of_world_) ranks.local.push_back(r == rank_);
+  ranks.request = [this](std::int64_t step, std::int64_t pinned, std::uint64_t ticket) {
+    if (rank_ == 0) {
+      sequence(step, pinned, 0, ticket);
+      horizon_->unpin(pinned);  // post()'s pin: sequence() pinned it for every world and rank
+      return;
+    }
+    queue(Outgoing{0, kRequest,
+                   words({static_cast<std::uint64_t>(step), static_cast<std::uint64_t>(pinned), ticket}), pinned,
+                   pinned});
+  };
+  ranks.stop = [] { throw TransportClosed("MpiTransport: the run is stopping (another world or rank failed)"); };
+  board.distribute(std::move(ranks));
+}
+
+void MpiTransport::sequence(std::int64_t step, std::int64_t pinned, int origin, std::uint64_t ticket) {
+  std::lock_guard lock(sequence_mutex_);
+  const std::uint32_t epoch = board_->append(step, pinned, ticket, origin == rank_);
+  for (int r = 0; r < comm_.size(); ++r) {
+    if (r == rank_) continue;
+    if (!horizon_->try_pin(pinned))
+      throw std::logic_error("MpiTransport: a rollback of every world below the commit horizon");
+    queue(Outgoing{r, kEntry,
+                   words({epoch, static_cast<std::uint64_t>(step), static_cast<std::uint64_t>(pinned),
+                          static_cast<std::uint64_t>(origin), ticket}),
+                   pinned, pinned});
+  }
+}
+
+bool MpiTransport::poll_horizon() {
+  if (!horizon_) return false;
+  const std::optional<std::int64_t> gvt = rounds_.poll([this] { return horizon_->local_minimum(); });
+  if (!gvt) return false;
+  horizon_->set_global(*gvt);
+  return true;
 }
 
 bool MpiTransport::progress() {
@@ -44,7 +123,11 @@ bool MpiTransport::progress() {
     batch.swap(outbox_);
   }
   for (Outgoing& o : batch) {
-    pending_.push_back(std::make_unique<PendingSend>(std::move(o.bytes), o.rank, kTagMessage, comm_.get()));
+    const int colour = rounds_.colour();
+    pending_.push_back(
+        std::make_unique<PendingSend>(std::move(o.bytes), o.rank, kTagColoured + 2 * o.kind + colour, comm_.get()));
+    rounds_.sent(o.rank, o.timestamp);
+    if (o.pinned) horizon_->unpin(*o.pinned);  // counted by the cut from now on (invariant 4)
     moved = true;
   }
   while (!pending_.empty() && pending_.front()->done()) {
@@ -68,20 +151,52 @@ bool MpiTransport::progress() {
         if (failure_.empty())
           failure_ = "rank " + std::to_string(status.MPI_SOURCE) + " failed: " + std::string(bytes.begin(), bytes.end());
       }
-      local_->close();
+      close();
       continue;
     }
-    in_messages_.fetch_add(1, std::memory_order_relaxed);
-    in_bytes_.fetch_add(bytes.size(), std::memory_order_relaxed);
-    Message m = decode_message(bytes);
-    if (m.to < 0 || static_cast<std::size_t>(m.to) >= rank_of_world_.size() ||
-        rank_of_world_[static_cast<std::size_t>(m.to)] != rank_)
-      throw std::logic_error("MpiTransport: rank " + std::to_string(rank_) + " received " + describe(m) +
-                             " from rank " + std::to_string(status.MPI_SOURCE) + ", for a world it does not step");
-    const WorldId to = m.to;
-    local_->send(to, std::move(m));
+    const int coloured = status.MPI_TAG - kTagColoured;
+    if (coloured < 0 || coloured >= 6)
+      throw std::logic_error("MpiTransport: a message with tag " + std::to_string(status.MPI_TAG));
+    rounds_.received(coloured % 2);
+    arrived(coloured / 2, status.MPI_SOURCE, std::move(bytes));
   }
   return moved;
+}
+
+void MpiTransport::arrived(int kind, int source, std::vector<std::uint8_t> bytes) {
+  std::size_t at = 0;
+  if (kind == kRequest) {
+    if (rank_ != 0 || !board_) throw std::logic_error("MpiTransport: a rollback request outside rank 0's board");
+    const auto step = static_cast<std::int64_t>(take_word(bytes, at));
+    const auto pinned = static_cast<std::int64_t>(take_word(bytes, at));
+    sequence(step, pinned, source, take_word(bytes, at));
+    return;
+  }
+  if (kind == kEntry) {
+    if (!board_) throw std::logic_error("MpiTransport: a rollback of every world without speculation");
+    const std::uint64_t epoch = take_word(bytes, at);
+    const auto step = static_cast<std::int64_t>(take_word(bytes, at));
+    const auto pinned = static_cast<std::int64_t>(take_word(bytes, at));
+    const auto origin = static_cast<int>(take_word(bytes, at));
+    const std::uint64_t ticket = take_word(bytes, at);
+    if (board_->append(step, pinned, ticket, origin == rank_) != epoch)
+      throw std::logic_error("MpiTransport: rollbacks of every world out of rank 0's order");
+    return;
+  }
+  in_messages_.fetch_add(1, std::memory_order_relaxed);
+  in_bytes_.fetch_add(bytes.size(), std::memory_order_relaxed);
+  Message m = decode_message(bytes);
+  if (m.to < 0 || static_cast<std::size_t>(m.to) >= rank_of_world_.size() ||
+      rank_of_world_[static_cast<std::size_t>(m.to)] != rank_)
+    throw std::logic_error("MpiTransport: rank " + std::to_string(rank_) + " received " + describe(m) +
+                           " from rank " + std::to_string(source) + ", for a world it does not step");
+  if (const Control* c = std::get_if<Control>(&m.payload); c && c->type == Control::Type::Notice) {
+    // The receiver unpins it once taken in (speculation.cpp), as on one machine.
+    if (!horizon_ || !horizon_->try_pin(c->pinned))
+      throw std::logic_error("MpiTransport: a rollback notice below the commit horizon: " + describe(m));
+  }
+  const WorldId to = m.to;
+  local_->send(to, std::move(m));
 }
 
 bool MpiTransport::idle() {

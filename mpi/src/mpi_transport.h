@@ -14,6 +14,12 @@
 //  2. Only progress() and the destructor call MPI (the caller's thread).
 //  3. The transport owns its communicator (a duplicate): nothing of
 //     another PartitionedWorld's traffic can match its receives.
+//  4. With speculation (share_rollbacks): every message between ranks has
+//     the colour of its sender's GVT epoch in its tag (gvt_rounds.h). A
+//     step pinned by a message (a rollback notice, a post of a rollback
+//     of every world) stays pinned on the sending rank until the message
+//     is posted and counted by the cut, and is pinned on the receiving rank
+//     as it arrives, before any world can see it.
 #pragma once
 
 #include <atomic>
@@ -22,10 +28,14 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "gvt_rounds.h"
 #include "mpi_handles.h"
+#include "soda/rollback/commit_horizon.h"
+#include "soda/rollback/rollback_board.h"
 #include "soda/runtime/process_group.h"
 #include "soda/runtime/transport.h"
 
@@ -33,8 +43,14 @@ namespace soda::mpi {
 
 class MpiTransport final : public Transport {
  public:
-  static constexpr int kTagMessage = 1;  // a Message's bytes
   static constexpr int kTagFailure = 2;  // a failed rank's error text
+  // Coloured traffic: tag kTagColoured + 2 * kind + colour.
+  static constexpr int kTagColoured = 16;
+  enum Kind : int {
+    kMessage = 0,  // a Message's bytes
+    kRequest = 1,  // to rank 0: a post of a rollback of every world (step, pinned, ticket)
+    kEntry = 2,    // from rank 0: a numbered rollback of every world (epoch, step, pinned, origin, ticket)
+  };
 
   /// Collective over `parent` (duplicates it). `rank_of_world`: by world id.
   MpiTransport(MPI_Comm parent, std::vector<int> rank_of_world, std::unique_ptr<Transport> local);
@@ -46,7 +62,7 @@ class MpiTransport final : public Transport {
   Message receive(WorldId world) override { return local_->receive(world); }
   bool park(WorldId world) override { return local_->park(world); }
   void set_wake_hook(std::function<void(WorldId)> hook) override { local_->set_wake_hook(std::move(hook)); }
-  void close() override { local_->close(); }
+  void close() override;
   // The messages this rank's worlds sent: the local transport also counts
   // those progress() hands it from other ranks (a serialising one their
   // bytes too, re-encoded to the same size), so they are taken out.
@@ -74,11 +90,34 @@ class MpiTransport final : public Transport {
   std::string remote_failure() const;
   void add_traffic(RankTraffic& t) const;
 
+  /// Speculation over ranks (ProcessGroup::share_rollbacks): `horizon` and
+  /// `board` (this rank's, outliving the transport) join the ranks' GVT
+  /// rounds and rank 0's numbering of rollbacks of every world. Before any
+  /// world runs; step()'s thread.
+  void share_rollbacks(SharedMemoryHorizon& horizon, RollbackBoard& board);
+  /// See GvtRounds::set_goal (MPI thread only).
+  void set_horizon_goal(std::int64_t step) { rounds_.set_goal(step); }
+  /// The GVT round's next move, a new GVT into the horizon; true if
+  /// anything moved (MPI thread only).
+  bool poll_horizon();
+  /// No speculation, or no GVT round under way and the goal reached.
+  bool horizon_settled() const { return !horizon_ || rounds_.settled(); }
+  /// GVT rounds completed.
+  std::uint64_t horizon_rounds() const { return rounds_.rounds(); }
+
  private:
   struct Outgoing {
     int rank = 0;
+    int kind = kMessage;
     std::vector<std::uint8_t> bytes;
+    std::int64_t timestamp = 0;                // the step the message may change at the earliest
+    std::optional<std::int64_t> pinned;        // released once posted (invariant 4)
   };
+
+  void queue(Outgoing out);
+  void arrived(int kind, int source, std::vector<std::uint8_t> bytes);
+  // Rank 0: numbers a rollback of every world and sends it to every rank.
+  void sequence(std::int64_t step, std::int64_t pinned, int origin, std::uint64_t ticket);
 
   Communicator comm_;
   const int rank_;
@@ -90,6 +129,10 @@ class MpiTransport final : public Transport {
   std::string failure_;  // another rank's, first one
   std::deque<std::unique_ptr<PendingSend>> pending_;  // MPI thread only
   std::atomic<std::uint64_t> out_messages_{0}, out_bytes_{0}, in_messages_{0}, in_bytes_{0};
+  GvtRounds rounds_;                          // MPI thread only
+  SharedMemoryHorizon* horizon_ = nullptr;    // speculation only
+  RollbackBoard* board_ = nullptr;            // speculation only
+  std::mutex sequence_mutex_;                 // rank 0: one numbering, entries queued in epoch order
 };
 
 }  // namespace soda::mpi

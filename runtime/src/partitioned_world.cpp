@@ -180,7 +180,16 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
     in.worlds.back()->set_solver_pool(in.solver_pool);
   }
   const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
-  in.horizon = std::make_unique<SharedMemoryHorizon>(k, steps_done_ * substeps_);
+  std::unique_ptr<SharedMemoryHorizon> horizon;
+  if (options_.group) {
+    std::vector<bool> local;  // over ranks: this rank's worlds (the ranks compute GVT together)
+    for (WorldId w = 0; w < k; ++w) local.push_back(steps_world(w));
+    horizon = std::make_unique<SharedMemoryHorizon>(local, steps_done_ * substeps_);
+  } else {
+    horizon = std::make_unique<SharedMemoryHorizon>(k, steps_done_ * substeps_);
+  }
+  SharedMemoryHorizon& shared_horizon = *horizon;
+  in.horizon = std::move(horizon);
   // Speculation: a world waiting for the horizon, or told to roll back
   // with every world, is woken by a message to itself.
   auto wake = [t = in.transport.get()](WorldId w) {
@@ -208,6 +217,7 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   safety.verify_replay = hooks.verify_replay;
   in.board = std::make_unique<RollbackBoard>(k, *in.horizon, wake);
   safety.board = in.board.get();
+  if (options_.group && options_.anticipation > 0) options_.group->share_rollbacks(shared_horizon, *in.board);
   if (options_.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");
   if (options_.anticipation > 0 && options_.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument(
