@@ -23,10 +23,11 @@ bool GvtRounds::test(MPI_Request& request) {
   return flag != 0;
 }
 
-std::optional<std::int64_t> GvtRounds::poll(const std::function<std::int64_t()>& local_minimum) {
+std::optional<std::int64_t> GvtRounds::poll(const std::function<std::int64_t()>& local_minimum, bool failed) {
   switch (stage_) {
     case Stage::Idle: {
-      if (gvt_ >= goal_ || std::chrono::steady_clock::now() - last_end_ < kRoundInterval) return std::nullopt;
+      if (settled()) return std::nullopt;
+      if (!failed && std::chrono::steady_clock::now() - last_end_ < kRoundInterval) return std::nullopt;
       // C1: from now on this rank's messages are red.
       white_ = colour_;
       colour_ ^= 1;
@@ -52,8 +53,9 @@ std::optional<std::int64_t> GvtRounds::poll(const std::function<std::int64_t()>&
       // which needs this rank's value): its counts start again from zero.
       received_[static_cast<std::size_t>(white_)] = 0;
       std::fill(sent_[static_cast<std::size_t>(white_)].begin(), sent_[static_cast<std::size_t>(white_)].end(), 0);
-      value_ = std::min(local_minimum(), red_min_);
-      check(MPI_Iallreduce(&value_, &result_, 1, MPI_INT64_T, MPI_MIN, comm_, &request_), "MPI_Iallreduce");
+      value_ = {std::min(local_minimum(), red_min_), failed ? -1 : 0};
+      check(MPI_Iallreduce(value_.data(), result_.data(), 2, MPI_INT64_T, MPI_MIN, comm_, &request_),
+            "MPI_Iallreduce");
       stage_ = Stage::Reducing;
       return std::nullopt;
     }
@@ -61,9 +63,10 @@ std::optional<std::int64_t> GvtRounds::poll(const std::function<std::int64_t()>&
       if (!test(request_)) return std::nullopt;
       stage_ = Stage::Idle;
       last_end_ = std::chrono::steady_clock::now();
-      gvt_ = result_;
+      gvt_ = result_[0];
+      failure_seen_ = result_[1] < 0;
       ++rounds_;
-      return result_;
+      return gvt_;
   }
   return std::nullopt;
 }

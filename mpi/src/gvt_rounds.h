@@ -26,7 +26,9 @@
 // pinned before it is sent). Marks go below the horizon only to the
 // checkpoint before a pinned step, as on one machine (commit_horizon.h).
 // Every rank gets the same value from the same round, so every rank stops
-// starting rounds after the same one (the value reached the run's goal).
+// starting rounds after the same one (the value reached the run's goal, or
+// a rank reported a failure in it): no collective is ever left pending
+// (MPI_Finalize would progress it on a freed communicator).
 //
 // Thread safety: MPI thread only (MPI_THREAD_FUNNELED).
 #pragma once
@@ -60,10 +62,12 @@ class GvtRounds {
   void set_goal(std::int64_t goal) { goal_ = goal; }
   /// One look at the round under way (or starts one if due); the new GVT
   /// once a round ends. `local_minimum`: the rank's marks and pins, now.
-  std::optional<std::int64_t> poll(const std::function<std::int64_t()>& local_minimum);
-  /// No round under way, and the last GVT at or past the goal (every rank
-  /// has seen the same value: it may stop polling).
-  bool settled() const { return stage_ == Stage::Idle && gvt_ >= goal_; }
+  /// `failed`: this rank knows the run is stopping (its own failure or
+  /// another rank's); rounds then run back to back until one carries it.
+  std::optional<std::int64_t> poll(const std::function<std::int64_t()>& local_minimum, bool failed);
+  /// No round under way, and the last GVT at or past the goal or a failure
+  /// in the last round (every rank has seen the same: it may stop polling).
+  bool settled() const { return stage_ == Stage::Idle && (gvt_ >= goal_ || failure_seen_); }
   /// Rounds completed so far.
   std::uint64_t rounds() const { return rounds_; }
 
@@ -85,7 +89,9 @@ class GvtRounds {
   int white_ = 0;                          // the colour being drained
   int expected_ = 0;                       // white messages sent to this rank
   std::vector<int> counts_;                // Ireduce_scatter_block's send buffer
-  std::int64_t value_ = 0, result_ = 0;    // Iallreduce's buffers
+  // Iallreduce MIN's buffers: {the rank's value, 0 or -1 if it failed}.
+  std::array<std::int64_t, 2> value_{}, result_{};
+  bool failure_seen_ = false;
   MPI_Request request_ = MPI_REQUEST_NULL;
   std::int64_t goal_ = INT64_MIN;
   std::int64_t gvt_ = INT64_MIN;

@@ -78,6 +78,10 @@ class MpiGroup final : public ProcessGroup {
     for (WorldId w = 0; w < worlds; ++w) ranks.push_back(rank_of(w, worlds));
     auto t = std::make_unique<mpi::MpiTransport>(comm_.get(), std::move(ranks), std::move(local));
     transport_ = t.get();
+    {
+      std::lock_guard lock(mutex_);
+      failure_.clear();  // an earlier run's (its worlds stopped): this run starts clean
+    }
     return t;
   }
 
@@ -98,19 +102,22 @@ class MpiGroup final : public ProcessGroup {
     bool told = false;
     for (;;) {
       bool moved = transport_->progress();
-      if (transport_->poll_horizon()) moved = true;
-      if (!transport_->remote_failure().empty()) break;
       std::string mine;
       {
         std::lock_guard lock(mutex_);
         mine = failure_;
       }
+      const bool remote = !transport_->remote_failure().empty();
+      // With speculation a stopping run still ends its GVT rounds together
+      // (gvt_rounds.h): no rank leaves a collective pending.
+      if (transport_->poll_horizon(remote || !mine.empty())) moved = true;
+      if (remote && transport_->horizon_settled()) break;
       if (!mine.empty() && !told) {
         transport_->send_failure(mine);
         transport_->flush(kFailureFlushSeconds);
         told = true;
       }
-      if (done() && (told || (transport_->idle() && transport_->horizon_settled()))) break;
+      if (done() && transport_->horizon_settled() && (told || transport_->idle())) break;
       if (moved) {
         quiet = 0;
         continue;

@@ -107,9 +107,9 @@ void MpiTransport::sequence(std::int64_t step, std::int64_t pinned, int origin, 
   }
 }
 
-bool MpiTransport::poll_horizon() {
+bool MpiTransport::poll_horizon(bool failed) {
   if (!horizon_) return false;
-  const std::optional<std::int64_t> gvt = rounds_.poll([this] { return horizon_->local_minimum(); });
+  const std::optional<std::int64_t> gvt = rounds_.poll([this] { return horizon_->local_minimum(); }, failed);
   if (!gvt) return false;
   horizon_->set_global(*gvt);
   return true;

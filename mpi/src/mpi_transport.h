@@ -98,8 +98,8 @@ class MpiTransport final : public Transport {
   /// See GvtRounds::set_goal (MPI thread only).
   void set_horizon_goal(std::int64_t step) { rounds_.set_goal(step); }
   /// The GVT round's next move, a new GVT into the horizon; true if
-  /// anything moved (MPI thread only).
-  bool poll_horizon();
+  /// anything moved (MPI thread only). `failed`: see GvtRounds::poll.
+  bool poll_horizon(bool failed);
   /// No speculation, or no GVT round under way and the goal reached.
   bool horizon_settled() const { return !horizon_ || rounds_.settled(); }
   /// GVT rounds completed.
