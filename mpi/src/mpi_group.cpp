@@ -52,7 +52,8 @@ struct Layout {
 
 class MpiGroup final : public ProcessGroup {
  public:
-  explicit MpiGroup(std::vector<int> rank_of_world) : comm_(MPI_COMM_WORLD), explicit_(std::move(rank_of_world)) {
+  explicit MpiGroup(std::vector<int> rank_of_world)
+      : comm_(MPI_COMM_WORLD), traffic_(MPI_COMM_WORLD), explicit_(std::move(rank_of_world)) {
     rank_ = comm_.rank();
     size_ = comm_.size();
   }
@@ -76,7 +77,7 @@ class MpiGroup final : public ProcessGroup {
   std::unique_ptr<Transport> make_transport(int worlds, std::unique_ptr<Transport> local) override {
     std::vector<int> ranks;
     for (WorldId w = 0; w < worlds; ++w) ranks.push_back(rank_of(w, worlds));
-    auto t = std::make_unique<mpi::MpiTransport>(comm_.get(), std::move(ranks), std::move(local));
+    auto t = std::make_unique<mpi::MpiTransport>(traffic_.get(), std::move(ranks), std::move(local), runs_++);
     transport_ = t.get();
     {
       std::lock_guard lock(mutex_);
@@ -112,7 +113,7 @@ class MpiGroup final : public ProcessGroup {
       // (gvt_rounds.h): no rank leaves a collective pending.
       if (transport_->poll_horizon(remote || !mine.empty())) moved = true;
       if (remote && transport_->horizon_settled()) break;
-      if (!mine.empty() && !told) {
+      if (!mine.empty() && !told && !remote) {  // (after another rank's, only its echo: not sent)
         transport_->send_failure(mine);
         transport_->flush(kFailureFlushSeconds);
         told = true;
@@ -174,10 +175,12 @@ class MpiGroup final : public ProcessGroup {
   }
 
  private:
-  mpi::Communicator comm_;
+  mpi::Communicator comm_;     // gathers
+  mpi::Communicator traffic_;  // every run's messages and GVT rounds (mpi_transport.h, invariant 3)
   int rank_ = 0;
   int size_ = 1;
   const std::vector<int> explicit_;
+  std::uint64_t runs_ = 0;                  // transports made (each run's tags: mpi_transport.h)
   mpi::MpiTransport* transport_ = nullptr;  // owned by the PartitionedWorld's internals
   mutable std::mutex mutex_;
   std::string failure_;  // this rank's first failure

@@ -32,12 +32,28 @@ std::vector<std::uint8_t> words(std::initializer_list<std::uint64_t> values) {
 
 }  // namespace
 
-MpiTransport::MpiTransport(MPI_Comm parent, std::vector<int> rank_of_world, std::unique_ptr<Transport> local)
-    : comm_(parent),
-      rank_(comm_.rank()),
+namespace {
+int comm_size(MPI_Comm comm) {
+  int n = 0;
+  check(MPI_Comm_size(comm, &n), "MPI_Comm_size");
+  return n;
+}
+int comm_rank(MPI_Comm comm) {
+  int r = 0;
+  check(MPI_Comm_rank(comm, &r), "MPI_Comm_rank");
+  return r;
+}
+}  // namespace
+
+MpiTransport::MpiTransport(MPI_Comm comm, std::vector<int> rank_of_world, std::unique_ptr<Transport> local,
+                           std::uint64_t run)
+    : comm_(comm),
+      size_(comm_size(comm)),
+      tag_base_(kTagBase + kTagsPerRun * static_cast<int>(run % kRuns)),
+      rank_(comm_rank(comm)),
       rank_of_world_(std::move(rank_of_world)),
       local_(std::move(local)),
-      rounds_(comm_.get(), comm_.size()) {}
+      rounds_(comm, size_) {}
 
 MpiTransport::~MpiTransport() = default;  // unfinished sends are cancelled (PendingSend)
 
@@ -96,7 +112,7 @@ void MpiTransport::share_rollbacks(SharedMemoryHorizon& horizon, RollbackBoard& 
 void MpiTransport::sequence(std::int64_t step, std::int64_t pinned, int origin, std::uint64_t ticket) {
   std::lock_guard lock(sequence_mutex_);
   const std::uint32_t epoch = board_->append(step, pinned, ticket, origin == rank_);
-  for (int r = 0; r < comm_.size(); ++r) {
+  for (int r = 0; r < size_; ++r) {
     if (r == rank_) continue;
     if (!horizon_->try_pin(pinned))
       throw std::logic_error("MpiTransport: a rollback of every world below the commit horizon");
@@ -125,7 +141,7 @@ bool MpiTransport::progress() {
   for (Outgoing& o : batch) {
     const int colour = rounds_.colour();
     pending_.push_back(
-        std::make_unique<PendingSend>(std::move(o.bytes), o.rank, kTagColoured + 2 * o.kind + colour, comm_.get()));
+        std::make_unique<PendingSend>(std::move(o.bytes), o.rank, tag_base_ + 2 * o.kind + colour, comm_));
     rounds_.sent(o.rank, o.timestamp);
     if (o.pinned) horizon_->unpin(*o.pinned);  // counted by the cut from now on (invariant 4)
     moved = true;
@@ -138,14 +154,16 @@ bool MpiTransport::progress() {
     int flag = 0;
     MPI_Message handle = MPI_MESSAGE_NULL;
     MPI_Status status;
-    check(MPI_Improbe(MPI_ANY_SOURCE, MPI_ANY_TAG, comm_.get(), &flag, &handle, &status), "MPI_Improbe");
+    check(MPI_Improbe(MPI_ANY_SOURCE, MPI_ANY_TAG, comm_, &flag, &handle, &status), "MPI_Improbe");
     if (!flag) break;
     int count = 0;
     check(MPI_Get_count(&status, MPI_BYTE, &count), "MPI_Get_count");
     std::vector<std::uint8_t> bytes(static_cast<std::size_t>(count));
     check(MPI_Mrecv(bytes.data(), count, MPI_BYTE, &handle, MPI_STATUS_IGNORE), "MPI_Mrecv");
     moved = true;
-    if (status.MPI_TAG == kTagFailure) {
+    const int tag = status.MPI_TAG - tag_base_;
+    if (tag < 0 || tag >= kTagsPerRun) continue;  // an earlier run's, left on the wire
+    if (tag == kTagFailure) {
       {
         std::lock_guard lock(mutex_);
         if (failure_.empty())
@@ -154,11 +172,8 @@ bool MpiTransport::progress() {
       close();
       continue;
     }
-    const int coloured = status.MPI_TAG - kTagColoured;
-    if (coloured < 0 || coloured >= 6)
-      throw std::logic_error("MpiTransport: a message with tag " + std::to_string(status.MPI_TAG));
-    rounds_.received(coloured % 2);
-    arrived(coloured / 2, status.MPI_SOURCE, std::move(bytes));
+    rounds_.received(tag % 2);
+    arrived(tag / 2, status.MPI_SOURCE, std::move(bytes));
   }
   return moved;
 }
@@ -205,10 +220,10 @@ bool MpiTransport::idle() {
 }
 
 void MpiTransport::send_failure(const std::string& what) {
-  for (int r = 0; r < comm_.size(); ++r)
+  for (int r = 0; r < size_; ++r)
     if (r != rank_)
       pending_.push_back(std::make_unique<PendingSend>(std::vector<std::uint8_t>(what.begin(), what.end()), r,
-                                                       kTagFailure, comm_.get()));
+                                                       tag_base_ + kTagFailure, comm_));
 }
 
 void MpiTransport::flush(double seconds) {

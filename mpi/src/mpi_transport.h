@@ -12,8 +12,11 @@
 //     outbox is FIFO, Isends are posted in outbox order on one
 //     communicator and tag, and MPI does not let them overtake.
 //  2. Only progress() and the destructor call MPI (the caller's thread).
-//  3. The transport owns its communicator (a duplicate): nothing of
-//     another PartitionedWorld's traffic can match its receives.
+//  3. Every run's transport uses the group's one communicator for
+//     traffic, never freed while the group lives (a freed context reused by
+//     the next run's duplicate got an earlier run's leftover messages,
+//     which stalled the next run's stream); each run has its own tags, so
+//     nothing of another PartitionedWorld's traffic is taken as its own.
 //  4. With speculation (share_rollbacks): every message between ranks has
 //     the colour of its sender's GVT epoch in its tag (gvt_rounds.h). A
 //     step pinned by a message (a rollback notice, a post of a rollback
@@ -43,17 +46,26 @@ namespace soda::mpi {
 
 class MpiTransport final : public Transport {
  public:
-  static constexpr int kTagFailure = 2;  // a failed rank's error text
-  // Coloured traffic: tag kTagColoured + 2 * kind + colour.
-  static constexpr int kTagColoured = 16;
+  // Tags: kTagBase + kTagsPerRun * (run % kRuns) + 2 * kind + colour, and
+  // + kTagFailure for a failed rank's error text. Each run (transport) has
+  // its own: Open MPI reuses a freed communicator's context, so messages a
+  // stopped run left on the wire could otherwise match the next run's
+  // receives (seen: a GVT round counting one white message too many after
+  // a failed run); a message of another run is dropped.
+  static constexpr int kTagBase = 16;
+  static constexpr int kTagsPerRun = 8;
+  static constexpr int kTagFailure = 6;
+  static constexpr int kRuns = 1024;  // kTagBase + 8 * 1024 < 32767, MPI's least tag upper bound
   enum Kind : int {
     kMessage = 0,  // a Message's bytes
     kRequest = 1,  // to rank 0: a post of a rollback of every world (step, pinned, ticket)
     kEntry = 2,    // from rank 0: a numbered rollback of every world (epoch, step, pinned, origin, ticket)
   };
 
-  /// Collective over `parent` (duplicates it). `rank_of_world`: by world id.
-  MpiTransport(MPI_Comm parent, std::vector<int> rank_of_world, std::unique_ptr<Transport> local);
+  /// Over `comm` (the group's traffic communicator, outliving the
+  /// transport). `rank_of_world`: by world id.
+  /// `run`: how many transports the group made before this one (tags).
+  MpiTransport(MPI_Comm comm, std::vector<int> rank_of_world, std::unique_ptr<Transport> local, std::uint64_t run);
   ~MpiTransport() override;
 
   // Transport: any thread.
@@ -119,7 +131,9 @@ class MpiTransport final : public Transport {
   // Rank 0: numbers a rollback of every world and sends it to every rank.
   void sequence(std::int64_t step, std::int64_t pinned, int origin, std::uint64_t ticket);
 
-  Communicator comm_;
+  MPI_Comm comm_;       // the group's, for every run (see the tags above)
+  const int size_;
+  const int tag_base_;  // this run's first tag
   const int rank_;
   const std::vector<int> rank_of_world_;
   std::unique_ptr<Transport> local_;

@@ -91,7 +91,13 @@ void PartitionedWorld::run_on_ranks(std::int64_t internal_target) {
                         group.report_failure("world " + std::to_string(w) + ": " + what);
                       });
   scheduler.launch();
-  group.pump([&scheduler] { return scheduler.finished(); });
+  try {
+    group.pump([&scheduler] { return scheduler.finished(); });
+  } catch (...) {
+    in_->transport->close();  // the worlds stop; the error is this rank's
+    scheduler.join();
+    throw;
+  }
   if (!group.remote_failure().empty()) in_->transport->close();
   scheduler.join();
   const std::string remote = group.remote_failure();
