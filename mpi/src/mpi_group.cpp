@@ -77,6 +77,10 @@ class MpiGroup final : public ProcessGroup {
   std::unique_ptr<Transport> make_transport(int worlds, std::unique_ptr<Transport> local) override {
     std::vector<int> ranks;
     for (WorldId w = 0; w < worlds; ++w) ranks.push_back(rank_of(w, worlds));
+    // Collective, as the communicator duplicate it replaces: no rank sends
+    // this run's messages while another still pumps the last run's (whose
+    // transport would drop them as another run's).
+    mpi::check(MPI_Barrier(traffic_.get()), "MPI_Barrier");
     auto t = std::make_unique<mpi::MpiTransport>(traffic_.get(), std::move(ranks), std::move(local), runs_++);
     transport_ = t.get();
     {

@@ -114,8 +114,7 @@ void MpiTransport::sequence(std::int64_t step, std::int64_t pinned, int origin, 
   const std::uint32_t epoch = board_->append(step, pinned, ticket, origin == rank_);
   for (int r = 0; r < size_; ++r) {
     if (r == rank_) continue;
-    if (!horizon_->try_pin(pinned))
-      throw std::logic_error("MpiTransport: a rollback of every world below the commit horizon");
+    horizon_->pin(pinned);  // until posted (invariant 4)
     queue(Outgoing{r, kEntry,
                    words({epoch, static_cast<std::uint64_t>(step), static_cast<std::uint64_t>(pinned),
                           static_cast<std::uint64_t>(origin), ticket}),
@@ -207,8 +206,8 @@ void MpiTransport::arrived(int kind, int source, std::vector<std::uint8_t> bytes
                            " from rank " + std::to_string(source) + ", for a world it does not step");
   if (const Control* c = std::get_if<Control>(&m.payload); c && c->type == Control::Type::Notice) {
     // The receiver unpins it once taken in (speculation.cpp), as on one machine.
-    if (!horizon_ || !horizon_->try_pin(c->pinned))
-      throw std::logic_error("MpiTransport: a rollback notice below the commit horizon: " + describe(m));
+    if (!horizon_) throw std::logic_error("MpiTransport: a rollback notice without speculation: " + describe(m));
+    horizon_->pin(c->pinned);  // its pin moved with it (CommitHorizon::pin)
   }
   const WorldId to = m.to;
   local_->send(to, std::move(m));

@@ -49,6 +49,11 @@ class CommitHorizon {
   /// step below it may change any more. Any thread.
   virtual std::int64_t highest_gvt() const = 0;
   virtual void unpin(std::int64_t step) = 0;
+  /// Holds gvt() at or below `step` until unpin(step), whatever gvt() is
+  /// now: over ranks, a notice or rollback arriving from another rank
+  /// (its pin moved with it; this rank's gvt() may not yet reflect the
+  /// sender's lowered mark, which the ranks' next cut will).
+  virtual void pin(std::int64_t step) = 0;
   /// Calls the wake hook for `world` once gvt() >= `step`; false (and no
   /// call) if it already is.
   virtual bool wake_at(WorldId world, std::int64_t step) = 0;
@@ -121,6 +126,10 @@ class SharedMemoryHorizon final : public CommitHorizon {
   std::int64_t highest_gvt() const override {
     std::lock_guard lock(mutex_);
     return std::max(highest_, gvt_locked());
+  }
+  void pin(std::int64_t step) override {
+    std::lock_guard lock(mutex_);
+    pins_.insert(step);
   }
   void unpin(std::int64_t step) override {
     std::vector<WorldId> woken;
