@@ -60,7 +60,6 @@ void PartitionedWorld::check_group_options() const {
     throw std::invalid_argument("PartitionedWorld over ranks (MPI, docs/mpi.md): " + what +
                                 " is not supported yet");
   };
-  if (options_.sync_test > 0) refuse("SyncTest");
   if (options_.validate) refuse("validation");
   if (options_.watchdog.response == WatchdogResponse::Heal) refuse("the watchdog's heal");
   if (options_.balance.policy != "none" || options_.balance_policy) refuse("load balancing");

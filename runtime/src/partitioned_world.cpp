@@ -286,38 +286,6 @@ void PartitionedWorld::step(int n) {
   }
 }
 
-// One step, then back sync_test steps (or as far as kept) and forward again:
-// the state must come out bit-identical.
-void PartitionedWorld::sync_test_step() {
-  if (sync_states_.empty()) sync_states_.push_back(snapshot());
-  run_to(steps_done_ + 1);
-  WorldSnapshot now = snapshot();
-  const WorldSnapshot& back = sync_states_.front();
-  const std::int64_t t = steps_done_;
-  restore(back);
-  run_to(t);
-  ++sync_rollbacks_;
-  const WorldSnapshot again = snapshot();
-  if (serialize(again) != serialize(now)) {
-    std::string first = "the contact state";
-    for (std::size_t i = 0; i < std::min(now.bodies.size(), again.bodies.size()); ++i) {
-      const BodyDynamicState& a = now.bodies[i].state;
-      const BodyDynamicState& b = again.bodies[i].state;
-      if (std::memcmp(a.origin, b.origin, sizeof a.origin) || std::memcmp(a.basis, b.basis, sizeof a.basis) ||
-          std::memcmp(a.linear_velocity, b.linear_velocity, sizeof a.linear_velocity) ||
-          std::memcmp(a.angular_velocity, b.angular_velocity, sizeof a.angular_velocity)) {
-        first = "body " + std::to_string(now.bodies[i].description.id);
-        break;
-      }
-    }
-    throw std::logic_error("SyncTest: step " + std::to_string(t) + " re-run from step " +
-                           std::to_string(back.steps_done) + " is not bit-identical (first difference: " + first +
-                           ")");
-  }
-  sync_states_.push_back(std::move(now));
-  while (static_cast<int>(sync_states_.size()) > options_.sync_test) sync_states_.pop_front();
-}
-
 void PartitionedWorld::run_to(std::int64_t scene_step) {
   const std::int64_t target = scene_step * substeps_;
   for (auto& p : in_->processes) p->set_target(target);

@@ -1,7 +1,7 @@
 # `mpirun -np 2 soda run ... --territories K` prints the hash of the
 # threaded 1-territory run, writes the JSON (with its per-rank traffic) from
-# rank 0 only, gives it with speculation too, and refuses a bad
-# --ranks-worlds or SyncTest with exit 2.
+# rank 0 only, gives it with speculation and SyncTest too, and refuses a
+# bad --ranks-worlds or --validate with exit 2.
 # Run by ctest: cmake -DSODA=... -DMPIEXEC=... -P mpi_cli_test.cmake
 set(scene --scene falling-cubes --n 120 --steps 60)
 
@@ -45,9 +45,9 @@ if(NOT ranks EQUAL 2 OR NOT worlds1 EQUAL 2)
 endif()
 message(STATUS "one territory ${reference}; 3 territories on 2 ranks ${ranked} (JSON ${hash_json})")
 
-# Speculation over ranks: the same hash.
+# Speculation and SyncTest over ranks: the same hash.
 execute_process(COMMAND ${MPIEXEC} --oversubscribe -np 2 ${SODA} run ${scene} --territories 3 --anticipation 8
-                        --eager-bets
+                        --eager-bets --sync-test 2
                 OUTPUT_VARIABLE spec ERROR_VARIABLE spec_err RESULT_VARIABLE rc TIMEOUT 120)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "mpirun -np 2 soda run --anticipation 8 failed (${rc}):\n${spec}\n${spec_err}")
@@ -57,7 +57,7 @@ if(NOT speculated STREQUAL reference)
   message(FATAL_ERROR "3 territories on 2 ranks, anticipation 8: state_hash ${speculated}, one territory ${reference}")
 endif()
 
-foreach(bad "--ranks-worlds;0,2,1" "--ranks-worlds;0,1" "--sync-test;1")
+foreach(bad "--ranks-worlds;0,2,1" "--ranks-worlds;0,1" "--validate")
   execute_process(COMMAND ${MPIEXEC} --oversubscribe -np 2 ${SODA} run ${scene} --territories 3 ${bad}
                   OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 60)
   if(NOT rc EQUAL 2 OR NOT err MATCHES "soda: error: ")

@@ -164,18 +164,18 @@ TEST(Mpi, SpeculationFuzzedGivesTheOneWorldHash) {
   }
 }
 
-TEST(Mpi, SyncTestIsRefusedWithAClearError) {
-  const Scene s = test::scene("falling-cubes", 50);
-  const TerritoryMap map = make_partition("kmeans", s, 2, GridOptions{});
-  PartitionedOptions o;
-  o.sync_test = 2;
-  o.group = g_group;
-  try {
-    PartitionedWorld world(s, map, o);
-    FAIL() << "expected SyncTest over ranks to be refused";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("SyncTest"), std::string::npos) << e.what();
-  }
+// SyncTest over ranks: every step rolled back and re-run, each rank from
+// its own worlds' kept parts, bit-identical (else it throws), ending on the
+// one-world hash; lockstep and speculating.
+TEST(Mpi, SyncTestGivesTheOneWorldHash) {
+  PartitionedOptions lockstep = threads_per_world();
+  lockstep.sync_test = 4;
+  expect_reference_hash({"falling-cubes", 150, "kmeans", 4, 30}, lockstep);
+  expect_reference_hash({"seam-stack", 0, "grid:2x1x2", 4, 30, true}, lockstep);
+  PartitionedOptions spec = speculating();
+  spec.sync_test = 3;
+  expect_reference_hash({"cube-pile", 100, "kmeans", 4, 30}, spec);
+  expect_reference_hash({"border-shuttle", 40, "grid:4x1x1", 4, 30}, spec);
 }
 
 // A world that throws on one rank stops the run on every rank, each with the
