@@ -106,7 +106,7 @@ class MpiGroup final : public ProcessGroup {
     int quiet = 0;
     bool told = false;
     for (;;) {
-      bool moved = transport_->progress();
+      const bool moved = transport_->progress();
       std::string mine;
       {
         std::lock_guard lock(mutex_);
@@ -115,7 +115,9 @@ class MpiGroup final : public ProcessGroup {
       const bool remote = !transport_->remote_failure().empty();
       // With speculation a stopping run still ends its GVT rounds together
       // (gvt_rounds.h): no rank leaves a collective pending.
-      if (transport_->poll_horizon(remote || !mine.empty())) moved = true;
+      // (A round's progress does not count as moved: the loop may still
+      // sleep its kIdleMicros between polls, well under a round's pace.)
+      transport_->poll_horizon(remote || !mine.empty());
       if (remote && transport_->horizon_settled()) break;
       if (!mine.empty() && !told && !remote) {  // (after another rank's, only its echo: not sent)
         transport_->send_failure(mine);
