@@ -52,7 +52,8 @@ struct Layout {
 
 class MpiGroup final : public ProcessGroup {
  public:
-  explicit MpiGroup(std::vector<int> rank_of_world) : comm_(MPI_COMM_WORLD), explicit_(std::move(rank_of_world)) {
+  explicit MpiGroup(std::vector<int> rank_of_world)
+      : comm_(MPI_COMM_WORLD), traffic_(MPI_COMM_WORLD), explicit_(std::move(rank_of_world)) {
     rank_ = comm_.rank();
     size_ = comm_.size();
   }
@@ -76,9 +77,27 @@ class MpiGroup final : public ProcessGroup {
   std::unique_ptr<Transport> make_transport(int worlds, std::unique_ptr<Transport> local) override {
     std::vector<int> ranks;
     for (WorldId w = 0; w < worlds; ++w) ranks.push_back(rank_of(w, worlds));
-    auto t = std::make_unique<mpi::MpiTransport>(comm_.get(), std::move(ranks), std::move(local));
+    // Collective, as the communicator duplicate it replaces: no rank sends
+    // this run's messages while another still pumps the last run's (whose
+    // transport would drop them as another run's).
+    mpi::check(MPI_Barrier(traffic_.get()), "MPI_Barrier");
+    auto t = std::make_unique<mpi::MpiTransport>(traffic_.get(), std::move(ranks), std::move(local), runs_++);
     transport_ = t.get();
+    {
+      std::lock_guard lock(mutex_);
+      failure_.clear();  // an earlier run's (its worlds stopped): this run starts clean
+    }
     return t;
+  }
+
+  void share_rollbacks(SharedMemoryHorizon& horizon, RollbackBoard& board) override {
+    if (!transport_) throw std::logic_error("MpiGroup::share_rollbacks before make_transport");
+    transport_->share_rollbacks(horizon, board);
+  }
+
+  void set_horizon_goal(std::int64_t step) override {
+    if (!transport_) throw std::logic_error("MpiGroup::set_horizon_goal before make_transport");
+    transport_->set_horizon_goal(step);
   }
 
   void pump(const std::function<bool()>& done) override {
@@ -88,18 +107,24 @@ class MpiGroup final : public ProcessGroup {
     bool told = false;
     for (;;) {
       const bool moved = transport_->progress();
-      if (!transport_->remote_failure().empty()) break;
       std::string mine;
       {
         std::lock_guard lock(mutex_);
         mine = failure_;
       }
-      if (!mine.empty() && !told) {
+      const bool remote = !transport_->remote_failure().empty();
+      // With speculation a stopping run still ends its GVT rounds together
+      // (gvt_rounds.h): no rank leaves a collective pending.
+      // (A round's progress does not count as moved: the loop may still
+      // sleep its kIdleMicros between polls, well under a round's pace.)
+      transport_->poll_horizon(remote || !mine.empty());
+      if (remote && transport_->horizon_settled()) break;
+      if (!mine.empty() && !told && !remote) {  // (after another rank's, only its echo: not sent)
         transport_->send_failure(mine);
         transport_->flush(kFailureFlushSeconds);
         told = true;
       }
-      if (done() && (told || transport_->idle())) break;
+      if (done() && transport_->horizon_settled() && (told || transport_->idle())) break;
       if (moved) {
         quiet = 0;
         continue;
@@ -156,10 +181,12 @@ class MpiGroup final : public ProcessGroup {
   }
 
  private:
-  mpi::Communicator comm_;
+  mpi::Communicator comm_;     // gathers
+  mpi::Communicator traffic_;  // every run's messages and GVT rounds (mpi_transport.h, invariant 3)
   int rank_ = 0;
   int size_ = 1;
   const std::vector<int> explicit_;
+  std::uint64_t runs_ = 0;                  // transports made (each run's tags: mpi_transport.h)
   mpi::MpiTransport* transport_ = nullptr;  // owned by the PartitionedWorld's internals
   mutable std::mutex mutex_;
   std::string failure_;  // this rank's first failure

@@ -12,8 +12,17 @@
 //     outbox is FIFO, Isends are posted in outbox order on one
 //     communicator and tag, and MPI does not let them overtake.
 //  2. Only progress() and the destructor call MPI (the caller's thread).
-//  3. The transport owns its communicator (a duplicate): nothing of
-//     another PartitionedWorld's traffic can match its receives.
+//  3. Every run's transport uses the group's one communicator for
+//     traffic, never freed while the group lives (a freed context reused by
+//     the next run's duplicate got an earlier run's leftover messages,
+//     which stalled the next run's stream); each run has its own tags, so
+//     nothing of another PartitionedWorld's traffic is taken as its own.
+//  4. With speculation (share_rollbacks): every message between ranks has
+//     the colour of its sender's GVT epoch in its tag (gvt_rounds.h). A
+//     step pinned by a message (a rollback notice, a post of a rollback
+//     of every world) stays pinned on the sending rank until the message
+//     is posted and counted by the cut, and is pinned on the receiving rank
+//     as it arrives, before any world can see it.
 #pragma once
 
 #include <atomic>
@@ -22,10 +31,14 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "gvt_rounds.h"
 #include "mpi_handles.h"
+#include "soda/rollback/commit_horizon.h"
+#include "soda/rollback/rollback_board.h"
 #include "soda/runtime/process_group.h"
 #include "soda/runtime/transport.h"
 
@@ -33,11 +46,26 @@ namespace soda::mpi {
 
 class MpiTransport final : public Transport {
  public:
-  static constexpr int kTagMessage = 1;  // a Message's bytes
-  static constexpr int kTagFailure = 2;  // a failed rank's error text
+  // Tags: kTagBase + kTagsPerRun * (run % kRuns) + 2 * kind + colour, and
+  // + kTagFailure for a failed rank's error text. Each run (transport) has
+  // its own: Open MPI reuses a freed communicator's context, so messages a
+  // stopped run left on the wire could otherwise match the next run's
+  // receives (seen: a GVT round counting one white message too many after
+  // a failed run); a message of another run is dropped.
+  static constexpr int kTagBase = 16;
+  static constexpr int kTagsPerRun = 8;
+  static constexpr int kTagFailure = 6;
+  static constexpr int kRuns = 1024;  // kTagBase + 8 * 1024 < 32767, MPI's least tag upper bound
+  enum Kind : int {
+    kMessage = 0,  // a Message's bytes
+    kRequest = 1,  // to rank 0: a post of a rollback of every world (step, pinned, ticket)
+    kEntry = 2,    // from rank 0: a numbered rollback of every world (epoch, step, pinned, origin, ticket)
+  };
 
-  /// Collective over `parent` (duplicates it). `rank_of_world`: by world id.
-  MpiTransport(MPI_Comm parent, std::vector<int> rank_of_world, std::unique_ptr<Transport> local);
+  /// Over `comm` (the group's traffic communicator, outliving the
+  /// transport). `rank_of_world`: by world id.
+  /// `run`: how many transports the group made before this one (tags).
+  MpiTransport(MPI_Comm comm, std::vector<int> rank_of_world, std::unique_ptr<Transport> local, std::uint64_t run);
   ~MpiTransport() override;
 
   // Transport: any thread.
@@ -46,7 +74,7 @@ class MpiTransport final : public Transport {
   Message receive(WorldId world) override { return local_->receive(world); }
   bool park(WorldId world) override { return local_->park(world); }
   void set_wake_hook(std::function<void(WorldId)> hook) override { local_->set_wake_hook(std::move(hook)); }
-  void close() override { local_->close(); }
+  void close() override;
   // The messages this rank's worlds sent: the local transport also counts
   // those progress() hands it from other ranks (a serialising one their
   // bytes too, re-encoded to the same size), so they are taken out.
@@ -74,13 +102,38 @@ class MpiTransport final : public Transport {
   std::string remote_failure() const;
   void add_traffic(RankTraffic& t) const;
 
+  /// Speculation over ranks (ProcessGroup::share_rollbacks): `horizon` and
+  /// `board` (this rank's, outliving the transport) join the ranks' GVT
+  /// rounds and rank 0's numbering of rollbacks of every world. Before any
+  /// world runs; step()'s thread.
+  void share_rollbacks(SharedMemoryHorizon& horizon, RollbackBoard& board);
+  /// See GvtRounds::set_goal (MPI thread only).
+  void set_horizon_goal(std::int64_t step) { rounds_.set_goal(step); }
+  /// The GVT round's next move, a new GVT into the horizon; true if
+  /// anything moved (MPI thread only). `failed`: see GvtRounds::poll.
+  bool poll_horizon(bool failed);
+  /// No speculation, or no GVT round under way and the goal reached.
+  bool horizon_settled() const { return !horizon_ || rounds_.settled(); }
+  /// GVT rounds completed.
+  std::uint64_t horizon_rounds() const { return rounds_.rounds(); }
+
  private:
   struct Outgoing {
     int rank = 0;
+    int kind = kMessage;
     std::vector<std::uint8_t> bytes;
+    std::int64_t timestamp = 0;                // the step the message may change at the earliest
+    std::optional<std::int64_t> pinned;        // released once posted (invariant 4)
   };
 
-  Communicator comm_;
+  void queue(Outgoing out);
+  void arrived(int kind, int source, std::vector<std::uint8_t> bytes);
+  // Rank 0: numbers a rollback of every world and sends it to every rank.
+  void sequence(std::int64_t step, std::int64_t pinned, int origin, std::uint64_t ticket);
+
+  MPI_Comm comm_;       // the group's, for every run (see the tags above)
+  const int size_;
+  const int tag_base_;  // this run's first tag
   const int rank_;
   const std::vector<int> rank_of_world_;
   std::unique_ptr<Transport> local_;
@@ -90,6 +143,10 @@ class MpiTransport final : public Transport {
   std::string failure_;  // another rank's, first one
   std::deque<std::unique_ptr<PendingSend>> pending_;  // MPI thread only
   std::atomic<std::uint64_t> out_messages_{0}, out_bytes_{0}, in_messages_{0}, in_bytes_{0};
+  GvtRounds rounds_;                          // MPI thread only
+  SharedMemoryHorizon* horizon_ = nullptr;    // speculation only
+  RollbackBoard* board_ = nullptr;            // speculation only
+  std::mutex sequence_mutex_;                 // rank 0: one numbering, entries queued in epoch order
 };
 
 }  // namespace soda::mpi

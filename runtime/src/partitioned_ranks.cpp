@@ -5,8 +5,8 @@
 //
 // Every rank builds every TerritoryWorld (the same scene, map and options),
 // but steps only its own; the others stay at their first state and are
-// never read. Lockstep only: speculation's commit horizon and rollback
-// board are still shared memory (docs/mpi.md, "What is not done").
+// never read. With speculation the group computes the commit horizon over
+// the ranks and carries the rollback board's posts (docs/mpi.md).
 #include <algorithm>
 #include <stdexcept>
 #include <type_traits>
@@ -45,6 +45,8 @@ void each_scalar(WorldMetrics& m, F&& f) {
   f(m.merged_islands), f(m.islands_solved), f(m.merged_island_bodies), f(m.merged_island_worlds_sum);
   f(m.merged_island_worlds_max), f(m.relay_messages_sent), f(m.relay_messages_received), f(m.fragments_relayed);
   f(m.messages_sent), f(m.coloured_islands), f(m.solver_threads);
+  f(m.bets), f(m.bets_lost), f(m.rollbacks), f(m.steps_rolled_back), f(m.steps_rejoined), f(m.bodies_resolved);
+  f(m.bodies_replayed), f(m.rollback_cpu_seconds), f(m.lead_max), f(m.lead_mean), f(m.kept_states_max);
 }
 
 }  // namespace
@@ -56,10 +58,8 @@ bool PartitionedWorld::steps_world(WorldId w) const {
 void PartitionedWorld::check_group_options() const {
   const auto refuse = [](const std::string& what) {
     throw std::invalid_argument("PartitionedWorld over ranks (MPI, docs/mpi.md): " + what +
-                                " is not supported yet (lockstep runs only)");
+                                " is not supported yet");
   };
-  if (options_.anticipation > 0) refuse("speculation (anticipation > 0)");
-  if (options_.sync_test > 0) refuse("SyncTest");
   if (options_.validate) refuse("validation");
   if (options_.watchdog.response == WatchdogResponse::Heal) refuse("the watchdog's heal");
   if (options_.balance.policy != "none" || options_.balance_policy) refuse("load balancing");
@@ -68,8 +68,9 @@ void PartitionedWorld::check_group_options() const {
 
 // The scheduler's threads step this rank's worlds; the caller's thread (the
 // one that initialised MPI) moves messages between ranks meanwhile.
-void PartitionedWorld::run_on_ranks(std::int64_t /*internal_target: set on the processes*/) {
+void PartitionedWorld::run_on_ranks(std::int64_t internal_target) {
   ProcessGroup& group = *options_.group;
+  if (options_.anticipation > 0) group.set_horizon_goal(internal_target);
   Scheduler::Options o;
   // Round-robin on one thread cannot tell a deadlock from a message still
   // on its way from another rank: one pool worker instead.
@@ -89,7 +90,13 @@ void PartitionedWorld::run_on_ranks(std::int64_t /*internal_target: set on the p
                         group.report_failure("world " + std::to_string(w) + ": " + what);
                       });
   scheduler.launch();
-  group.pump([&scheduler] { return scheduler.finished(); });
+  try {
+    group.pump([&scheduler] { return scheduler.finished(); });
+  } catch (...) {
+    in_->transport->close();  // the worlds stop; the error is this rank's
+    scheduler.join();
+    throw;
+  }
   if (!group.remote_failure().empty()) in_->transport->close();
   scheduler.join();
   const std::string remote = group.remote_failure();

@@ -180,7 +180,16 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
     in.worlds.back()->set_solver_pool(in.solver_pool);
   }
   const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
-  in.horizon = std::make_unique<SharedMemoryHorizon>(k, steps_done_ * substeps_);
+  std::unique_ptr<SharedMemoryHorizon> horizon;
+  if (options_.group) {
+    std::vector<bool> local;  // over ranks: this rank's worlds (the ranks compute GVT together)
+    for (WorldId w = 0; w < k; ++w) local.push_back(steps_world(w));
+    horizon = std::make_unique<SharedMemoryHorizon>(local, steps_done_ * substeps_);
+  } else {
+    horizon = std::make_unique<SharedMemoryHorizon>(k, steps_done_ * substeps_);
+  }
+  SharedMemoryHorizon& shared_horizon = *horizon;
+  in.horizon = std::move(horizon);
   // Speculation: a world waiting for the horizon, or told to roll back
   // with every world, is woken by a message to itself.
   auto wake = [t = in.transport.get()](WorldId w) {
@@ -208,6 +217,7 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   safety.verify_replay = hooks.verify_replay;
   in.board = std::make_unique<RollbackBoard>(k, *in.horizon, wake);
   safety.board = in.board.get();
+  if (options_.group && options_.anticipation > 0) options_.group->share_rollbacks(shared_horizon, *in.board);
   if (options_.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");
   if (options_.anticipation > 0 && options_.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument(
@@ -274,38 +284,6 @@ void PartitionedWorld::step(int n) {
       restore_before(e);
     }
   }
-}
-
-// One step, then back sync_test steps (or as far as kept) and forward again:
-// the state must come out bit-identical.
-void PartitionedWorld::sync_test_step() {
-  if (sync_states_.empty()) sync_states_.push_back(snapshot());
-  run_to(steps_done_ + 1);
-  WorldSnapshot now = snapshot();
-  const WorldSnapshot& back = sync_states_.front();
-  const std::int64_t t = steps_done_;
-  restore(back);
-  run_to(t);
-  ++sync_rollbacks_;
-  const WorldSnapshot again = snapshot();
-  if (serialize(again) != serialize(now)) {
-    std::string first = "the contact state";
-    for (std::size_t i = 0; i < std::min(now.bodies.size(), again.bodies.size()); ++i) {
-      const BodyDynamicState& a = now.bodies[i].state;
-      const BodyDynamicState& b = again.bodies[i].state;
-      if (std::memcmp(a.origin, b.origin, sizeof a.origin) || std::memcmp(a.basis, b.basis, sizeof a.basis) ||
-          std::memcmp(a.linear_velocity, b.linear_velocity, sizeof a.linear_velocity) ||
-          std::memcmp(a.angular_velocity, b.angular_velocity, sizeof a.angular_velocity)) {
-        first = "body " + std::to_string(now.bodies[i].description.id);
-        break;
-      }
-    }
-    throw std::logic_error("SyncTest: step " + std::to_string(t) + " re-run from step " +
-                           std::to_string(back.steps_done) + " is not bit-identical (first difference: " + first +
-                           ")");
-  }
-  sync_states_.push_back(std::move(now));
-  while (static_cast<int>(sync_states_.size()) > options_.sync_test) sync_states_.pop_front();
 }
 
 void PartitionedWorld::run_to(std::int64_t scene_step) {

@@ -67,7 +67,10 @@ Speculation::Speculation(Context c)
       checkpoint_every_(c_.safety.keep_states ? 1 : c_.safety.checkpoint_every) {}
 
 bool Speculation::screen(Message& m) {
-  if (m.epoch > seen_epoch_) catch_up();  // a rollback of every world its sender saw first
+  if (m.epoch > seen_epoch_) {  // a rollback of every world its sender saw first
+    c_.safety.board->await(m.epoch);  // over ranks its entry may still be on its way
+    catch_up();
+  }
   if (const Control* control = std::get_if<Control>(&m.payload)) {
     // The sender's pin holds the horizon at the notice's step until this
     // world's mark covers the uses the notice voids (take_notice reports

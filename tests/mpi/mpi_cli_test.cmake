@@ -1,6 +1,7 @@
 # `mpirun -np 2 soda run ... --territories K` prints the hash of the
 # threaded 1-territory run, writes the JSON (with its per-rank traffic) from
-# rank 0 only, and refuses a bad --ranks-worlds or speculation with exit 2.
+# rank 0 only, gives it with speculation and SyncTest too, and refuses a
+# bad --ranks-worlds or --validate with exit 2.
 # Run by ctest: cmake -DSODA=... -DMPIEXEC=... -P mpi_cli_test.cmake
 set(scene --scene falling-cubes --n 120 --steps 60)
 
@@ -18,18 +19,24 @@ if(NOT rc EQUAL 0)
 endif()
 hash_of(reference "${one}")
 
+# `soda run ${scene} --territories 3 ARGN` on 2 ranks: its output, after
+# checking that it ran and printed the 1-territory hash.
+function(ranked_run out)
+  execute_process(COMMAND ${MPIEXEC} --oversubscribe -np 2 ${SODA} run ${scene} --territories 3 ${ARGN}
+                  OUTPUT_VARIABLE text ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 120)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "mpirun -np 2 soda run ${ARGN} failed (${rc}):\n${text}\n${err}")
+  endif()
+  hash_of(ranked "${text}")
+  if(NOT ranked STREQUAL reference)
+    message(FATAL_ERROR "3 territories on 2 ranks (${ARGN}): state_hash ${ranked}, one territory ${reference}")
+  endif()
+  set(${out} "${text}" PARENT_SCOPE)
+endfunction()
+
 set(json ${CMAKE_CURRENT_BINARY_DIR}/mpi_cli_run.json)
 file(REMOVE ${json})
-execute_process(COMMAND ${MPIEXEC} --oversubscribe -np 2 ${SODA} run ${scene} --territories 3 --ranks-worlds 0,1,1
-                        --json ${json}
-                OUTPUT_VARIABLE two ERROR_VARIABLE two_err RESULT_VARIABLE rc TIMEOUT 120)
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "mpirun -np 2 soda run failed (${rc}):\n${two}\n${two_err}")
-endif()
-hash_of(ranked "${two}")
-if(NOT ranked STREQUAL reference)
-  message(FATAL_ERROR "3 territories on 2 ranks: state_hash ${ranked}, one territory ${reference}")
-endif()
+ranked_run(two --ranks-worlds 0,1,1 --json ${json})
 string(REGEX MATCHALL "state_hash" printed "${two}")
 list(LENGTH printed n)
 if(NOT n EQUAL 1)
@@ -42,9 +49,12 @@ string(JSON worlds1 GET "${j}" ranks 1 worlds)
 if(NOT ranks EQUAL 2 OR NOT worlds1 EQUAL 2)
   message(FATAL_ERROR "JSON: expected 2 ranks, rank 1 with 2 worlds:\n${j}")
 endif()
-message(STATUS "one territory ${reference}; 3 territories on 2 ranks ${ranked} (JSON ${hash_json})")
+message(STATUS "one territory ${reference}; 3 territories on 2 ranks: the same (JSON ${hash_json})")
 
-foreach(bad "--ranks-worlds;0,2,1" "--ranks-worlds;0,1" "--anticipation;8" "--sync-test;1")
+# Speculation and SyncTest over ranks: the same hash.
+ranked_run(spec --anticipation 8 --eager-bets --sync-test 2)
+
+foreach(bad "--ranks-worlds;0,2,1" "--ranks-worlds;0,1" "--validate")
   execute_process(COMMAND ${MPIEXEC} --oversubscribe -np 2 ${SODA} run ${scene} --territories 3 ${bad}
                   OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 60)
   if(NOT rc EQUAL 2 OR NOT err MATCHES "soda: error: ")

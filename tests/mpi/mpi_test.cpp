@@ -29,9 +29,14 @@ struct Case {
   bool border_grid = false;
 };
 
+// Speculation's counters summed over every world (rank 0: every rank's).
+struct SpeculationSums {
+  std::uint64_t bets = 0, bets_lost = 0, rollbacks = 0;
+};
+
 // The partitioned run over the ranks; rank 0 checks its gathered hash
 // against the one-world run (also the threaded 1-territory run's hash).
-void expect_reference_hash(const Case& c, PartitionedOptions options = {}) {
+SpeculationSums expect_reference_hash(const Case& c, PartitionedOptions options = {}) {
   const Scene s = test::scene(c.scene, c.n);
   const TerritoryMap map =
       make_partition(c.partition, s, c.territories, c.border_grid ? test::border_grid() : GridOptions{});
@@ -40,12 +45,19 @@ void expect_reference_hash(const Case& c, PartitionedOptions options = {}) {
   world.step(c.steps);
   const std::uint64_t hash = world.state_hash();  // collective
   const std::size_t bodies = world.body_count();  // collective
-  if (g_group->rank() != 0) return;
+  SpeculationSums sums;
+  for (const WorldMetrics& m : world.metrics()) {  // collective
+    sums.bets += m.bets;
+    sums.bets_lost += m.bets_lost;
+    sums.rollbacks += m.rollbacks;
+  }
+  if (g_group->rank() != 0) return sums;
   EXPECT_EQ(bodies, s.bodies.size());
   const std::uint64_t reference = test::reference_hash(s, c.steps);
   EXPECT_EQ(hash, reference) << c.scene << " " << c.partition << " K=" << c.territories << " on "
                              << g_group->size() << " ranks: " << hash_hex(hash) << " vs one world "
                              << hash_hex(reference);
+  return sums;
 }
 
 PartitionedOptions threads_per_world() {
@@ -87,26 +99,90 @@ TEST(Mpi, SerialisedAndFuzzedMessagesGiveTheOneWorldHash) {
   expect_reference_hash({"cube-pile", 80, "kmeans", 4, 40}, o);
 }
 
-TEST(Mpi, SpeculationIsRefusedWithAClearError) {
-  const Scene s = test::scene("falling-cubes", 50);
-  const TerritoryMap map = make_partition("kmeans", s, 2, GridOptions{});
-  PartitionedOptions o;
-  o.anticipation = 8;
-  o.group = g_group;
-  try {
-    PartitionedWorld world(s, map, o);
-    FAIL() << "expected speculation over ranks to be refused";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("speculation"), std::string::npos) << e.what();
+// Speculation over ranks: the commit horizon computed by the ranks together
+// (Mattern's cut, mpi/src/gvt_rounds.h), notices and their pins between
+// ranks, the rollback board numbered by rank 0. Eager bets: as many bets
+// and lost bets as the scenes allow.
+PartitionedOptions speculating(int anticipation = 8) {
+  PartitionedOptions o = threads_per_world();
+  o.anticipation = anticipation;
+  o.eager_bets = true;
+  return o;
+}
+
+void add(SpeculationSums& to, const SpeculationSums& s) {
+  to.bets += s.bets;
+  to.bets_lost += s.bets_lost;
+  to.rollbacks += s.rollbacks;
+}
+
+TEST(Mpi, SpeculationGivesTheOneWorldHash) {
+  SpeculationSums sums;
+  add(sums, expect_reference_hash({"falling-cubes", 150, "kmeans", 4, 60}, speculating()));
+  add(sums, expect_reference_hash({"cube-pile", 100, "kmeans", 4, 60}, speculating()));
+  add(sums, expect_reference_hash({"seam-stack", 0, "grid:2x1x2", 4, 120, true}, speculating()));
+  add(sums, expect_reference_hash({"border-shuttle", 40, "grid:4x1x1", 4, 80}, speculating()));
+  if (g_group->rank() != 0) return;
+  EXPECT_GT(sums.bets, 0u);
+  EXPECT_GT(sums.bets_lost, 0u) << "no bet was lost: nothing rolled back across ranks";
+  EXPECT_GT(sums.rollbacks, 0u);
+}
+
+// Discard and recompute: every rollback is one of every world, posted on
+// the board over ranks (rank 0 numbers it, every rank restores).
+TEST(Mpi, RollbacksOfEveryWorldAcrossRanks) {
+  PartitionedOptions o = speculating();
+  o.rollback = PartitionedOptions::Rollback::Recompute;
+  SpeculationSums sums;
+  add(sums, expect_reference_hash({"border-shuttle", 40, "grid:4x1x1", 4, 80}, o));
+  add(sums, expect_reference_hash({"cube-pile", 100, "kmeans", 4, 60}, o));
+  if (g_group->rank() != 0) return;
+  EXPECT_GT(sums.rollbacks, 0u);
+}
+
+TEST(Mpi, SpeculationOnFewerRanksThanTerritories) {
+  PartitionedOptions pool = speculating();
+  pool.schedule = Schedule::Pool;
+  pool.threads = 2;
+  expect_reference_hash({"falling-cubes", 150, "kmeans", 6, 50}, pool);
+  PartitionedOptions one = speculating(64);
+  one.schedule = Schedule::Sequential;  // one pool worker per rank
+  one.checkpoint_every = 1;
+  expect_reference_hash({"border-shuttle", 40, "grid:5x1x1", 5, 60}, one);
+}
+
+// Random pauses in every stage, before every send and delivery, and as
+// notices are taken in: the horizon must hold while they are on the wire.
+TEST(Mpi, SpeculationFuzzedGivesTheOneWorldHash) {
+  for (std::uint64_t seed : {3u, 4u}) {
+    PartitionedOptions o = speculating(seed == 3 ? 8 : 64);
+    o.serialise = seed == 4;
+    o.checkpoint_every = seed == 3 ? 8 : 1;
+    detail::edit_testing_hooks(o).fuzz_seed = seed;
+    expect_reference_hash({"border-shuttle", 40, "grid:4x1x1", 4, 60}, o);
+    expect_reference_hash({"cube-pile", 80, "kmeans", 4, 40}, o);
   }
+}
+
+// SyncTest over ranks: every step rolled back and re-run, each rank from
+// its own worlds' kept parts, bit-identical (else it throws), ending on the
+// one-world hash; lockstep and speculating.
+TEST(Mpi, SyncTestGivesTheOneWorldHash) {
+  PartitionedOptions lockstep = threads_per_world();
+  lockstep.sync_test = 4;
+  expect_reference_hash({"falling-cubes", 150, "kmeans", 4, 30}, lockstep);
+  expect_reference_hash({"seam-stack", 0, "grid:2x1x2", 4, 30, true}, lockstep);
+  PartitionedOptions spec = speculating();
+  spec.sync_test = 3;
+  expect_reference_hash({"cube-pile", 100, "kmeans", 4, 30}, spec);
+  expect_reference_hash({"border-shuttle", 40, "grid:4x1x1", 4, 30}, spec);
 }
 
 // A world that throws on one rank stops the run on every rank, each with the
 // failing world's error; nobody hangs (ctest's timeout would say so).
-TEST(Mpi, AFailingRankStopsEveryRankWithItsError) {
+void expect_failure_stops_every_rank(PartitionedOptions o) {
   const Scene s = test::scene("cube-pile", 100);
   const TerritoryMap map = make_partition("kmeans", s, 4, GridOptions{});
-  PartitionedOptions o = threads_per_world();
   o.watchdog.response = WatchdogResponse::Stop;
   o.group = g_group;
   // A body of the world on the last rank: its rank fails, the others are told.
@@ -129,6 +205,10 @@ TEST(Mpi, AFailingRankStopsEveryRankWithItsError) {
     }
   }
 }
+
+TEST(Mpi, AFailingRankStopsEveryRankWithItsError) { expect_failure_stops_every_rank(threads_per_world()); }
+
+TEST(Mpi, AFailingRankStopsEveryRankWhileSpeculating) { expect_failure_stops_every_rank(speculating()); }
 
 }  // namespace
 }  // namespace soda

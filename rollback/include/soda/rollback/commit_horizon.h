@@ -49,6 +49,11 @@ class CommitHorizon {
   /// step below it may change any more. Any thread.
   virtual std::int64_t highest_gvt() const = 0;
   virtual void unpin(std::int64_t step) = 0;
+  /// Holds gvt() at or below `step` until unpin(step), whatever gvt() is
+  /// now: over ranks, a notice or rollback arriving from another rank
+  /// (its pin moved with it; this rank's gvt() may not yet reflect the
+  /// sender's lowered mark, which the ranks' next cut will).
+  virtual void pin(std::int64_t step) = 0;
   /// Calls the wake hook for `world` once gvt() >= `step`; false (and no
   /// call) if it already is.
   virtual bool wake_at(WorldId world, std::int64_t step) = 0;
@@ -58,10 +63,41 @@ class CommitHorizon {
 };
 
 /// One machine: the marks under one mutex (each world reports once a step).
+/// Over ranks (docs/mpi.md) it holds one rank's worlds and pins, and
+/// gvt() is also bounded by the last value the ranks computed together
+/// (set_global; Mattern's cut, mpi/src/gvt_rounds.h).
 class SharedMemoryHorizon final : public CommitHorizon {
  public:
   SharedMemoryHorizon(int worlds, std::int64_t start)
       : marks_(static_cast<std::size_t>(worlds), start), wake_(static_cast<std::size_t>(worlds), kNever) {}
+  /// One rank's share: only the worlds with `local[w]` report marks here;
+  /// gvt() is at most `start` until set_global() says otherwise.
+  SharedMemoryHorizon(const std::vector<bool>& local, std::int64_t start)
+      : SharedMemoryHorizon(static_cast<int>(local.size()), start) {
+    for (std::size_t w = 0; w < local.size(); ++w)
+      if (!local[w]) marks_[w] = kNever;
+    global_ = start;
+  }
+  /// The commit horizon the ranks computed together (any value a round
+  /// gives, lower ones too: marks may go down under a pin, as on one
+  /// machine); wakes the worlds it lets through. Any thread.
+  void set_global(std::int64_t step) {
+    std::vector<WorldId> woken;
+    {
+      std::lock_guard lock(mutex_);
+      global_ = step;
+      woken = due_locked();
+    }
+    for (WorldId w : woken) hook_(w);
+  }
+  /// This rank's part of a cut: the minimum of its worlds' marks and its
+  /// pins (not bounded by set_global's value). Any thread.
+  std::int64_t local_minimum() const {
+    std::lock_guard lock(mutex_);
+    std::int64_t low = *std::min_element(marks_.begin(), marks_.end());
+    if (!pins_.empty()) low = std::min(low, *pins_.begin());
+    return low;
+  }
   void report(WorldId world, std::int64_t step) override {
     std::vector<WorldId> woken;
     {
@@ -90,6 +126,10 @@ class SharedMemoryHorizon final : public CommitHorizon {
   std::int64_t highest_gvt() const override {
     std::lock_guard lock(mutex_);
     return std::max(highest_, gvt_locked());
+  }
+  void pin(std::int64_t step) override {
+    std::lock_guard lock(mutex_);
+    pins_.insert(step);
   }
   void unpin(std::int64_t step) override {
     std::vector<WorldId> woken;
@@ -122,7 +162,7 @@ class SharedMemoryHorizon final : public CommitHorizon {
     return out;
   }
   std::int64_t gvt_locked() const {
-    std::int64_t low = *std::min_element(marks_.begin(), marks_.end());
+    std::int64_t low = std::min(global_, *std::min_element(marks_.begin(), marks_.end()));
     if (!pins_.empty()) low = std::min(low, *pins_.begin());
     highest_ = std::max(highest_, low);
     return low;
@@ -131,6 +171,7 @@ class SharedMemoryHorizon final : public CommitHorizon {
   std::vector<std::int64_t> marks_;
   std::multiset<std::int64_t> pins_;
   mutable std::int64_t highest_ = INT64_MIN;  // highest gvt_locked() result (highest_gvt())
+  std::int64_t global_ = kNever;    // over ranks: the ranks' last GVT (set_global); one machine: no bound
   std::vector<std::int64_t> wake_;  // per world: the gvt it waits for
   std::function<void(WorldId)> hook_ = [](WorldId) {};
 };

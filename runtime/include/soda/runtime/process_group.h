@@ -22,6 +22,9 @@
 
 namespace soda {
 
+class SharedMemoryHorizon;
+class RollbackBoard;
+
 /// Traffic between this rank and the others, since the group was made.
 struct RankTraffic {
   int rank = 0;
@@ -54,6 +57,17 @@ class ProcessGroup {
   /// the group (encoded, message_codec.h). Replaces the transport of any
   /// earlier call (one PartitionedWorld per group at a time).
   virtual std::unique_ptr<Transport> make_transport(int worlds, std::unique_ptr<Transport> local) = 0;
+  /// Speculation over ranks (docs/mpi.md): the group computes the commit
+  /// horizon across ranks into `horizon` (SharedMemoryHorizon::set_global,
+  /// polled by pump()), carries the pins of rollback notices with them and
+  /// spreads `board` over the ranks (RollbackBoard::distribute). For the
+  /// PartitionedWorld of the last make_transport(); both outlive its
+  /// transport. Before any world runs.
+  virtual void share_rollbacks(SharedMemoryHorizon& horizon, RollbackBoard& board) = 0;
+  /// Speculation over ranks: the internal step the next pump() runs to;
+  /// pump() returns only once the ranks' horizon has reached it (every
+  /// rank stops computing it after the same round).
+  virtual void set_horizon_goal(std::int64_t step) = 0;
   /// Moves messages between this rank and the others, on the calling
   /// thread, while this rank's worlds run on threads of their own; returns
   /// once `done()` is true (this rank's worlds have finished) and every
