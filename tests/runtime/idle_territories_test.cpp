@@ -29,7 +29,8 @@ struct Case {
 };
 
 // idle-territories with one more cube thrown from region 0 towards region
-// 1 (23.5 m wide regions, region 1's sleepers at x in [-61.75, -55.75]):
+// 1 (20.6 m wide regions, region 0's pile at x in [-73.9, -70.3], region
+// 1's sleepers at x in [-53, -50], rows along z 1.5 m apart from -5.25):
 // world 1 idles until the cube's halo reaches it (its ghosts wake it), the
 // cube lands on its sleepers and wakes them.
 constexpr int kPerRegion = 24;
@@ -38,7 +39,7 @@ Scene thrown_into_sleepers() {
   Body cube = s.bodies.back();
   cube.id = 8 * kPerRegion + 1;
   cube.asleep = false;
-  cube.position = Vec3(-74.0, 2.0, 0.0);
+  cube.position = Vec3(-67.2, 2.0, 0.75);
   cube.linear_velocity = Vec3(17.0, 4.0, 0.0);
   s.bodies.push_back(cube);
   return s;
