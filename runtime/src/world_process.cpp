@@ -369,6 +369,7 @@ bool PartitionedWorld::Process::may_start() {
 void PartitionedWorld::Process::end_step() {
   const TerritoryCounters& c = s_.world->counters();
   sums_.border_bodies += c.border_bodies;
+  sums_.halos_culled += c.halos_culled;
   sums_.ghosts_sent += c.ghosts_sent;
   sums_.ghosts_received += c.ghosts_received;
   sums_.manifolds_attached += c.manifolds_attached;
