@@ -6,8 +6,9 @@
 // the stage left, so the stages' CPU times sum to the world's CPU time by
 // construction. A scope nested in one of the same stage changes nothing and
 // reads no clock (a thread CPU clock read is a system call: an idle step's
-// cost is mostly these and the messages' wake-ups, docs/skip.md). Not thread-safe: used by the thread running the world, one
-// at a time; published() is a copy taken at a step's end for other threads.
+// cost is mostly these and the messages' wake-ups, docs/skip.md). Not
+// thread-safe: used by the thread running the world, one at a time;
+// published() is a copy taken at a step's end for other threads.
 #pragma once
 
 #include <cstdint>

@@ -225,8 +225,8 @@ void TerritoryWorld::predict() {
     const Vec3 lo = to_vec3(e.halo_min), hi = to_vec3(e.halo_max);
     // Border culling: still inside the block of owned cells it was found in
     // (false for a NaN or infinite halo, which the lookup below reports).
-    if (cull && lo.x() >= e.safe_lo.x() && lo.y() >= e.safe_lo.y() && lo.z() >= e.safe_lo.z() && hi.x() <= e.safe_hi.x() &&
-        hi.y() <= e.safe_hi.y() && hi.z() <= e.safe_hi.z()) {
+    if (cull && lo.x() >= e.safe_lo.x() && lo.y() >= e.safe_lo.y() && lo.z() >= e.safe_lo.z() &&
+        hi.x() <= e.safe_hi.x() && hi.y() <= e.safe_hi.y() && hi.z() <= e.safe_hi.z()) {
       e.halo_owned_step = steps_done_;  // for migrate
       ++counters_.halos_culled;
       continue;
