@@ -249,6 +249,7 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
                         {"border_bodies", m.border_bodies},
                         {"ghosts_sent", m.ghosts_sent},
                         {"ghosts_received", m.ghosts_received},
+                        {"halos_culled", m.halos_culled},
                         {"manifolds_attached", m.manifolds_attached},
                         {"manifolds_seeded", m.manifolds_seeded},
                         {"manifolds_returned", m.manifolds_returned},

@@ -14,7 +14,7 @@ class PartitionedWorld::Internals::ProcessTask final : public WorldTask {
     const Process::Advance a = process_.advance();
     return Advance{a.progressed, a.done};
   }
-  void deliver(Message message) override { process_.deliver(std::move(message)); }
+  void deliver(Message message) override { process_.hold(std::move(message)); }
   bool waiting_for_room() const override { return process_.waiting_for_room(); }
   void publish_blocking() override { process_.publish_blocking(); }
   std::int64_t steps_done() const override { return process_.steps_done(); }

@@ -66,6 +66,7 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.messages_sent += m.messages_sent;
   add_traffic(t.traffic, m.traffic);
   t.idle_steps += m.idle_steps;
+  t.halos_culled += m.halos_culled;
   t.bets += m.bets;
   t.bets_lost += m.bets_lost;
   t.rollbacks += m.rollbacks;

@@ -61,7 +61,8 @@ class WorldTask {
   virtual ~WorldTask() = default;
   /// Runs as far as the messages at hand allow; never blocks.
   virtual Advance advance() = 0;
-  /// A message taken from the world's mailbox by the scheduler.
+  /// A message taken from the world's mailbox by the scheduler; the world
+  /// may keep it for its next advance(), which the scheduler then calls.
   virtual void deliver(Message message) = 0;
   /// Gated: the world stopped because its transform buffer is full.
   virtual bool waiting_for_room() const = 0;

@@ -32,6 +32,11 @@ const char* stage_name(Stage stage) {
 }
 
 StageClock::Scope::Scope(StageClock& clock, Stage stage) : clock_(clock), previous_(clock.current_) {
+  if (clock.depth_ > 0 && stage == clock.current_) {
+    same_ = true;
+    ++clock.depth_;
+    return;
+  }
   const std::int64_t now = thread_cpu_ns();
   if (clock.depth_++ == 0) {
     if (clock.thread_first_ns_ < 0) {
@@ -50,7 +55,7 @@ StageClock::Scope::Scope(StageClock& clock, Stage stage) : clock_(clock), previo
 }
 
 StageClock::Scope::~Scope() {
-  clock_.close_interval(thread_cpu_ns());
+  if (!same_) clock_.close_interval(thread_cpu_ns());
   clock_.current_ = previous_;
   --clock_.depth_;
 }

@@ -4,8 +4,11 @@
 // merged island's solve inside the merge, a restore inside a receive). Each
 // stage change reads the thread's CPU clock once and gives the interval to
 // the stage left, so the stages' CPU times sum to the world's CPU time by
-// construction. Not thread-safe: used by the thread running the world, one
-// at a time; published() is a copy taken at a step's end for other threads.
+// construction. A scope nested in one of the same stage changes nothing and
+// reads no clock (a thread CPU clock read is a system call: an idle step's
+// cost is mostly these and the messages' wake-ups, docs/skip.md). Not
+// thread-safe: used by the thread running the world, one at a time;
+// published() is a copy taken at a step's end for other threads.
 #pragma once
 
 #include <cstdint>
@@ -39,6 +42,7 @@ class StageClock {
    private:
     StageClock& clock_;
     Stage previous_;
+    bool same_ = false;  // nested in a scope of the same stage: no clock read (its interval goes on)
   };
 
   /// Wall time waited for what `stage` needs.

@@ -91,8 +91,12 @@ class PartitionedWorld::Process {
   /// Takes every queued message, then runs stages until a message is missing
   /// or the target is reached. Never blocks.
   Advance advance();
-  /// A message received by a blocking receive.
+  /// A message received by a blocking receive, delivered now.
   void deliver(Message message);
+  /// The same, delivered by the next advance() before the messages it takes
+  /// (in this order): inside its receive stage, so no clock is read for it
+  /// alone (stage_clock.h; an idle step's cost, docs/skip.md).
+  void hold(Message message) { held_.push_back(std::move(message)); }
   /// What the world waits for, for deadlock reports.
   std::string waiting_for() const;
 
@@ -177,6 +181,7 @@ class PartitionedWorld::Process {
   // Metrics.
   WorldMetrics sums_;
   StageClock clock_;                       // per-stage costs; its published() totals are the metrics
+  std::vector<Message> held_;              // hold(): for the next advance()
   std::int64_t step_start_cpu_ns_ = 0;     // clock_ total at the last step's end
   std::int64_t entry_cpu_mark_ns_ = 0;     // clock_ total when the last entry was made (busy_seconds)
   std::int64_t step_start_rollback_ns_ = 0;  // ... its rollback stage's

@@ -1,7 +1,6 @@
 // idle-territories (#18): eight regions along x, cut grid:8x1x1 into eight
 // territories; activity in the first only (docs/scenes.md, `soda bench
 // idle-territories`, docs/skip.md "Idle territories").
-#include <algorithm>
 #include <cmath>
 
 #include "generators.h"
@@ -34,9 +33,17 @@ Scene make_idle_territories(const SceneParams& params) {
   scene.seed = params.seed;
   SceneRandom rng(params.seed);
   const int n = params.n > 0 ? params.n : kDefaultPerRegion;
-  const int side = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
   const int columns = static_cast<int>(std::ceil(std::sqrt(n / static_cast<double>(kActiveLayers))));
-  const double width = std::max(side * kSleeperSpacing, columns * kActiveSpacing) + kRegionGap;
+  // Every region spans along x what the active columns span (sleepers in
+  // rows along z): eight regions of one x-extent, so that grid:8x1x1's equal
+  // slabs of the bodies' box fall in the gaps. (Sleepers in a square wider
+  // than the pile made the box's slabs narrower than the regions' pitch:
+  // the borders 0|1 and 1|2 then cut through regions 1 and 2's sleepers,
+  // ghosted every step, and worlds 1 and 2 never idled.)
+  const double extent = (columns - 1) * kActiveSpacing;
+  const int sleeper_columns = static_cast<int>(std::floor(extent / kSleeperSpacing)) + 1;
+  const int sleeper_rows = (n + sleeper_columns - 1) / sleeper_columns;
+  const double width = extent + 1.0 + kRegionGap;
   const double first_centre = -0.5 * width * (kRegions - 1);
   scene.bodies.push_back(flat_ground(0.5 * width * kRegions + kGroundMargin, 0.5));
   scene.bodies.reserve(static_cast<std::size_t>(kRegions * n + 1));
@@ -51,12 +58,13 @@ Scene make_idle_territories(const SceneParams& params) {
                      iz * kActiveSpacing - active_offset);
         scene.bodies.push_back(dynamic_box(id++, Vec3::Constant(0.5), 1.0, p, rng.rotation()));
       }
-  // Regions 1..7: n sleepers each (Body::asleep), in a square.
-  const double sleeper_offset = 0.5 * kSleeperSpacing * (side - 1);
+  // Regions 1..7: n sleepers each (Body::asleep), rows along z.
+  const double sleeper_x_offset = 0.5 * kSleeperSpacing * (sleeper_columns - 1);
+  const double sleeper_z_offset = 0.5 * kSleeperSpacing * (sleeper_rows - 1);
   for (int r = 1; r < kRegions; ++r)
     for (int i = 0; i < n; ++i) {
-      const Vec3 p(first_centre + r * width + (i / side) * kSleeperSpacing - sleeper_offset, 0.5,
-                   (i % side) * kSleeperSpacing - sleeper_offset);
+      const Vec3 p(first_centre + r * width + (i % sleeper_columns) * kSleeperSpacing - sleeper_x_offset, 0.5,
+                   (i / sleeper_columns) * kSleeperSpacing - sleeper_z_offset);
       Body b = dynamic_box(id++, Vec3::Constant(0.5), 1.0, p);
       b.asleep = true;
       scene.bodies.push_back(b);

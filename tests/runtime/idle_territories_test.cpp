@@ -7,9 +7,12 @@
 // the skip happened (idle steps counted), so the comparisons are not
 // vacuous. Small scenes (a few hundred bodies, 120 steps).
 #include <cstdio>
+#include <tuple>
+#include <vector>
 
 #include "runtime/partitioned_test_util.h"
 #include "soda/runtime/run.h"
+#include "soda/worlds/territory_world.h"
 
 namespace soda {
 namespace {
@@ -22,6 +25,20 @@ std::uint64_t idle_steps(const RunResult& r) {
   return n;
 }
 
+std::uint64_t halos_culled(const RunResult& r) {
+  std::uint64_t n = 0;
+  for (const WorldMetrics& m : r.world_metrics) n += m.halos_culled;
+  return n;
+}
+
+// Border culling off while in scope (it is on by default).
+struct NoBorderCulling {
+  NoBorderCulling() { set_border_culling(false); }
+  ~NoBorderCulling() { set_border_culling(true); }
+  NoBorderCulling(const NoBorderCulling&) = delete;
+  NoBorderCulling& operator=(const NoBorderCulling&) = delete;
+};
+
 struct Case {
   const char* name;
   int anticipation;
@@ -29,7 +46,8 @@ struct Case {
 };
 
 // idle-territories with one more cube thrown from region 0 towards region
-// 1 (23.5 m wide regions, region 1's sleepers at x in [-61.75, -55.75]):
+// 1 (20.6 m wide regions, region 0's pile at x in [-73.9, -70.3], region
+// 1's sleepers at x in [-53, -50], rows along z 1.5 m apart from -5.25):
 // world 1 idles until the cube's halo reaches it (its ghosts wake it), the
 // cube lands on its sleepers and wakes them.
 constexpr int kPerRegion = 24;
@@ -38,7 +56,7 @@ Scene thrown_into_sleepers() {
   Body cube = s.bodies.back();
   cube.id = 8 * kPerRegion + 1;
   cube.asleep = false;
-  cube.position = Vec3(-74.0, 2.0, 0.0);
+  cube.position = Vec3(-67.2, 2.0, 0.75);
   cube.linear_velocity = Vec3(17.0, 4.0, 0.0);
   s.bodies.push_back(cube);
   return s;
@@ -127,6 +145,41 @@ TEST_P(IdleTerritories, AnInputWakesAnIdleTerritory) {
   EXPECT_EQ(hash_hex(r_off.state_hash), hash_hex(reference.state_hash));
   EXPECT_GT(r_on.world_metrics.at(7).idle_steps, 0u);
   EXPECT_LT(r_on.world_metrics.at(7).idle_steps, static_cast<std::uint64_t>(kSteps)) << "world 7 was never woken";
+}
+
+// Border culling (docs/skip.md): the cube thrown from region 0 crosses the
+// border 0|1 (it leaves its block of owned cells, is looked up, ghosted and
+// migrates), and falling-cubes 150 cut 2x1x2 (not under SyncTest) has bodies
+// crossing borders and piling on them. Same hash with culling on and off, and as one territory;
+// culling happened (and not when off), so the comparison is not vacuous.
+TEST_P(IdleTerritories, BorderCullingSameHashOnOffAndAsOne) {
+  const Case c = GetParam();
+  std::vector<std::tuple<Scene, int, const char*>> cases{{thrown_into_sleepers(), 8, "grid:8x1x1"}};
+  // SyncTest restores every world at every step: falling-cubes there would
+  // take seconds; the thrown cube covers it (culled, looked up, ghosted).
+  if (c.sync_test == 0) cases.emplace_back(test::scene("falling-cubes", 150), 4, "grid:2x1x2");
+  for (const auto& [s, territories, partition] : cases) {
+    RunConfig one;
+    one.steps = kSteps;
+    one.progress_seconds = 0;
+    const RunResult reference = run_scene(s, one);
+    const RunResult on = run_scene(s, config(territories, partition, c, true));
+    RunResult off;
+    {
+      NoBorderCulling no;
+      off = run_scene(s, config(territories, partition, c, true));
+    }
+    EXPECT_EQ(hash_hex(on.state_hash), hash_hex(reference.state_hash)) << s.name;
+    EXPECT_EQ(hash_hex(off.state_hash), hash_hex(reference.state_hash)) << s.name;
+    EXPECT_GT(halos_culled(on), 0u) << s.name;
+    EXPECT_EQ(halos_culled(off), 0u) << s.name;
+    std::uint64_t ghosts = 0, migrations = 0;
+    for (const WorldMetrics& m : on.world_metrics) ghosts += m.ghosts_sent, migrations += m.migrations_out;
+    EXPECT_GT(ghosts, 0u) << s.name << ": no border traffic";
+    std::printf("[ %s ] %s: %s, %llu halos culled, %llu ghosts, %llu migrations\n", c.name, s.name.c_str(),
+                hash_hex(on.state_hash).c_str(), static_cast<unsigned long long>(halos_culled(on)),
+                static_cast<unsigned long long>(ghosts), static_cast<unsigned long long>(migrations));
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Runtime, IdleTerritories,

@@ -10,6 +10,7 @@
 #include "soda/worlds/bullet_allocator.h"
 #include "soda/worlds/bullet_bodies.h"
 #include "island_solver_settings.h"
+#include "safe_box.h"
 #include "territory_world_parts.h"
 
 namespace soda {
@@ -209,6 +210,7 @@ void TerritoryWorld::predict() {
   const UniformGrid& grid = map_.grid();
   const CellBox& box = map_.box();
   const std::span<const WorldId> owners = map_.owners();
+  const bool cull = border_culling();
   for (Entry* ep : owned_) {
     Entry& e = *ep;
     ++counters_.owned_bodies;
@@ -221,6 +223,14 @@ void TerritoryWorld::predict() {
     bullet_aabb(rb, e.halo_min, e.halo_max);
     e.sent_to.clear();
     const Vec3 lo = to_vec3(e.halo_min), hi = to_vec3(e.halo_max);
+    // Border culling: still inside the block of owned cells it was found in
+    // (false for a NaN or infinite halo, which the lookup below reports).
+    if (cull && lo.x() >= e.safe_lo.x() && lo.y() >= e.safe_lo.y() && lo.z() >= e.safe_lo.z() &&
+        hi.x() <= e.safe_hi.x() && hi.y() <= e.safe_hi.y() && hi.z() <= e.safe_hi.z()) {
+      e.halo_owned_step = steps_done_;  // for migrate
+      ++counters_.halos_culled;
+      continue;
+    }
     CellBox cells;
     try {
       cells = grid.cells_overlapping(lo, hi);  // checks the halo is finite: no second check here
@@ -236,6 +246,7 @@ void TerritoryWorld::predict() {
     if (cells.hi.x - cells.lo.x <= 2 && cells.hi.y - cells.lo.y <= 2 && cells.hi.z - cells.lo.z <= 2 &&
         interior_bit(interior_, box, mid)) {
       e.halo_owned_step = steps_done_;  // for migrate
+      set_safe_box(e, grid, mid);
       continue;
     }
     // Owners read straight from the map's array when the cells are in its box.

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -33,6 +34,12 @@ struct TerritoryWorld::Entry {
   std::int64_t seed_step = -1;     // step at which seeds_ held a pair with this body
   btVector3 halo_min, halo_max;    // owned: the halo computed by predict
   std::int64_t halo_owned_step = -1;  // owned: step at which predict found every cell of the halo owned here
+  // Owned: border culling (docs/skip.md). A box in metres, the 27 cells
+  // around an interior cell shrunk by a rounding guard, that the halo lay in
+  // when predict last looked its cells up: a halo still inside it has every
+  // cell owned here, so it is not looked up again. Empty until then.
+  Vec3 safe_lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 safe_hi = Vec3::Constant(-std::numeric_limits<double>::infinity());
   bool clean = false;              // owned, in a replayed step: state and contacts at its start as the old run's
 
   BodyId id() const { return description.id; }

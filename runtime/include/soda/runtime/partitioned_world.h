@@ -223,6 +223,7 @@ struct WorldMetrics {
   std::size_t neighbours = 0;
   // Sums over steps (counters of TerritoryWorld and of the merge):
   std::uint64_t border_bodies = 0;
+  std::uint64_t halos_culled = 0;            // owned bodies' halos not looked up (border culling, docs/skip.md)
   std::uint64_t ghosts_sent = 0;
   std::uint64_t ghosts_received = 0;
   std::uint64_t manifolds_attached = 0;

@@ -76,6 +76,7 @@ struct TerritoryCounters {
   std::size_t owned_bodies = 0;
   std::size_t ghosts = 0;                 // ghosts present after apply_ghosts
   std::size_t border_bodies = 0;          // owned bodies sent as ghosts
+  std::size_t halos_culled = 0;           // owned bodies whose halo's cells were not looked up (border culling)
   std::size_t ghosts_sent = 0;            // ghost records, summed over neighbours
   std::size_t ghosts_received = 0;
   std::size_t manifolds_attached = 0;     // kept manifolds sent with ghosts
@@ -122,6 +123,14 @@ struct StepReplay {
   /// result is not `after`'s bit for bit (a check for tests).
   bool verify = false;
 };
+
+/// Border culling (docs/skip.md): predict() looks up the cells of an owned
+/// body's halo only when the halo leaves the block of 27 owned cells it was
+/// last found in. On by default; results are the same either way (tests
+/// compare). Process-wide, for tests and benches: set it while no territory
+/// world steps (a relaxed atomic read once per predict()).
+void set_border_culling(bool on);
+bool border_culling();
 
 class TerritoryWorld {
  public:
