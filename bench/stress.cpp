@@ -518,6 +518,25 @@ StressResult stress_from_json(const nlohmann::json& j) {
   return r;
 }
 
+StressTally stress_tally(const std::vector<StressResult>& results) {
+  StressTally t;
+  for (const StressResult& r : results) {
+    const bool stock = r.c.world == WorldKind::Stock;
+    int& count = r.status == "pass" ? (stock ? t.stock_pass : t.pass)
+                 : r.status == "FAIL" ? (stock ? t.stock_fail : t.fail)
+                                      : (stock ? t.stock_other : t.other);
+    ++count;
+  }
+  return t;
+}
+
+std::string stress_tally_text(const StressTally& t) {
+  return "SODA: " + std::to_string(t.pass) + " pass, " + std::to_string(t.fail) + " FAIL, " +
+         std::to_string(t.other) + " other; stock Bullet (comparison rows, not SODA cases): " +
+         std::to_string(t.stock_pass) + " pass, " + std::to_string(t.stock_fail) + " FAIL, " +
+         std::to_string(t.stock_other) + " other";
+}
+
 std::string stress_markdown(const std::vector<StressResult>& results) {
   auto cell = [](const std::string& text) {  // a '|' would end the table cell
     std::string out;
@@ -528,11 +547,14 @@ std::string stress_markdown(const std::vector<StressResult>& results) {
     return out;
   };
   std::ostringstream s;
+  s << stress_tally_text(stress_tally(results)) << ". Rows in the `stock` world are stock Bullet's verdicts, "
+    << "shown for comparison.\n\n";
   s << "| case | world | precision | dt x iterations | steps | result | measured | wall s |\n"
     << "|---|---|---|---|---|---|---|---|\n";
   for (const StressResult& r : results) {
     std::string world = world_kind_name(r.c.world);
     if (r.c.ccd) world += " + CCD";
+    if (r.c.world == WorldKind::Stock) world += " (comparison)";
     const std::string dt = r.c.dt > 0 ? "1/" + fmt("%.0f", 1.0 / r.c.dt) : "?";
     s << "| " << r.c.name << " | " << world << " | " << r.precision << " | " << dt << " x " << r.c.iterations
       << " | " << r.steps_run << " | "

@@ -125,22 +125,19 @@ int run_stress(StressOptions& o) {
   });
   std::string csv = stress_csv_header() + "\n";
   nlohmann::json j = nlohmann::json::array();
-  int pass = 0, fail = 0, other_status = 0;
   for (const StressResult& r : results) {
     csv += stress_csv_row(r) + "\n";
     j.push_back(stress_json(r));
     std::printf("%-6s %-26s %-9s %-6s %s\n", r.status.c_str(), r.c.name.c_str(),
                 (std::string(world_kind_name(r.c.world)) + (r.c.ccd ? "+ccd" : "")).c_str(), r.precision.c_str(),
                 r.measured.c_str());
-    if (r.status == "pass") ++pass;
-    else if (r.status == "FAIL") ++fail;
-    else ++other_status;
   }
   if (!o.csv.empty()) write_text(o.csv, csv);
   if (!o.markdown.empty()) write_text(o.markdown, stress_markdown(results));
   if (!o.json.empty()) write_text(o.json, j.dump(2) + "\n");
-  std::printf("%d pass, %d FAIL, %d other (failures are findings: docs/stress.md)\n", pass, fail, other_status);
-  return other_status == 0 ? 0 : 1;
+  const StressTally tally = stress_tally(results);
+  std::printf("%s (failures are findings: docs/stress.md)\n", stress_tally_text(tally).c_str());
+  return tally.other + tally.stock_other == 0 ? 0 : 1;
 }
 
 }  // namespace

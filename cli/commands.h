@@ -43,6 +43,10 @@ Command add_sleepers_command(CLI::App& bench);
 /// `soda bench idle-territories` (cmd_idle.cpp).
 Command add_idle_command(CLI::App& bench);
 
+/// `soda bench defaults`: the solver defaults against the settings before
+/// #17, interleaved (cmd_defaults.cpp; docs/stress.md).
+Command add_defaults_command(CLI::App& bench);
+
 /// `stress`: the numerical-stability suite. cmd_stress.cpp; docs/stress.md.
 Command add_stress_command(CLI::App& app);
 

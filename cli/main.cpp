@@ -59,6 +59,7 @@ struct Options {
   soda::RunConfig config;
   std::string world = "canonical";
   std::string watchdog = "stop";
+  std::string solver_defaults = "soda";
   std::string rollback = "propagate";
   std::string json_path;
   std::string inputs_path;  // run: an input file to replay (docs/inputs.md)
@@ -114,6 +115,10 @@ void add_run_options(CLI::App& cmd, Options& o) {
       ->capture_default_str();
   cmd.add_option("--heal-substeps", o.config.watchdog.heal_substeps,
                  "--watchdog heal: substeps of a re-simulated step")
+      ->capture_default_str();
+  cmd.add_option("--solver-defaults", o.solver_defaults,
+                 "soda (the defaults) | bullet (the solver settings before #17, one canonical world only: to "
+                 "measure what the defaults cost); docs/stress.md")
       ->capture_default_str();
   cmd.add_flag("--no-parking{false}", o.config.parking,
                "One territory: keep sleeping islands inside Bullet's world instead of parking them outside it "
@@ -180,6 +185,9 @@ soda::Scene resolve_scene(Options& o) {
   else if (o.world == "stock") o.config.world = soda::WorldKind::Stock;
   else throw std::invalid_argument("--world must be 'canonical' or 'stock', got '" + o.world + "'");
   o.config.watchdog.response = soda::parse_watchdog_response(o.watchdog);
+  if (o.solver_defaults == "soda") o.config.solver_defaults = soda::SolverDefaults::Soda;
+  else if (o.solver_defaults == "bullet") o.config.solver_defaults = soda::SolverDefaults::Bullet;
+  else throw std::invalid_argument("--solver-defaults must be 'soda' or 'bullet', got '" + o.solver_defaults + "'");
   o.config.rollback = o.rollback == "recompute" ? soda::PartitionedOptions::Rollback::Recompute
                                                 : soda::PartitionedOptions::Rollback::Propagate;
   if (o.config.watchdog.heal_substeps < 1) throw std::invalid_argument("--heal-substeps must be >= 1");
@@ -461,6 +469,7 @@ int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
   more.push_back(soda::cli::add_speculation_command(*bench));
   more.push_back(soda::cli::add_sleepers_command(*bench));
   more.push_back(soda::cli::add_idle_command(*bench));
+  more.push_back(soda::cli::add_defaults_command(*bench));
   more.push_back(soda::cli::add_stress_command(app));
   more.push_back(soda::cli::add_lb_command(app));
   more.push_back(soda::cli::add_replay_info_command(app));

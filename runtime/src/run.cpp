@@ -100,6 +100,7 @@ RunResult build_run_destroy(const Scene& scene, const RunConfig& config, const S
   auto world = std::make_unique<W>(std::forward<Args>(args)...);
   if constexpr (std::is_same_v<W, CanonicalWorld>) {
     if (config.solver_threads > 1) world->set_solver_pool(std::make_shared<SolverPool>(config.solver_threads));
+    world->set_solver_defaults(config.solver_defaults);
   }
   const Stamp built;
   std::size_t bodies0 = 0, pairs0 = 0;
@@ -367,6 +368,11 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
     throw std::invalid_argument("--anticipation > 0 cannot be combined with --watchdog heal (speculation is not "
                                 "supported with self-heal): use --watchdog stop or off, or --anticipation 0");
   make_balance_policy(config.balance);  // BalanceError (std::invalid_argument) for bad options
+  if (config.solver_defaults != SolverDefaults::Soda &&
+      (config.world != WorldKind::Canonical || config.territories > 1 || config.sync_test > 0 || config.inputs ||
+       config.watchdog.response == WatchdogResponse::Heal || !config.record_path.empty() || config.group))
+    throw std::invalid_argument("--solver-defaults bullet runs one canonical world only (not with --world stock, "
+                                "--territories > 1, --sync-test, --watchdog heal, inputs, --record or ranks)");
   const SleepingSwitch sleeping(config.sleeping);
   const Stamp start;
   check_run_memory(scene, config);

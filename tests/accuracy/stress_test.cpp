@@ -26,6 +26,26 @@ TEST(Stress, SuiteListsEveryDocumentedCase) {
     if (c.name == "long-run") { EXPECT_EQ(c.steps, 100000); }
 }
 
+TEST(Stress, StockBulletRowsAreCountedApartFromSodas) {
+  std::vector<StressResult> rows;
+  for (const StressCase& c : stress_suite(true))
+    if (c.name == "tower-10" || c.name == "dense-pile-200" || c.name == "bullet-50-stock" ||
+        c.name == "bullet-50-stock-ccd") {
+      StressResult r;
+      r.c = c;
+      r.status = c.name == "tower-10" || c.name == "bullet-50-stock-ccd" ? "pass" : "FAIL";
+      rows.push_back(r);
+    }
+  ASSERT_EQ(rows.size(), 4u);
+  const StressTally t = stress_tally(rows);
+  EXPECT_EQ(t.pass, 1);
+  EXPECT_EQ(t.fail, 1);
+  EXPECT_EQ(t.stock_pass, 1);
+  EXPECT_EQ(t.stock_fail, 1);
+  EXPECT_EQ(t.other + t.stock_other, 0);
+  EXPECT_NE(stress_markdown(rows).find("stock (comparison)"), std::string::npos);
+}
+
 TEST(Stress, QuickCasesGiveAVerdict) {
   for (const StressCase& c : stress_suite(true)) {
     if (c.group == "long-run" || c.group == "dense-pile") continue;  // the slowest; covered by `soda stress`

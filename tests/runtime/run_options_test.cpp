@@ -1,14 +1,18 @@
 // run_scene's options that must not change results or must change exactly
 // one thing: --shuffle-seed with several territories (every world inserts
 // its bodies in a shuffled order; the state hash stays the one-territory
-// hash) and sleeping off (no body ever sleeps, in any world kind).
+// hash), sleeping off (no body ever sleeps, in any world kind) and
+// --solver-defaults bullet (the settings before #17: no speculative
+// contacts, Bullet's friction; one canonical world only).
 #include <cstdio>
 #include <set>
 
+#include <btBulletDynamicsCommon.h>
 #include <gtest/gtest.h>
 
 #include "soda/runtime/run.h"
 #include "soda/scene/registry.h"
+#include "soda/worlds/canonical_world.h"
 
 namespace soda {
 namespace {
@@ -86,6 +90,65 @@ TEST(RunOptions, SleepingOffKeepsEveryBodyAwake) {
   EXPECT_NE(canonical_off.state_hash, canonical_on.state_hash);
   // The switch is restored after the run.
   EXPECT_EQ(run(s, WorldKind::Canonical, 1, 0, true, steps).state_hash, canonical_on.state_hash);
+}
+
+TEST(RunOptions, BulletSolverDefaultsAreTheSettingsBeforeIssue17) {
+  // bullet-vs-wall at 200 m/s: stopped by the speculative contacts of the
+  // defaults, through the wall without them (as before #17).
+  const Scene wall = make_scene("bullet-vs-wall", {200, 1});
+  for (SolverDefaults d : {SolverDefaults::Soda, SolverDefaults::Bullet}) {
+    CanonicalWorld w(wall);
+    w.set_solver_defaults(d);
+    std::size_t speculative = 0;
+    for (int t = 0; t < 30; ++t) {
+      w.step();
+      speculative += w.last_step_stats().speculative_contacts;
+    }
+    double x = 0;
+    for (const BodyState& b : w.body_states())
+      if (b.id == 2) x = double(b.origin[0]);
+    if (d == SolverDefaults::Soda) {
+      EXPECT_GT(speculative, 0u);
+      EXPECT_LT(x, 0.0);
+    } else {
+      EXPECT_EQ(speculative, 0u);
+      EXPECT_GT(x, 1.0);
+    }
+  }
+  // resting-stack, 600 steps: Bullet's defaults give the hash published before
+  // #17 (docs/accuracy.md at dc41345^: 8f40f0f4c987c852 float, c7a11d925915b95f
+  // double); Soda set explicitly gives the default run's.
+  const Scene stack = make_scene("resting-stack", {});
+  auto hash_of = [&](const SolverDefaults* d) {
+    CanonicalWorld w(stack);
+    if (d) w.set_solver_defaults(*d);
+    for (int t = 0; t < 600; ++t) w.step();
+    return w.state_hash();
+  };
+  const SolverDefaults soda = SolverDefaults::Soda, bullet = SolverDefaults::Bullet;
+  EXPECT_EQ(hash_of(&soda), hash_of(nullptr));
+  const std::uint64_t before_17 = sizeof(btScalar) == sizeof(float) ? 0x8f40f0f4c987c852ull : 0xc7a11d925915b95full;
+  EXPECT_EQ(hash_of(&bullet), before_17);
+  EXPECT_NE(hash_of(nullptr), before_17);
+}
+
+TEST(RunOptions, BulletSolverDefaultsRunOneCanonicalWorldOnly) {
+  const Scene s = make_scene("falling-cubes", {50, 1});
+  RunConfig c;
+  c.steps = 5;
+  c.progress_seconds = 0;
+  c.solver_defaults = SolverDefaults::Bullet;
+  EXPECT_NO_THROW(run_scene(s, c));
+  RunConfig k2 = c;
+  k2.territories = 2;
+  k2.threads = 1;
+  EXPECT_THROW(run_scene(s, k2), std::invalid_argument);
+  RunConfig stock = c;
+  stock.world = WorldKind::Stock;
+  EXPECT_THROW(run_scene(s, stock), std::invalid_argument);
+  RunConfig sync = c;
+  sync.sync_test = 2;
+  EXPECT_THROW(run_scene(s, sync), std::invalid_argument);
 }
 
 }  // namespace

@@ -154,6 +154,10 @@ void CanonicalDynamicsWorld::performDiscreteCollisionDetection() {
   // Each pair's point is a function of its two bodies alone: the pairs' order
   // does not matter.
   speculative_.clear();
+  if (bullet_defaults_) {
+    stats_.speculative_contacts = 0;
+    return;
+  }
   btBroadphasePairArray& pairs = broadphase_->getOverlappingPairCache()->getOverlappingPairArray();
   btManifoldArray manifolds;
   for (int i = 0; i < pairs.size(); ++i) {
@@ -297,8 +301,9 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
     stats_.solved_manifolds += static_cast<std::size_t>(manifold_count);
     btPersistentManifold** manifolds = manifold_count ? &manifold_ptrs_[m_begin] : nullptr;
     solver->solveGroup(&island_bodies_[body_begin], body_count, manifolds, manifold_count, nullptr, 0,
-                       island_solver_info(solver_info, island_info_, &island_bodies_[body_begin], body_count,
-                                          manifolds, manifold_count),
+                       bullet_defaults_ ? solver_info
+                                        : island_solver_info(solver_info, island_info_, &island_bodies_[body_begin],
+                                                             body_count, manifolds, manifold_count),
                        getDebugDrawer(), dispatcher);
   }
   stats_.lone_bodies = lone_bodies_.size();

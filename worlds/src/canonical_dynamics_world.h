@@ -72,6 +72,10 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
 
   const StepStats& stats() const { return stats_; }
 
+  /// SolverDefaults::Bullet (canonical_world.h): no speculative contacts,
+  /// every island solved with the world's solver info as it is.
+  void set_bullet_defaults(bool on) { bullet_defaults_ = on; }
+
   // --- for Parking (parking.h) ------------------------------------------
   /// Parking's wake rule runs inside computeOverlappingPairs (null: none).
   void set_parking(Parking* parking) { parking_ = parking; }
@@ -117,6 +121,7 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
   Parking* parking_ = nullptr;
   StepStats stats_;
   bool bodies_sorted_ = true;
+  bool bullet_defaults_ = false;
   std::vector<btRigidBody*> dynamic_bodies_;  // sorted by id; user index 2 = position
   std::size_t sorted_count_ = 0;  // while !bodies_sorted_: its first ones, sorted by id
 

@@ -75,6 +75,17 @@ void CanonicalWorld::insert_body(const Body& description, const BodyDynamicState
   entries_.push_back(std::move(entry));
 }
 
+void CanonicalWorld::set_solver_defaults(SolverDefaults defaults) {
+  solver_defaults_ = defaults;
+  const bool bullet = defaults == SolverDefaults::Bullet;
+  btContactSolverInfo& info = parts_->world.getSolverInfo();
+  if (bullet)
+    configure_bullet_solver(info, settings_);
+  else
+    configure_canonical_solver(info, settings_);
+  parts_->world.set_bullet_defaults(bullet);
+}
+
 void CanonicalWorld::step() {
   // maxSubSteps = 0: exactly one internal step of h per call (as StockWorld).
   const btScalar h = btScalar(settings_.dt / settings_.substeps);

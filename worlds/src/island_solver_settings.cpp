@@ -13,6 +13,12 @@ void configure_canonical_solver(btContactSolverInfo& info, const SceneSettings& 
                        SOLVER_DISABLE_VELOCITY_DEPENDENT_FRICTION_DIRECTION;
 }
 
+void configure_bullet_solver(btContactSolverInfo& info, const SceneSettings& settings) {
+  info.m_numIterations = settings.iterations;
+  info.m_solverMode &= ~(SOLVER_USE_2_FRICTION_DIRECTIONS | SOLVER_ENABLE_FRICTION_DIRECTION_CACHING |
+                         SOLVER_DISABLE_VELOCITY_DEPENDENT_FRICTION_DIRECTION);
+}
+
 IslandProfile profile_island(btCollisionObject* const* bodies, int body_count,
                              btPersistentManifold* const* manifolds, int manifold_count) {
   IslandProfile p;

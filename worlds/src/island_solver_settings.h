@@ -63,6 +63,10 @@ constexpr btScalar kTallWarmStartingFactor = 1;
 /// two fixed, cached friction directions. Called once when a world is built.
 void configure_canonical_solver(btContactSolverInfo& info, const SceneSettings& settings);
 
+/// Undoes configure_canonical_solver: Bullet's friction (one row along the
+/// slip velocity) with the scene's iterations (SolverDefaults::Bullet).
+void configure_bullet_solver(btContactSolverInfo& info, const SceneSettings& settings);
+
 /// What island_iterations reads from an island: a pure function of its
 /// bodies and manifolds (the same in every world that solves it).
 struct IslandProfile {

@@ -67,4 +67,17 @@ StressResult stress_from_json(const nlohmann::json& j);
 /// A markdown table of the results (docs/results/stress.md).
 std::string stress_markdown(const std::vector<StressResult>& results);
 
+/// Verdict counts, SODA's rows (the canonical world, the partitioned
+/// runtime) apart from the comparison rows run in Bullet's stock world
+/// (`-stock`, `-stock-ccd`, every row of `--stock`), which are stock
+/// Bullet's verdicts and no SODA case.
+struct StressTally {
+  int pass = 0, fail = 0, other = 0;                  // SODA's rows
+  int stock_pass = 0, stock_fail = 0, stock_other = 0;  // stock Bullet's rows
+};
+StressTally stress_tally(const std::vector<StressResult>& results);
+/// "SODA: 27 pass, 1 FAIL, 0 other; stock Bullet (comparison rows, not SODA
+/// cases): 3 pass, 3 FAIL, 0 other".
+std::string stress_tally_text(const StressTally& t);
+
 }  // namespace soda

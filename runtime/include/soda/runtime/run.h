@@ -20,6 +20,7 @@
 #include "soda/runtime/user_input.h"
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
+#include "soda/worlds/canonical_world.h"
 
 namespace soda {
 
@@ -56,6 +57,12 @@ struct RunConfig {
   /// the state hash is the same on and off. `--no-parking` turns it off. No
   /// effect on the territory worlds (not yet parked there) or stock Bullet.
   bool parking = true;
+  /// One territory, canonical world: the solver settings it steps with
+  /// (CanonicalWorld::set_solver_defaults). Bullet: the settings before #17,
+  /// to measure what the defaults cost (`soda bench defaults`); refused
+  /// with K > 1, the stock world and every path through the partitioned
+  /// runtime (--sync-test, --watchdog heal, inputs, --record, ranks).
+  SolverDefaults solver_defaults = SolverDefaults::Soda;
   /// K > 1: idle territories skip their Bullet stages
   /// (PartitionedOptions::idle_territories; #18, docs/skip.md). Exact.
   /// `--no-idle-skip` turns it off.

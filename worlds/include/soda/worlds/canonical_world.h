@@ -53,6 +53,23 @@ struct StepStats {
   int stage_threads = 0;             // most threads a per-body or per-pair stage of the last step could use
 };
 
+/// The solver settings a CanonicalWorld steps with.
+enum class SolverDefaults {
+  /// The canonical defaults (#17; docs/stress.md "What the defaults are
+  /// now"): two friction directions per contact point fixed by the normal,
+  /// settings per island from its contents (worlds/src/island_solver_settings.h),
+  /// speculative contacts for fast bodies (docs/ccd.md). Every world kind
+  /// of the runtime (territory worlds too) uses these.
+  Soda,
+  /// The settings before #17, for measuring what the defaults cost (`soda
+  /// bench defaults`): Bullet's solver defaults (one friction row along the
+  /// slip velocity; warm starting 0.85 and split-impulse threshold -0.04 m
+  /// for every island), the scene's iterations for every island, no
+  /// speculative contacts. One CanonicalWorld only: no territory world
+  /// steps this way, so a run with it is not comparable with K > 1.
+  Bullet,
+};
+
 class CanonicalWorld {
  public:
   /// Builds the world from a scene; bodies are inserted in `insertion_order`
@@ -73,6 +90,12 @@ class CanonicalWorld {
   /// (docs/coloured-solve.md); null (the default): the stepping thread
   /// alone. Results never depend on it. Not during a step.
   void set_solver_pool(std::shared_ptr<SolverPool> pool);
+
+  /// The solver settings of the next steps (default SolverDefaults::Soda).
+  /// Call before the first step: the contact points already held keep the
+  /// friction directions they were given. Not during a step.
+  void set_solver_defaults(SolverDefaults defaults);
+  SolverDefaults solver_defaults() const { return solver_defaults_; }
 
   /// One fixed step of settings.dt (substeps as configured). With parking
   /// on, settled sleeping islands leave Bullet's world at its end.
@@ -131,6 +154,7 @@ class CanonicalWorld {
   std::unique_ptr<CanonicalWorldParts> parts_;
   std::int64_t steps_done_ = 0;
   bool parking_ = false;
+  SolverDefaults solver_defaults_ = SolverDefaults::Soda;
 };
 
 }  // namespace soda

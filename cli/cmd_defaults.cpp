@@ -1,0 +1,116 @@
+// `soda bench defaults` (#17 acceptance 3, docs/stress.md "Cost of the new
+// defaults"): one scene in one canonical world with the solver defaults
+// (SolverDefaults::Soda) and with the settings before #17
+// (SolverDefaults::Bullet), interleaved (soda, bullet, then bullet, soda,
+// ...) so that both see the same machine. Per configuration: every
+// repeat's stepping-thread CPU and wall seconds, the least of each, the
+// state hash; the ratios soda / bullet of the least CPU and wall seconds.
+// JSON on stdout (and --out FILE), a summary on stderr.
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "commands.h"
+#include "soda/bench/result_json.h"
+#include "soda/scene/registry.h"
+#include "soda/scene/validate.h"
+#include "soda/worlds/body_state.h"
+
+namespace soda::cli {
+namespace {
+
+struct DefaultsOptions {
+  std::string scene = "falling-cubes";
+  SceneParams params;
+  int steps = 600;
+  int repeat = 3;
+  std::string out;
+};
+
+struct DefaultsRun {
+  const char* name;
+  SolverDefaults defaults;
+  std::vector<double> cpu, wall;
+  std::uint64_t hash = 0;
+  std::size_t sleeping = 0;
+  double least_cpu() const { return *std::min_element(cpu.begin(), cpu.end()); }
+  double least_wall() const { return *std::min_element(wall.begin(), wall.end()); }
+};
+
+nlohmann::json run_json(const DefaultsRun& run) {
+  return {{"defaults", run.name},
+          {"state_hash", hash_hex(run.hash)},
+          {"sleeping_bodies", run.sleeping},
+          {"cpu_seconds", run.cpu},
+          {"wall_seconds", run.wall},
+          {"cpu_seconds_least", run.least_cpu()},
+          {"wall_seconds_least", run.least_wall()}};
+}
+
+int run_defaults(DefaultsOptions& o) {
+  Scene scene = make_scene(o.scene, o.params);
+  scene.settings.steps = o.steps;
+  validate_scene(scene, o.scene);
+  RunConfig base;
+  base.steps = o.steps;
+  base.progress_seconds = 0;
+  DefaultsRun soda_run{"soda", SolverDefaults::Soda, {}, {}, 0, 0};
+  DefaultsRun bullet_run{"bullet", SolverDefaults::Bullet, {}, {}, 0, 0};
+  for (int r = 0; r < o.repeat; ++r) {
+    DefaultsRun* order[2] = {&soda_run, &bullet_run};
+    if (r % 2 == 1) std::swap(order[0], order[1]);
+    for (DefaultsRun* run : order) {
+      RunConfig c = base;
+      c.solver_defaults = run->defaults;
+      const RunResult res = run_scene(scene, c);
+      run->cpu.push_back(res.cpu_seconds);
+      run->wall.push_back(res.wall_seconds);
+      run->hash = res.state_hash;
+      run->sleeping = res.sleeping_bodies;
+      std::fprintf(stderr, "  repeat %d/%d %-6s cpu %.3f s wall %.3f s hash %s\n", r + 1, o.repeat, run->name,
+                   res.cpu_seconds, res.wall_seconds, hash_hex(res.state_hash).c_str());
+    }
+  }
+  const double cpu_ratio = soda_run.least_cpu() / std::max(bullet_run.least_cpu(), 1e-12);
+  const double wall_ratio = soda_run.least_wall() / std::max(bullet_run.least_wall(), 1e-12);
+  nlohmann::json j = {{"bench", "defaults"},
+                      {"scene", o.scene},
+                      {"n", o.params.n},
+                      {"seed", o.params.seed},
+                      {"bodies", scene.bodies.size()},
+                      {"steps", o.steps},
+                      {"repeat", o.repeat},
+                      {"precision", kPrecisionName},
+                      {"runs", {run_json(soda_run), run_json(bullet_run)}},
+                      {"cpu_ratio_soda_over_bullet", cpu_ratio},
+                      {"wall_ratio_soda_over_bullet", wall_ratio}};
+  std::fprintf(stderr, "defaults bench, %s n=%d, %d steps, least of %d: soda / bullet CPU %.3f, wall %.3f\n",
+               o.scene.c_str(), o.params.n, o.steps, o.repeat, cpu_ratio, wall_ratio);
+  write_json(j, "-");
+  if (!o.out.empty()) write_json(j, o.out);
+  return 0;
+}
+
+}  // namespace
+
+Command add_defaults_command(CLI::App& bench) {
+  auto o = std::make_shared<DefaultsOptions>();
+  CLI::App* cmd = bench.add_subcommand(
+      "defaults",
+      "The cost of the solver defaults (#17): one canonical world with them (soda) and with the settings "
+      "before #17 (bullet), interleaved; CPU and wall ratios; JSON on stdout");
+  cmd->add_option("--scene", o->scene, "Registry scene name")->capture_default_str();
+  cmd->add_option("--n", o->params.n, "Scene size (0: the scene's default)")
+      ->check(CLI::Range(0, 1 << 24))
+      ->capture_default_str();
+  cmd->add_option("--seed", o->params.seed, "Seed of the scene generator")->capture_default_str();
+  cmd->add_option("--steps", o->steps, "Steps of every run")->check(CLI::Range(1, 1 << 24))->capture_default_str();
+  cmd->add_option("--repeat", o->repeat, "Interleaved repeats of each configuration (the least time counts)")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  cmd->add_option("--out", o->out, "Also write the JSON to this file");
+  return {cmd, [o] { return run_defaults(*o); }};
+}
+
+}  // namespace soda::cli
