@@ -240,7 +240,11 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
     in.add_process(std::make_unique<Process>(*in.worlds[static_cast<std::size_t>(w)], *in.transport, *in.graph,
                                              in.validator.get(), w == 0 ? options_.progress : nullptr, substeps_,
                                              hooks.solve_everywhere, safety));
-    if (inputs_) in.process(w).attach(Process::Output{.inputs = inputs_.get()});
+    if (inputs_) {
+      Process::Output output;
+      output.inputs = inputs_.get();
+      in.process(w).attach(output);
+    }
   }
 }
 
