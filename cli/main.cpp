@@ -216,6 +216,9 @@ void print_summary(const soda::RunResult& r) {
   if (r.coloured_islands > 0 || r.solver_threads > 1)
     std::printf("  coloured solve: %llu islands solved coloured, on up to %d solver thread(s)\n",
                 static_cast<unsigned long long>(r.coloured_islands), r.solver_threads);
+  if (r.substepped_islands > 0)
+    std::printf("  substeps per island: %llu islands solved in substeps\n",
+                static_cast<unsigned long long>(r.substepped_islands));
   if (r.territories > 1) {
     // Per stage, summed over the worlds: CPU seconds / seconds waited.
     const soda::WorldMetrics t = soda::total_metrics(r.world_metrics);

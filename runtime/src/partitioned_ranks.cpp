@@ -44,7 +44,7 @@ void each_scalar(WorldMetrics& m, F&& f) {
   f(m.manifolds_returned), f(m.migrations_out), f(m.migrations_in), f(m.local_islands), f(m.border_fragments);
   f(m.merged_islands), f(m.islands_solved), f(m.merged_island_bodies), f(m.merged_island_worlds_sum);
   f(m.merged_island_worlds_max), f(m.relay_messages_sent), f(m.relay_messages_received), f(m.fragments_relayed);
-  f(m.messages_sent), f(m.coloured_islands), f(m.solver_threads);
+  f(m.messages_sent), f(m.coloured_islands), f(m.substepped_islands), f(m.solver_threads);
   f(m.bets), f(m.bets_lost), f(m.rollbacks), f(m.steps_rolled_back), f(m.steps_rejoined), f(m.bodies_resolved);
   f(m.bodies_replayed), f(m.rollback_cpu_seconds), f(m.lead_max), f(m.lead_mean), f(m.kept_states_max);
 }

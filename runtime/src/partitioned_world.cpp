@@ -78,6 +78,7 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.lead_max = std::max(t.lead_max, m.lead_max);
   t.kept_states_max = std::max(t.kept_states_max, m.kept_states_max);
   t.coloured_islands += m.coloured_islands;
+  t.substepped_islands += m.substepped_islands;
   t.solver_threads = std::max(t.solver_threads, m.solver_threads);
 }
 

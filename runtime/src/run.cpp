@@ -64,6 +64,7 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
     const std::int64_t b = wall_ns();
     if constexpr (std::is_same_v<W, CanonicalWorld>) {
       r.coloured_islands += world.last_step_stats().coloured_islands;
+      r.substepped_islands += world.last_step_stats().substepped_islands;
       if (config.watchdog.response != WatchdogResponse::Off) {
         std::vector<WatchdogFinding> findings = world.watchdog_findings(config.watchdog.limits);
         if (!findings.empty()) throw WatchdogError(s + 1, kNoWorld, std::move(findings), config.watchdog.limits);
@@ -272,6 +273,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.step_loads = world.step_loads();
   for (const WorldMetrics& m : r.world_metrics) r.migrations += m.migrations_out;
   for (const WorldMetrics& m : r.world_metrics) r.coloured_islands += m.coloured_islands;
+  for (const WorldMetrics& m : r.world_metrics) r.substepped_islands += m.substepped_islands;
   if (config.validate) {
     const WorldSnapshot s = world.snapshot();
     r.bodies_at_end = s.bodies.size();

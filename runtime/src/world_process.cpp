@@ -390,6 +390,7 @@ void PartitionedWorld::Process::end_step() {
   sums_.merged_island_bodies += c.border_island_bodies;
   sums_.islands_solved += c.border_islands;
   sums_.coloured_islands += c.coloured_islands;
+  sums_.substepped_islands += c.substepped_islands;
   sums_.solver_threads = std::max(sums_.solver_threads, c.solver_threads);
   clock_.count(Stage::Predict, c.owned_bodies);
   clock_.count(Stage::ExchangeGhosts, c.ghosts_received);

@@ -1,6 +1,7 @@
 #include "canonical_dynamics_world.h"
 
 #include "island_solver_settings.h"
+#include "island_substeps.h"
 #include "speculative_contact.h"
 #include "parking.h"
 
@@ -279,7 +280,7 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
   btConstraintSolver* solver = getConstraintSolver();
   btDispatcher* dispatcher = getDispatcher();
   lone_bodies_.clear();
-  stats_.awake_islands = stats_.sleeping_islands = stats_.solved_manifolds = 0;
+  stats_.awake_islands = stats_.sleeping_islands = stats_.solved_manifolds = stats_.substepped_islands = 0;
   std::size_t m = 0;
   for (int k = 0; k < islands; ++k) {
     const std::size_t m_begin = m;
@@ -300,11 +301,14 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
     }
     stats_.solved_manifolds += static_cast<std::size_t>(manifold_count);
     btPersistentManifold** manifolds = manifold_count ? &manifold_ptrs_[m_begin] : nullptr;
-    solver->solveGroup(&island_bodies_[body_begin], body_count, manifolds, manifold_count, nullptr, 0,
-                       bullet_defaults_ ? solver_info
-                                        : island_solver_info(solver_info, island_info_, &island_bodies_[body_begin],
-                                                             body_count, manifolds, manifold_count),
-                       getDebugDrawer(), dispatcher);
+    int substeps = 1;
+    const btContactSolverInfo& info =
+        bullet_defaults_ ? solver_info
+                         : island_solver_info(solver_info, island_info_, &island_bodies_[body_begin], body_count,
+                                              manifolds, manifold_count, substeps);
+    if (substeps > 1) ++stats_.substepped_islands;
+    solve_island(*solver, &island_bodies_[body_begin], body_count, manifolds, manifold_count, info, substeps,
+                 *dispatcher);
   }
   stats_.lone_bodies = lone_bodies_.size();
   if (!lone_bodies_.empty())

@@ -38,6 +38,9 @@ IslandProfile profile_island(btCollisionObject* const* bodies, int body_count,
   for (int k = 0; k < manifold_count; ++k) {
     const btPersistentManifold* m = manifolds[k];
     if (m->getNumContacts() == 0) continue;
+    if (m->getBody0()->getCollisionShape()->getShapeType() != BOX_SHAPE_PROXYTYPE ||
+        m->getBody1()->getCollisionShape()->getShapeType() != BOX_SHAPE_PROXYTYPE)
+      p.boxes_only = false;
     const int a = index_of(m->getBody0()), b = index_of(m->getBody1());
     if (a >= 0 && b >= 0) {
       ++degree[static_cast<std::size_t>(a) + 1];
@@ -45,6 +48,15 @@ IslandProfile profile_island(btCollisionObject* const* bodies, int body_count,
       const btScalar ia = static_cast<const btRigidBody*>(m->getBody0())->getInvMass();
       const btScalar ib = static_cast<const btRigidBody*>(m->getBody1())->getInvMass();
       if (ia > 0 && ib > 0) p.mass_ratio = std::max(p.mass_ratio, double(std::max(ia / ib, ib / ia)));
+      const auto* ra = static_cast<const btRigidBody*>(m->getBody0());
+      const auto* rb = static_cast<const btRigidBody*>(m->getBody1());
+      const btScalar sa = ra->getCcdSweptSphereRadius(), sb = rb->getCcdSweptSphereRadius();
+      const btScalar size = btMin(sa, sb);
+      if (size > 0) {
+        const btScalar motion = (ra->getLinearVelocity() - rb->getLinearVelocity()).length() +
+                                ra->getAngularVelocity().length() * sa + rb->getAngularVelocity().length() * sb;
+        p.approach_rate = std::max(p.approach_rate, double(motion / size));
+      }
     } else if (a >= 0 && b == -1 && level[static_cast<std::size_t>(a)] == 0) {
       level[static_cast<std::size_t>(a)] = 1;
       queue.push_back(a);
@@ -95,10 +107,16 @@ int island_iterations(int base, const IslandProfile& profile) {
   return static_cast<int>(std::ceil(base * factor));
 }
 
+int island_substeps(const IslandProfile& profile, double h) {
+  return profile.boxes_only && profile.approach_rate * h > kSubstepApproach ? kIslandSubsteps : 1;
+}
+
 const btContactSolverInfo& island_solver_info(const btContactSolverInfo& base, btContactSolverInfo& scratch,
                                               btCollisionObject* const* bodies, int body_count,
-                                              btPersistentManifold* const* manifolds, int manifold_count) {
+                                              btPersistentManifold* const* manifolds, int manifold_count,
+                                              int& substeps) {
   const IslandProfile profile = profile_island(bodies, body_count, manifolds, manifold_count);
+  substeps = island_substeps(profile, base.m_timeStep);
   const int iterations = island_iterations(base.m_numIterations, profile);
   const bool tall = profile.height > kPlainHeight;
   if (iterations == base.m_numIterations && !tall && !profile.stiff()) return base;

@@ -59,6 +59,19 @@ constexpr int kSmallStiffIsland = 32;
 /// their 0.1 m edge, height 10) collapsed (5.7 m).
 constexpr btScalar kTallWarmStartingFactor = 1;
 
+/// An island of boxes whose touching bodies may close more than this
+/// fraction of the smaller one's inner radius in a step
+/// (IslandProfile::approach_rate x h) is solved in kIslandSubsteps substeps
+/// (island_substeps.h). dense-pile-1000 (docs/stress.md), max penetration,
+/// float: 0.188 m with none; 0.113 m with every box island substepped;
+/// 0.117 m from 0.02, 0.120 m from 0.05, 0.121 m from 0.1; 0.144 m if
+/// only islands taller than kPlainHeight are (the deep points come in low
+/// islands). Resting islands stay below it (they move ~0 per step).
+constexpr double kSubstepApproach = 0.05;
+/// Substeps of such an island: 2 passes the dense pile; 3 gave 0.141 m
+/// with the 0.1 threshold (no better), and each one costs a solve.
+constexpr int kIslandSubsteps = 2;
+
 /// Sets the canonical defaults on a world's solver info: scene iterations,
 /// two fixed, cached friction directions. Called once when a world is built.
 void configure_canonical_solver(btContactSolverInfo& info, const SceneSettings& settings);
@@ -73,6 +86,14 @@ struct IslandProfile {
   int height = 0;          // longest chain of touching dynamic bodies from a static one (1: rests on one)
   double mass_ratio = 1;   // largest m_a / m_b over touching dynamic pairs (>= 1)
   int bodies = 0;          // dynamic bodies in the island
+  /// Largest relative motion of two touching dynamic bodies against their
+  /// size, 1/s: (|v_a - v_b| + |w_a| r_a + |w_b| r_b) / min(r_a, r_b), r the
+  /// body's sweep radius (inner radius of its shape). Times h: the fraction
+  /// of the smaller body's inner radius the pair may close in one step.
+  double approach_rate = 0;
+  /// Every manifold with points is between two boxes (statics included):
+  /// the pairs island_substeps.h can refresh between substeps.
+  bool boxes_only = true;
   /// Tall and heavy-on-light (see kMaxStiffFactor).
   bool stiff() const { return height > kPlainHeight && mass_ratio > kPlainMassRatio; }
 };
@@ -86,6 +107,9 @@ IslandProfile profile_island(btCollisionObject* const* bodies, int body_count,
 /// The iterations of an island of this profile, from the scene's `base`.
 int island_iterations(int base, const IslandProfile& profile);
 
+/// The substeps of an island of this profile with step h (island_substeps.h).
+int island_substeps(const IslandProfile& profile, double h);
+
 /// The solver info to solve one island with: `base` itself when nothing
 /// differs, else `scratch` (a copy of base with the island's iterations;
 /// an island taller than kPlainHeight warm-starts with
@@ -94,8 +118,10 @@ int island_iterations(int base, const IslandProfile& profile);
 /// split-impulse threshold 0, so no position error enters its velocities:
 /// heavy-drop-10 with Bullet's -0.04 m threw tower boxes 24 m at 340
 /// iterations and slid them 0.14 m at 1000).
+/// `substeps` gets island_substeps(profile, base.m_timeStep).
 const btContactSolverInfo& island_solver_info(const btContactSolverInfo& base, btContactSolverInfo& scratch,
                                               btCollisionObject* const* bodies, int body_count,
-                                              btPersistentManifold* const* manifolds, int manifold_count);
+                                              btPersistentManifold* const* manifolds, int manifold_count,
+                                              int& substeps);
 
 }  // namespace soda

@@ -15,6 +15,7 @@
 #include "soda/worlds/bullet_bodies.h"
 #include "soda/worlds/value_codec.h"
 #include "island_solver_settings.h"
+#include "island_substeps.h"
 #include "speculative_contact.h"
 #include "territory_world_parts.h"
 
@@ -202,9 +203,11 @@ void TerritoryWorld::solve_local(const std::vector<int>& components) {
     }
     btPersistentManifold** manifolds =
         manifold_count ? &held_ptrs_[static_cast<std::size_t>(held_begin_[uk])] : nullptr;
-    solver.solveGroup(bodies, body_count, manifolds, manifold_count, nullptr, 0,
-                      island_solver_info(info, parts_->island_info, bodies, body_count, manifolds, manifold_count),
-                      nullptr, &parts_->dispatcher);
+    int substeps = 1;
+    const btContactSolverInfo& island_info =
+        island_solver_info(info, parts_->island_info, bodies, body_count, manifolds, manifold_count, substeps);
+    if (substeps > 1) ++counters_.substepped_islands;
+    solve_island(solver, bodies, body_count, manifolds, manifold_count, island_info, substeps, parts_->dispatcher);
   }
   // Lone bodies have no solver rows: one call for all is exact (as in the
   // canonical world).
@@ -292,8 +295,11 @@ bool TerritoryWorld::replay_island(btCollisionObject** bodies, int body_count, s
                               [](const ManifoldState& s, const std::pair<BodyId, BodyId>& x) {
                                 return std::make_pair(s.id0, s.id1) < x;
                               });
-    if (m == after.manifolds.end() || m->id0 != h.id0 || m->id1 != h.id1) return give_up();
-    replayed_manifolds_.emplace_back(h.manifold, &*m);
+    // Absent from `after`: the old run's step left it empty (a refresh
+    // between substeps, island_substeps.h, or a speculative point cleared):
+    // finish_replay empties it (null state).
+    const bool absent = m == after.manifolds.end() || m->id0 != h.id0 || m->id1 != h.id1;
+    replayed_manifolds_.emplace_back(h.manifold, absent ? nullptr : &*m);
   }
   return true;
 }
@@ -315,7 +321,14 @@ void TerritoryWorld::finish_replay() {
     }
   }
   for (const auto& [manifold, state] : replayed_manifolds_) {
-    if (!replay_.verify) {
+    if (!state) {
+      if (!replay_.verify) {
+        manifold->clearManifold();
+      } else if (manifold->getNumContacts() != 0) {
+        mismatch("manifold " + std::to_string(entry_of(manifold->getBody0()).id()) + "-" +
+                 std::to_string(entry_of(manifold->getBody1()).id()) + " (empty in the old run)");
+      }
+    } else if (!replay_.verify) {
       write_manifold_points(*state, *manifold);
     } else if (!same_bits(read_manifold_state(*manifold), *state)) {
       mismatch("manifold " + std::to_string(state->id0) + "-" + std::to_string(state->id1));
@@ -408,10 +421,13 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
     }
     btPersistentManifold** manifold_ptrs = ptrs.empty() ? nullptr : ptrs.data();
     const int body_count = static_cast<int>(bodies.size()), manifold_count = static_cast<int>(ptrs.size());
-    parts_->solver.solveGroup(bodies.data(), body_count, manifold_ptrs, manifold_count, nullptr, 0,
-                              island_solver_info(parts_->world.getSolverInfo(), parts_->island_info, bodies.data(),
-                                                 body_count, manifold_ptrs, manifold_count),
-                              nullptr, &parts_->dispatcher);
+    int substeps = 1;
+    const btContactSolverInfo& info = island_solver_info(parts_->world.getSolverInfo(), parts_->island_info,
+                                                         bodies.data(), body_count, manifold_ptrs, manifold_count,
+                                                         substeps);
+    if (substeps > 1) ++counters_.substepped_islands;
+    solve_island(parts_->solver, bodies.data(), body_count, manifold_ptrs, manifold_count, info, substeps,
+                 parts_->dispatcher);
     for (std::size_t i = 0; i < copies.size(); ++i) result.manifolds[i] = read_manifold_state(*copies[i]);
   }
   result.bodies.reserve(bodies.size());
@@ -455,8 +471,9 @@ void TerritoryWorld::apply_island_result(const IslandResult& result) {
     auto held = held_by_key_.find(key);
     if (held != held_by_key_.end()) {
       write_manifold_points(m, *static_cast<btPersistentManifold*>(held->second));
-    } else if (owns(key_of(key.first, key.second)) && !is_speculative(m)) {
-      // A speculative point is no contact state: it ends with the solve.
+    } else if (owns(key_of(key.first, key.second)) && !is_speculative(m) && !m.points.empty()) {
+      // A speculative point is no contact state: it ends with the solve;
+      // nor is an emptied manifold (substeps, island_substeps.h).
       kept_next_[key] = m;
       ++counters_.manifolds_returned;
     }

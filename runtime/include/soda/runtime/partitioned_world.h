@@ -261,6 +261,7 @@ struct WorldMetrics {
   std::vector<std::int32_t> lead;            // clock - commit horizon at the end of every internal step
   std::size_t kept_states_max = 0;           // most states kept at once (rollback buffer occupancy)
   std::uint64_t coloured_islands = 0;        // islands solved coloured (docs/coloured-solve.md)
+  std::uint64_t substepped_islands = 0;      // islands solved in substeps, re-solves included (docs/stress.md)
   int solver_threads = 0;                    // most threads a coloured island could use
 };
 

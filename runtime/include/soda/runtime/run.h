@@ -184,6 +184,7 @@ struct RunResult {
   double record_cpu_seconds = 0;
   int solver_threads = 1;                   // RunConfig::solver_threads
   std::uint64_t coloured_islands = 0;       // islands solved coloured, summed over steps (and worlds)
+  std::uint64_t substepped_islands = 0;     // islands solved in substeps (docs/stress.md), summed over steps (and worlds)
   /// RunConfig::group, rank 0: every rank's traffic, by rank (else empty).
   std::vector<RankTraffic> ranks;
 };

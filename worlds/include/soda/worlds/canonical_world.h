@@ -49,6 +49,7 @@ struct StepStats {
   std::size_t broadphase_pairs = 0;  // after the full stale-pair sweep
   std::size_t speculative_contacts = 0;  // pairs given a speculative point (fast bodies; docs/ccd.md)
   std::size_t coloured_islands = 0;  // islands solved coloured (docs/coloured-solve.md)
+  std::size_t substepped_islands = 0;  // islands solved in substeps (island_substeps.h; docs/stress.md)
   int solver_threads = 0;            // most threads a coloured island could use, so far
   int stage_threads = 0;             // most threads a per-body or per-pair stage of the last step could use
 };

@@ -92,6 +92,7 @@ struct TerritoryCounters {
   std::size_t islands_replayed = 0;       // islands a replayed step did not solve (set_replay)
   std::size_t bodies_replayed = 0;        // their bodies
   std::size_t coloured_islands = 0;       // islands solved coloured here (docs/coloured-solve.md)
+  std::size_t substepped_islands = 0;     // islands (local and border) solved in substeps here (island_substeps.h)
   int solver_threads = 0;                 // most threads a coloured island of this world could use, so far
 };
 

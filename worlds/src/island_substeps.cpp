@@ -1,0 +1,92 @@
+// Substeps per island (island_substeps.h).
+#include "island_substeps.h"
+
+#include <vector>
+
+#include <BulletCollision/CollisionDispatch/btCollisionObjectWrapper.h>
+#include <BulletCollision/CollisionDispatch/btBoxBoxDetector.h>
+#include <LinearMath/btTransformUtil.h>
+
+#include "speculative_contact.h"
+
+namespace soda {
+namespace {
+
+// As btBoxBoxCollisionAlgorithm::processCollision followed by the refresh
+// an algorithm owning its manifold does (Bullet's algorithms made with a
+// shared manifold ignore it: box-box makes its own).
+void refresh_manifold(btPersistentManifold& manifold, const btDispatcherInfo& info) {
+  clear_speculative_contact(manifold);
+  const btCollisionObject* a = manifold.getBody0();
+  const btCollisionObject* b = manifold.getBody1();
+  btCollisionObjectWrapper wa(nullptr, a->getCollisionShape(), a, a->getWorldTransform(), -1, -1);
+  btCollisionObjectWrapper wb(nullptr, b->getCollisionShape(), b, b->getWorldTransform(), -1, -1);
+  btManifoldResult result(&wa, &wb);
+  result.setPersistentManifold(&manifold);
+  btDiscreteCollisionDetectorInterface::ClosestPointInput input;
+  input.m_transformA = a->getWorldTransform();
+  input.m_transformB = b->getWorldTransform();
+  btBoxBoxDetector detector(static_cast<const btBoxShape*>(a->getCollisionShape()),
+                            static_cast<const btBoxShape*>(b->getCollisionShape()));
+  detector.getClosestPoints(input, result, info.m_debugDraw);
+  result.refreshContactPoints();
+}
+
+struct Saved {
+  btTransform interpolation;
+  btVector3 linear, angular;
+};
+
+}  // namespace
+
+void solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int body_count,
+                  btPersistentManifold** manifolds, int manifold_count, const btContactSolverInfo& info,
+                  int substeps, btDispatcher& dispatcher) {
+  if (substeps <= 1) {
+    solver.solveGroup(bodies, body_count, manifolds, manifold_count, nullptr, 0, info, nullptr, &dispatcher);
+    return;
+  }
+  thread_local std::vector<Saved> saved;
+  saved.resize(static_cast<std::size_t>(body_count));
+  for (int j = 0; j < body_count; ++j) {
+    const btRigidBody& rb = *btRigidBody::upcast(bodies[j]);
+    saved[static_cast<std::size_t>(j)] = {rb.getInterpolationWorldTransform(), rb.getInterpolationLinearVelocity(),
+                                          rb.getInterpolationAngularVelocity()};
+  }
+  btContactSolverInfo sub = info;
+  const btScalar h = info.m_timeStep;
+  sub.m_timeStep = h / btScalar(substeps);
+  btDispatcherInfo dispatch_info;
+  dispatch_info.m_timeStep = sub.m_timeStep;
+  for (int s = 0; s < substeps; ++s) {
+    if (s > 0)
+      for (int k = 0; k < manifold_count; ++k) refresh_manifold(*manifolds[k], dispatch_info);
+    solver.solveGroup(bodies, body_count, manifolds, manifold_count, nullptr, 0, sub, nullptr, &dispatcher);
+    const bool last = s + 1 == substeps;
+    for (int j = 0; j < body_count; ++j) {
+      btRigidBody& rb = *btRigidBody::upcast(bodies[j]);
+      if (!rb.isActive() || rb.isStaticOrKinematicObject()) continue;
+      btTransform next;
+      if (!last) {
+        // As btDiscreteDynamicsWorld::integrateTransforms (CCD off).
+        rb.predictIntegratedTransform(sub.m_timeStep, next);
+        rb.proceedToTransform(next);
+      } else {
+        // Rewound (header): the integrate stage's h ends the last substep.
+        btTransformUtil::integrateTransform(rb.getWorldTransform(), -rb.getLinearVelocity(), -rb.getAngularVelocity(),
+                                            h - sub.m_timeStep, next);
+        rb.setWorldTransform(next);
+      }
+    }
+  }
+  for (int j = 0; j < body_count; ++j) {
+    btRigidBody& rb = *btRigidBody::upcast(bodies[j]);
+    const Saved& v = saved[static_cast<std::size_t>(j)];
+    rb.setInterpolationWorldTransform(v.interpolation);
+    rb.setInterpolationLinearVelocity(v.linear);
+    rb.setInterpolationAngularVelocity(v.angular);
+    rb.updateInertiaTensor();
+  }
+}
+
+}  // namespace soda
