@@ -42,7 +42,9 @@ TEST(IslandSubsteps, CubePileOneHashForEveryTerritoryCount) {
                 static_cast<unsigned long long>(t.islands_solved));
     EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(reference)) << "K=" << k;
     EXPECT_GT(t.substepped_islands, 0u) << "K=" << k;
-    if (k > 1) EXPECT_GT(t.islands_solved, 0u) << "K=" << k << ": no border island";
+    if (k > 1) {
+      EXPECT_GT(t.islands_solved, 0u) << "K=" << k << ": no border island";
+    }
   }
 }
 
