@@ -187,8 +187,9 @@ TEST(ColouredSolve, StepStagesOnThePoolEveryThreadCount) {
       EXPECT_EQ(r.stage_threads, threads) << name << ": the step's stages did not get the pool's threads";
       // cube-pile's heap lands interpenetrating: substepped, and its
       // manifolds' refresh between substeps is shared on the pool.
-      if (std::string(name) == "cube-pile")
+      if (std::string(name) == "cube-pile") {
         EXPECT_EQ(r.substep_threads, threads) << name << ": the work between substeps did not get the pool's threads";
+      }
     }
     for (int threads : {1, 2}) {
       PartitionedOptions o;
