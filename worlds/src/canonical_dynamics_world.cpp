@@ -281,6 +281,7 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
   btDispatcher* dispatcher = getDispatcher();
   lone_bodies_.clear();
   stats_.awake_islands = stats_.sleeping_islands = stats_.solved_manifolds = stats_.substepped_islands = 0;
+  stats_.substep_threads = 0;
   std::size_t m = 0;
   for (int k = 0; k < islands; ++k) {
     const std::size_t m_begin = m;
@@ -307,8 +308,9 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
                          : island_solver_info(solver_info, island_info_, &island_bodies_[body_begin], body_count,
                                               manifolds, manifold_count, substeps);
     if (substeps > 1) ++stats_.substepped_islands;
-    solve_island(*solver, &island_bodies_[body_begin], body_count, manifolds, manifold_count, info, substeps,
-                 *dispatcher);
+    stats_.substep_threads =
+        std::max(stats_.substep_threads, solve_island(*solver, &island_bodies_[body_begin], body_count, manifolds,
+                                                      manifold_count, info, substeps, *dispatcher, stage_pool()));
   }
   stats_.lone_bodies = lone_bodies_.size();
   if (!lone_bodies_.empty())

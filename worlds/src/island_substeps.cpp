@@ -1,12 +1,14 @@
 // Substeps per island (island_substeps.h).
 #include "island_substeps.h"
 
+#include <algorithm>
 #include <vector>
 
 #include <BulletCollision/CollisionDispatch/btCollisionObjectWrapper.h>
 #include <BulletCollision/CollisionDispatch/btBoxBoxDetector.h>
 #include <LinearMath/btTransformUtil.h>
 
+#include "parallel_stages.h"
 #include "speculative_contact.h"
 
 namespace soda {
@@ -39,13 +41,14 @@ struct Saved {
 
 }  // namespace
 
-void solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int body_count,
+int solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int body_count,
                   btPersistentManifold** manifolds, int manifold_count, const btContactSolverInfo& info,
-                  int substeps, btDispatcher& dispatcher) {
+                  int substeps, btDispatcher& dispatcher, SolverPool* pool) {
   if (substeps <= 1) {
     solver.solveGroup(bodies, body_count, manifolds, manifold_count, nullptr, 0, info, nullptr, &dispatcher);
-    return;
+    return 0;
   }
+  int threads = 1;
   thread_local std::vector<Saved> saved;
   saved.resize(static_cast<std::size_t>(body_count));
   for (int j = 0; j < body_count; ++j) {
@@ -60,24 +63,31 @@ void solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int bo
   dispatch_info.m_timeStep = sub.m_timeStep;
   for (int s = 0; s < substeps; ++s) {
     if (s > 0)
-      for (int k = 0; k < manifold_count; ++k) refresh_manifold(*manifolds[k], dispatch_info);
+      threads = std::max(threads, run_in_chunks(pool, manifold_count, kParallelMinPairs, kPairsPerTask,
+                                                [&](int begin, int end) {
+                                                  for (int k = begin; k < end; ++k)
+                                                    refresh_manifold(*manifolds[k], dispatch_info);
+                                                }));
     solver.solveGroup(bodies, body_count, manifolds, manifold_count, nullptr, 0, sub, nullptr, &dispatcher);
     const bool last = s + 1 == substeps;
-    for (int j = 0; j < body_count; ++j) {
-      btRigidBody& rb = *btRigidBody::upcast(bodies[j]);
-      if (!rb.isActive() || rb.isStaticOrKinematicObject()) continue;
-      btTransform next;
-      if (!last) {
-        // As btDiscreteDynamicsWorld::integrateTransforms (CCD off).
-        rb.predictIntegratedTransform(sub.m_timeStep, next);
-        rb.proceedToTransform(next);
-      } else {
-        // Rewound (header): the integrate stage's h ends the last substep.
-        btTransformUtil::integrateTransform(rb.getWorldTransform(), -rb.getLinearVelocity(), -rb.getAngularVelocity(),
-                                            h - sub.m_timeStep, next);
-        rb.setWorldTransform(next);
+    const int integrated = run_in_chunks(pool, body_count, kParallelMinBodies, kBodiesPerTask, [&](int begin, int end) {
+      for (int j = begin; j < end; ++j) {
+        btRigidBody& rb = *btRigidBody::upcast(bodies[j]);
+        if (!rb.isActive() || rb.isStaticOrKinematicObject()) continue;
+        btTransform next;
+        if (!last) {
+          // As btDiscreteDynamicsWorld::integrateTransforms (CCD off).
+          rb.predictIntegratedTransform(sub.m_timeStep, next);
+          rb.proceedToTransform(next);
+        } else {
+          // Rewound (header): the integrate stage's h ends the last substep.
+          btTransformUtil::integrateTransform(rb.getWorldTransform(), -rb.getLinearVelocity(),
+                                              -rb.getAngularVelocity(), h - sub.m_timeStep, next);
+          rb.setWorldTransform(next);
+        }
       }
-    }
+    });
+    threads = std::max(threads, integrated);
   }
   for (int j = 0; j < body_count; ++j) {
     btRigidBody& rb = *btRigidBody::upcast(bodies[j]);
@@ -87,6 +97,7 @@ void solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int bo
     rb.setInterpolationAngularVelocity(v.angular);
     rb.updateInertiaTensor();
   }
+  return threads;
 }
 
 }  // namespace soda

@@ -17,12 +17,20 @@
 // back as they were (the owner of a border island's body keeps its own).
 //
 // Thread safety: touches only the island's bodies and manifolds, and the
-// dispatcher's algorithm pool (the calling world's thread).
+// dispatcher's algorithm pool (the calling world's thread). Between
+// substeps, the manifolds' refresh and the bodies' integration are per item
+// (a manifold's refresh reads the bodies' transforms, which no refresh
+// writes, and writes only its own points; a body's integration writes only
+// that body): above parallel_stages.h's sizes they are shared on the
+// solver pool, in any order on any number of threads, with the same bits
+// (parallel_stages.h, invariant 1).
 #pragma once
 
 #include <btBulletDynamicsCommon.h>
 
 namespace soda {
+
+class SolverPool;
 
 /// Solves one awake island with `info` (its own settings, time step h =
 /// info.m_timeStep). substeps == 1: one solveGroup call, as ever. Above:
@@ -37,9 +45,13 @@ namespace soda {
 /// box-box manifolds can be refreshed (island_substeps() asks
 /// IslandProfile::boxes_only): Bullet's algorithms built on a shared
 /// manifold ignore it (box-box, sphere-box, sphere-sphere, convex-plane
-/// make their own), so btBoxBoxDetector is run here directly.
-void solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int body_count,
+/// make their own), so btBoxBoxDetector is run here directly. `pool`
+/// (null: the calling thread alone) shares the refresh and the integration
+/// between substeps; the solveGroup calls use whatever pool the solver has.
+/// Returns the most threads that work between substeps could use (0: one
+/// substep, nothing between).
+int solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int body_count,
                   btPersistentManifold** manifolds, int manifold_count, const btContactSolverInfo& info,
-                  int substeps, btDispatcher& dispatcher);
+                  int substeps, btDispatcher& dispatcher, SolverPool* pool = nullptr);
 
 }  // namespace soda

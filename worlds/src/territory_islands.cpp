@@ -207,7 +207,8 @@ void TerritoryWorld::solve_local(const std::vector<int>& components) {
     const btContactSolverInfo& island_info =
         island_solver_info(info, parts_->island_info, bodies, body_count, manifolds, manifold_count, substeps);
     if (substeps > 1) ++counters_.substepped_islands;
-    solve_island(solver, bodies, body_count, manifolds, manifold_count, island_info, substeps, parts_->dispatcher);
+    solve_island(solver, bodies, body_count, manifolds, manifold_count, island_info, substeps, parts_->dispatcher,
+                 parts_->solver.pool().get());
   }
   // Lone bodies have no solver rows: one call for all is exact (as in the
   // canonical world).
@@ -427,7 +428,7 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
                                                          substeps);
     if (substeps > 1) ++counters_.substepped_islands;
     solve_island(parts_->solver, bodies.data(), body_count, manifold_ptrs, manifold_count, info, substeps,
-                 parts_->dispatcher);
+                 parts_->dispatcher, parts_->solver.pool().get());
     for (std::size_t i = 0; i < copies.size(); ++i) result.manifolds[i] = read_manifold_state(*copies[i]);
   }
   result.bodies.reserve(bodies.size());

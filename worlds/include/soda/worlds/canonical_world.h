@@ -52,6 +52,8 @@ struct StepStats {
   std::size_t substepped_islands = 0;  // islands solved in substeps (island_substeps.h; docs/stress.md)
   int solver_threads = 0;            // most threads a coloured island could use, so far
   int stage_threads = 0;             // most threads a per-body or per-pair stage of the last step could use
+  int substep_threads = 0;           // most threads the work between an island's substeps could use, last step
+                                     // (0: no island substepped)
 };
 
 /// The solver settings a CanonicalWorld steps with.
