@@ -103,11 +103,9 @@ TEST(ColouredSolve, BorderScenesAndFallingCubesWithSolverThreads) {
 }
 
 TEST(ColouredSolve, SyncTestWithSolverThreads) {
-#if defined(__SANITIZE_THREAD__)  // TSan looks for races: a shorter run (46 s of CI's TSan step at 150)
-  constexpr int kSyncSteps = 60;
-#else
+  // Not shorter under TSan: the heap is solved coloured only once it has
+  // formed (at 60 steps, 8 coloured islands instead of > kMinColoured).
   constexpr int kSyncSteps = kSteps;
-#endif
   const Scene s = test::scene("cube-pile", kBodies);
   PartitionedOptions o;
   o.sync_test = 8;
@@ -191,9 +189,15 @@ TEST(ColouredSolve, StepStagesOnThePoolEveryThreadCount) {
       EXPECT_EQ(hash_hex(r.hash), hash_hex(reference)) << name << ", solver threads " << threads;
       EXPECT_EQ(r.stage_threads, threads) << name << ": the step's stages did not get the pool's threads";
       // cube-pile's heap lands interpenetrating: substepped, and its
-      // manifolds' refresh between substeps is shared on the pool.
+      // manifolds' refresh between substeps is shared on the pool. Under
+      // TSan's 40 steps only smaller islands are substepped (below the
+      // pool's sizes, parallel_stages.h): substeps ran, on one thread.
       if (std::string(name) == "cube-pile") {
+#if defined(__SANITIZE_THREAD__)
+        EXPECT_EQ(r.substep_threads, 1) << name << ": no island was substepped";
+#else
         EXPECT_EQ(r.substep_threads, threads) << name << ": the work between substeps did not get the pool's threads";
+#endif
       }
     }
     for (int threads : {1, 2}) {
