@@ -105,15 +105,14 @@ TEST(ColouredSolve, BorderScenesAndFallingCubesWithSolverThreads) {
 TEST(ColouredSolve, SyncTestWithSolverThreads) {
   // Not shorter under TSan: the heap is solved coloured only once it has
   // formed (at 60 steps, 8 coloured islands instead of > kMinColoured).
-  constexpr int kSyncSteps = kSteps;
   const Scene s = test::scene("cube-pile", kBodies);
   PartitionedOptions o;
   o.sync_test = 8;
   o.solver_threads = 3;
   PartitionedWorld w(s, make_partition("rcb", s, 3, GridOptions{}), o);
-  w.step(kSyncSteps);
-  EXPECT_EQ(w.sync_rollbacks(), static_cast<std::uint64_t>(kSyncSteps));
-  EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(test::reference_hash(s, kSyncSteps)));
+  w.step(kSteps);
+  EXPECT_EQ(w.sync_rollbacks(), static_cast<std::uint64_t>(kSteps));
+  EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(test::reference_hash(s, kSteps)));
   expect_coloured(Outcome{w.state_hash(), test::total(w.metrics())}, 3, 3);
 }
 

@@ -42,8 +42,8 @@ struct Saved {
 }  // namespace
 
 int solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int body_count,
-                  btPersistentManifold** manifolds, int manifold_count, const btContactSolverInfo& info,
-                  int substeps, btDispatcher& dispatcher, SolverPool* pool) {
+                 btPersistentManifold** manifolds, int manifold_count, const btContactSolverInfo& info,
+                 int substeps, btDispatcher& dispatcher, SolverPool* pool) {
   if (substeps <= 1) {
     solver.solveGroup(bodies, body_count, manifolds, manifold_count, nullptr, 0, info, nullptr, &dispatcher);
     return 0;

@@ -51,7 +51,7 @@ class SolverPool;
 /// Returns the most threads that work between substeps could use (0: one
 /// substep, nothing between).
 int solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int body_count,
-                  btPersistentManifold** manifolds, int manifold_count, const btContactSolverInfo& info,
-                  int substeps, btDispatcher& dispatcher, SolverPool* pool = nullptr);
+                 btPersistentManifold** manifolds, int manifold_count, const btContactSolverInfo& info,
+                 int substeps, btDispatcher& dispatcher, SolverPool* pool = nullptr);
 
 }  // namespace soda
