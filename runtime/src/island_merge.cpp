@@ -169,4 +169,23 @@ std::vector<std::vector<const Fragment*>> IslandMerger::take_closed() {
   return out;
 }
 
+std::vector<Fragment> IslandMerger::take_mine(const std::vector<const Fragment*>& island) {
+  if (carry_data_) throw std::logic_error("IslandMerger::take_mine: fragments carry their data");
+  std::vector<Fragment> out;
+  for (const Fragment* f : island) {
+    if (f->world != me_) continue;
+    auto it = index_.find(FragmentId{f->world, f->root});
+    if (it == index_.end() || &nodes_[static_cast<std::size_t>(it->second)].fragment != f)
+      throw std::logic_error("IslandMerger::take_mine: a fragment not held here");
+    Node& node = nodes_[static_cast<std::size_t>(it->second)];
+    if (!components_.at(find(it->second)).closed)
+      throw std::logic_error("IslandMerger::take_mine: the island is not closed");
+    out.push_back(std::move(node.fragment));
+    // The node keeps its header (update() and later lookups read it).
+    node.fragment = Fragment{out.back().world, out.back().root, out.back().first_body, out.back().links_out,
+                             out.back().links_in, {}, {}};
+  }
+  return out;
+}
+
 }  // namespace soda

@@ -59,8 +59,7 @@ void PartitionedWorld::Process::close_island(const std::vector<const Fragment*>&
   is.parent = parent.at(s_.world->id());
   for (const auto& [w, p] : parent)
     if (p == s_.world->id() && w != s_.world->id()) is.children.push_back(w);
-  for (const Fragment* f : island)
-    if (f->world == s_.world->id()) is.data.push_back(*f);
+  is.data = s_.merger.take_mine(island);  // moved, not copied: the merger is done with them
   is.gathers_missing = is.children.size();
   auto early = s_.early_gathers.find(smallest);
   if (early != s_.early_gathers.end()) {
@@ -122,12 +121,13 @@ void PartitionedWorld::Process::take_result(IslandResult result) {
   if (it == s_.islands.end())
     throw std::logic_error("world " + std::to_string(s_.world->id()) + ": result for island " +
                            std::to_string(result.island) + ", which is not complete here");
-  s_.world->apply_island_result(result);
+  // Children first: they apply their part while this world applies its own.
   for (WorldId child : it->second.children) {
     ++sums_.relay_messages_sent;
     send(child, Message{.payload = ResultBatch{{result}}});
   }
   s_.islands.erase(it);
+  s_.world->apply_island_result(result);
 }
 
 }  // namespace soda

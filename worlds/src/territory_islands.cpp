@@ -16,6 +16,7 @@
 #include "soda/worlds/value_codec.h"
 #include "island_solver_settings.h"
 #include "island_substeps.h"
+#include "parallel_stages.h"
 #include "speculative_contact.h"
 #include "territory_world_parts.h"
 
@@ -371,11 +372,13 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
       fail("pair " + std::to_string(manifolds[i].state->id0) + "-" + std::to_string(manifolds[i].state->id1) +
            " has two holders");
 
-  // Copies of the island's bodies, in the state their owners sent.
-  std::vector<btCollisionObject*> bodies;
-  bodies.reserve(records.size());
-  for (const BodyRecord* r : records) {
-    const BodySnapshot& b = r->body;
+  // Copies of the island's bodies, in the state their owners sent. Made
+  // here (the map of copies is this thread's), filled on the solver pool:
+  // each item writes only its own copy, so any split gives the same bits.
+  SolverPool* pool = parts_->solver.pool().get();
+  std::vector<btCollisionObject*> bodies(records.size());
+  for (std::size_t i = 0; i < records.size(); ++i) {
+    const BodySnapshot& b = records[i]->body;
     std::unique_ptr<Copy>& c = copies_[b.description.id];
     if (!c) {
       c = std::make_unique<Copy>();
@@ -383,14 +386,19 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
       c->body = make_body_from_state(b.description, *c->shape, b.state);
       c->body->setUserIndex(static_cast<int>(b.description.id));
     }
-    btRigidBody& rb = *c->body;
-    write_dynamic_state(rb, b.state);
-    rb.clearForces();
-    rb.applyCentralForce(btVector3(r->total_force[0], r->total_force[1], r->total_force[2]));
-    rb.applyTorque(btVector3(r->total_torque[0], r->total_torque[1], r->total_torque[2]));
-    rb.setCompanionId(-1);
-    bodies.push_back(&rb);
+    bodies[i] = c->body.get();
   }
+  run_in_chunks(pool, static_cast<int>(records.size()), kParallelMinBodies, kBodiesPerTask, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      const BodyRecord& r = *records[static_cast<std::size_t>(i)];
+      btRigidBody& rb = *btRigidBody::upcast(bodies[static_cast<std::size_t>(i)]);
+      write_dynamic_state(rb, r.body.state);
+      rb.clearForces();
+      rb.applyCentralForce(btVector3(r.total_force[0], r.total_force[1], r.total_force[2]));
+      rb.applyTorque(btVector3(r.total_torque[0], r.total_torque[1], r.total_torque[2]));
+      rb.setCompanionId(-1);
+    }
+  });
   auto object_of = [&](BodyId id) -> btCollisionObject* {
     auto it = std::lower_bound(records.begin(), records.end(), id,
                                [](const BodyRecord* r, BodyId x) { return r->body.description.id < x; });
@@ -403,50 +411,67 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
 
   IslandResult result;
   result.island = records.front()->body.description.id;
-  result.manifolds.reserve(manifolds.size());
-  for (const HeldManifold& m : manifolds) result.manifolds.push_back(*m.state);
+  result.manifolds.resize(manifolds.size());
+  const int manifold_count = static_cast<int>(manifolds.size());
   if (decide_island_sleeping(bodies.data(), static_cast<int>(bodies.size()))) {
-    std::vector<std::unique_ptr<btPersistentManifold>> copies;
-    std::vector<btPersistentManifold*> ptrs;
-    for (const HeldManifold& m : manifolds) {
-      btCollisionObject* b0 = object_of(m.state->id0);
-      btCollisionObject* b1 = object_of(m.state->id1);
-      // Thresholds as btCollisionDispatcher::getNewManifold gives them.
-      const btScalar breaking =
-          btMin(b0->getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold),
-                b1->getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold));
-      const btScalar processing = btMin(b0->getContactProcessingThreshold(), b1->getContactProcessingThreshold());
-      copies.push_back(std::make_unique<btPersistentManifold>(b0, b1, 0, breaking, processing));
-      write_manifold_points(*m.state, *copies.back());
-      ptrs.push_back(copies.back().get());
+    // Copies of the manifolds: each reset to what btCollisionDispatcher::
+    // getNewManifold makes (thresholds as it gives them), then the points.
+    std::vector<std::unique_ptr<btPersistentManifold>>& copies = parts_->manifold_copies;
+    while (copies.size() < manifolds.size())
+      copies.push_back(std::make_unique<btPersistentManifold>(nullptr, nullptr, 0, btScalar(0), btScalar(0)));
+    std::vector<btPersistentManifold*> ptrs(manifolds.size());
+    std::vector<std::pair<btCollisionObject*, btCollisionObject*>> ends(manifolds.size());
+    for (std::size_t i = 0; i < manifolds.size(); ++i) {  // here: object_of may throw
+      ends[i] = {object_of(manifolds[i].state->id0), object_of(manifolds[i].state->id1)};
+      ptrs[i] = copies[i].get();
     }
+    run_in_chunks(pool, manifold_count, kParallelMinPairs, kPairsPerTask, [&](int begin, int end) {
+      for (int i = begin; i < end; ++i) {
+        const auto [b0, b1] = ends[static_cast<std::size_t>(i)];
+        const btScalar breaking =
+            btMin(b0->getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold),
+                  b1->getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold));
+        const btScalar processing = btMin(b0->getContactProcessingThreshold(), b1->getContactProcessingThreshold());
+        btPersistentManifold& m = *ptrs[static_cast<std::size_t>(i)];
+        m = btPersistentManifold(b0, b1, 0, breaking, processing);
+        write_manifold_points(*manifolds[static_cast<std::size_t>(i)].state, m);
+      }
+    });
     btPersistentManifold** manifold_ptrs = ptrs.empty() ? nullptr : ptrs.data();
-    const int body_count = static_cast<int>(bodies.size()), manifold_count = static_cast<int>(ptrs.size());
+    const int body_count = static_cast<int>(bodies.size());
     int substeps = 1;
     const btContactSolverInfo& info = island_solver_info(parts_->world.getSolverInfo(), parts_->island_info,
                                                          bodies.data(), body_count, manifold_ptrs, manifold_count,
                                                          substeps);
     if (substeps > 1) ++counters_.substepped_islands;
     solve_island(parts_->solver, bodies.data(), body_count, manifold_ptrs, manifold_count, info, substeps,
-                 parts_->dispatcher, parts_->solver.pool().get());
-    for (std::size_t i = 0; i < copies.size(); ++i) result.manifolds[i] = read_manifold_state(*copies[i]);
+                 parts_->dispatcher, pool);
+    run_in_chunks(pool, manifold_count, kParallelMinPairs, kPairsPerTask, [&](int begin, int end) {
+      for (int i = begin; i < end; ++i)
+        read_manifold_state(*ptrs[static_cast<std::size_t>(i)], result.manifolds[static_cast<std::size_t>(i)]);
+    });
+  } else {
+    run_in_chunks(pool, manifold_count, kParallelMinPairs, kPairsPerTask, [&](int begin, int end) {
+      for (int i = begin; i < end; ++i) result.manifolds[static_cast<std::size_t>(i)] = *manifolds[static_cast<std::size_t>(i)].state;
+    });
   }
-  result.bodies.reserve(bodies.size());
-  for (std::size_t i = 0; i < bodies.size(); ++i) {
-    const btRigidBody& c = *static_cast<const btRigidBody*>(bodies[i]);
-    BodyResult r;
-    r.id = records[i]->body.description.id;
-    const btTransform& t = c.getWorldTransform();
-    for (int k = 0; k < 3; ++k) {
-      r.linear_velocity[k] = c.getLinearVelocity()[k];
-      r.angular_velocity[k] = c.getAngularVelocity()[k];
-      r.origin[k] = t.getOrigin()[k];
-      for (int j = 0; j < 3; ++j) r.basis[k * 3 + j] = t.getBasis()[k][j];
+  result.bodies.resize(bodies.size());
+  run_in_chunks(pool, static_cast<int>(bodies.size()), kParallelMinBodies, kBodiesPerTask, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      const btRigidBody& c = *static_cast<const btRigidBody*>(bodies[static_cast<std::size_t>(i)]);
+      BodyResult& r = result.bodies[static_cast<std::size_t>(i)];
+      r.id = records[static_cast<std::size_t>(i)]->body.description.id;
+      const btTransform& t = c.getWorldTransform();
+      for (int k = 0; k < 3; ++k) {
+        r.linear_velocity[k] = c.getLinearVelocity()[k];
+        r.angular_velocity[k] = c.getAngularVelocity()[k];
+        r.origin[k] = t.getOrigin()[k];
+        for (int j = 0; j < 3; ++j) r.basis[k * 3 + j] = t.getBasis()[k][j];
+      }
+      r.activation_state = c.getActivationState();
+      r.deactivation_time = c.getDeactivationTime();
     }
-    r.activation_state = c.getActivationState();
-    r.deactivation_time = c.getDeactivationTime();
-    result.bodies.push_back(r);
-  }
+  });
   ++counters_.border_islands;
   counters_.border_island_bodies += records.size();
   return result;

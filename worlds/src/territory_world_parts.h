@@ -80,6 +80,9 @@ struct TerritoryWorld::Parts {
   btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, config.get()};
   btManifoldArray scratch;  // near callback
   std::vector<btPersistentManifold*> speculative;  // held manifolds given a speculative point this step
+  // solve_border_island's copies of a merged island's manifolds, reused from
+  // step to step (each is reset to a fresh manifold's state before use).
+  std::vector<std::unique_ptr<btPersistentManifold>> manifold_copies;
   btContactSolverInfo island_info;  // an island's own settings (island_solver_settings.h)
 };
 
