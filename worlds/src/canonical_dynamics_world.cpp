@@ -2,6 +2,8 @@
 
 #include "island_solver_settings.h"
 #include "island_substeps.h"
+#include "parallel_stages.h"
+#include "soda/worlds/solver_pool.h"
 #include "speculative_contact.h"
 #include "parking.h"
 
@@ -275,13 +277,24 @@ void CanonicalDynamicsWorld::collect_island_manifolds() {
 }
 
 // Step 4b: one solveGroup per awake island.
+// Islands are disjoint, and an island's solve is a pure function of its
+// contents (DESIGN.md §2): they may be solved in any order, by any solver.
+// With a pool, the small islands (fewer contact points than the coloured
+// solve's threshold, so Bullet's own loop on one thread) are solved side by
+// side on the pool's threads, each task with a solver of its own; the large
+// ones, which share the pool inside their solve, one after the other here.
+// An island touching a kinematic body stays here too: Bullet (built without
+// BT_THREADSAFE) writes a kinematic body's companion id while solving.
 void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
   const int islands = static_cast<int>(island_begin_.size()) - 1;
-  btConstraintSolver* solver = getConstraintSolver();
   btDispatcher* dispatcher = getDispatcher();
+  SolverPool* pool = stage_pool();
   lone_bodies_.clear();
+  big_islands_.clear();
+  small_islands_.clear();
   stats_.awake_islands = stats_.sleeping_islands = stats_.solved_manifolds = stats_.substepped_islands = 0;
   stats_.substep_threads = 0;
+  stats_.island_threads = 1;
   std::size_t m = 0;
   for (int k = 0; k < islands; ++k) {
     const std::size_t m_begin = m;
@@ -301,21 +314,57 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
       continue;
     }
     stats_.solved_manifolds += static_cast<std::size_t>(manifold_count);
-    btPersistentManifold** manifolds = manifold_count ? &manifold_ptrs_[m_begin] : nullptr;
+    const IslandJob job{body_begin, body_count, m_begin, manifold_count};
+    bool small = pool != nullptr;
+    int points = 0;
+    for (std::size_t i = m_begin; i < m && small; ++i) {
+      const btPersistentManifold& pm = *manifold_ptrs_[i];
+      points += pm.getNumContacts();
+      small = points < kColouredMinContactRows && !pm.getBody0()->isKinematicObject() &&
+              !pm.getBody1()->isKinematicObject();
+    }
+    (small ? small_islands_ : big_islands_).push_back(job);
+  }
+
+  std::atomic<int> substepped{0};
+  auto solve = [&](btConstraintSolver& solver, const IslandJob& job, btContactSolverInfo& scratch,
+                   SolverPool* island_pool) {
+    btCollisionObject** bodies = &island_bodies_[static_cast<std::size_t>(job.body_begin)];
+    btPersistentManifold** manifolds = job.manifold_count ? &manifold_ptrs_[job.manifold_begin] : nullptr;
     int substeps = 1;
     const btContactSolverInfo& info =
         bullet_defaults_ ? solver_info
-                         : island_solver_info(solver_info, island_info_, &island_bodies_[body_begin], body_count,
-                                              manifolds, manifold_count, substeps);
-    if (substeps > 1) ++stats_.substepped_islands;
-    stats_.substep_threads =
-        std::max(stats_.substep_threads, solve_island(*solver, &island_bodies_[body_begin], body_count, manifolds,
-                                                      manifold_count, info, substeps, *dispatcher, stage_pool()));
+                         : island_solver_info(solver_info, scratch, bodies, job.body_count, manifolds,
+                                              job.manifold_count, substeps);
+    if (substeps > 1) substepped.fetch_add(1, std::memory_order_relaxed);
+    return solve_island(solver, bodies, job.body_count, manifolds, job.manifold_count, info, substeps, *dispatcher,
+                        island_pool);
+  };
+  if (!small_islands_.empty()) {
+    const std::size_t threads = static_cast<std::size_t>(pool->threads());
+    if (spare_solvers_.size() < threads) {
+      spare_taken_ = std::make_unique<std::atomic<bool>[]>(threads);
+      for (std::size_t i = 0; i < threads; ++i) spare_taken_[i].store(false);
+      while (spare_solvers_.size() < threads) spare_solvers_.push_back(std::make_unique<ColouredSolver>());
+    }
+    for (auto& s : spare_solvers_) s->set_mode(solver_->mode());
+    stats_.island_threads = run_in_chunks(
+        pool, static_cast<int>(small_islands_.size()), kParallelMinIslands, kIslandsPerTask, [&](int begin, int end) {
+          std::size_t taken = 0;
+          while (spare_taken_[taken].exchange(true, std::memory_order_acquire)) taken = (taken + 1) % threads;
+          btContactSolverInfo scratch;
+          for (int i = begin; i < end; ++i)
+            solve(*spare_solvers_[taken], small_islands_[static_cast<std::size_t>(i)], scratch, nullptr);
+          spare_taken_[taken].store(false, std::memory_order_release);
+        });
   }
+  for (const IslandJob& job : big_islands_)
+    stats_.substep_threads = std::max(stats_.substep_threads, solve(*solver_, job, island_info_, pool));
+  stats_.substepped_islands = static_cast<std::size_t>(substepped.load());
   stats_.lone_bodies = lone_bodies_.size();
   if (!lone_bodies_.empty())
-    solver->solveGroup(lone_bodies_.data(), static_cast<int>(lone_bodies_.size()), nullptr, 0, nullptr, 0,
-                       solver_info, getDebugDrawer(), dispatcher);
+    solver_->solveGroup(lone_bodies_.data(), static_cast<int>(lone_bodies_.size()), nullptr, 0, nullptr, 0,
+                        solver_info, getDebugDrawer(), dispatcher);
 }
 
 void CanonicalDynamicsWorld::solveConstraints(btContactSolverInfo& solver_info) {

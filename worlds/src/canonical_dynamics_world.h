@@ -31,6 +31,9 @@
 //     islands are solved coloured by the ColouredSolver (coloured_solver.h).
 #pragma once
 
+#include <atomic>
+#include <memory>
+
 #include <cstdint>
 #include <vector>
 
@@ -138,6 +141,17 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
   std::vector<btCollisionObject*> island_bodies_;  // by island, then id
   std::vector<IslandManifold> island_manifolds_;   // by island, then (id0, id1)
   std::vector<btPersistentManifold*> manifold_ptrs_;
+  // solve_islands: the awake islands of a step, and solvers for the small
+  // ones solved side by side on the pool (one per pool thread, taken by a
+  // task for its islands and given back).
+  struct IslandJob {
+    int body_begin, body_count;
+    std::size_t manifold_begin;
+    int manifold_count;
+  };
+  std::vector<IslandJob> big_islands_, small_islands_;
+  std::vector<std::unique_ptr<ColouredSolver>> spare_solvers_;
+  std::unique_ptr<std::atomic<bool>[]> spare_taken_;
   std::vector<btCollisionObject*> lone_bodies_;
   std::vector<btPersistentManifold*> speculative_;  // manifolds given a speculative point this step
   struct Aabb {

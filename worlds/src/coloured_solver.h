@@ -106,6 +106,7 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
     SequentialInColourOrder,
   };
   void set_mode(Mode mode) { mode_ = mode; }
+  Mode mode() const { return mode_; }
 
   /// The pool the colours' runs are shared on (null: the calling thread
   /// alone). Results never depend on it. Not during a solve.

@@ -44,6 +44,11 @@ constexpr int kBodiesPerTask = 128;
 constexpr int kParallelMinPairs = 128;
 /// Pairs per pool task: a few microseconds of work per claim.
 constexpr int kPairsPerTask = 16;
+/// Small islands (Bullet's own loop, one thread each) solved side by side on
+/// the pool from this many in a step, so many per task (CanonicalDynamicsWorld::
+/// solve_islands). Results never depend on them.
+constexpr int kParallelMinIslands = 16;
+constexpr int kIslandsPerTask = 4;
 
 /// Runs fn(begin, end) over [0, count) cut into chunks of `chunk` items: on
 /// the pool's threads when pool is not null and count >= min_count, else as

@@ -54,6 +54,7 @@ struct StepStats {
   int stage_threads = 0;             // most threads a per-body or per-pair stage of the last step could use
   int substep_threads = 0;           // most threads the work between an island's substeps could use, last step
                                      // (0: no island substepped)
+  int island_threads = 0;            // most threads the last step's small islands could be solved on (side by side)
 };
 
 /// The solver settings a CanonicalWorld steps with.
