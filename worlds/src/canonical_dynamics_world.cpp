@@ -327,6 +327,7 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
   }
 
   std::atomic<int> substepped{0};
+  std::atomic<bool> small_substepped{false};
   auto solve = [&](btConstraintSolver& solver, const IslandJob& job, btContactSolverInfo& scratch,
                    SolverPool* island_pool) {
     btCollisionObject** bodies = &island_bodies_[static_cast<std::size_t>(job.body_begin)];
@@ -354,12 +355,14 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
           while (spare_taken_[taken].exchange(true, std::memory_order_acquire)) taken = (taken + 1) % threads;
           btContactSolverInfo scratch;
           for (int i = begin; i < end; ++i)
-            solve(*spare_solvers_[taken], small_islands_[static_cast<std::size_t>(i)], scratch, nullptr);
+            if (solve(*spare_solvers_[taken], small_islands_[static_cast<std::size_t>(i)], scratch, nullptr) > 0)
+              small_substepped.store(true, std::memory_order_relaxed);  // on this task's thread only
           spare_taken_[taken].store(false, std::memory_order_release);
         });
   }
   for (const IslandJob& job : big_islands_)
     stats_.substep_threads = std::max(stats_.substep_threads, solve(*solver_, job, island_info_, pool));
+  if (small_substepped.load()) stats_.substep_threads = std::max(stats_.substep_threads, 1);
   stats_.substepped_islands = static_cast<std::size_t>(substepped.load());
   stats_.lone_bodies = lone_bodies_.size();
   if (!lone_bodies_.empty())
