@@ -216,6 +216,38 @@ TEST(IslandMerger, CompletesAnIslandAcrossThreeWorlds) {
   EXPECT_GT(m[1].fragments_relayed(), 0u);  // world 1 passes 0's fragment on to 2 and back
 }
 
+// A root takes its own fragments' data out of the merger instead of copying
+// it (world_merge.cpp): only once the island is closed, only without
+// carry_data; the closed island keeps every fragment's header.
+TEST(IslandMerger, TakeMineMovesThisWorldsDataOutOfAClosedIsland) {
+  Fragment f0{0, 10, 10, {{1, 20}}, {}, {}, {}};
+  f0.manifolds.push_back(ManifoldState{10, 20, {ContactPointState{}}});
+  Fragment f1{1, 20, 20, {}, {{0, 10, 20}}, {}, {}};
+  IslandMerger m0, m1;
+  m0.start(0, {f0}, false);
+  m1.start(1, {f1}, false);
+  for (int round = 0; round < 3; ++round) {
+    for (auto& [to, fs] : m0.take_outgoing()) m1.receive(0, std::move(fs));
+    for (auto& [to, fs] : m1.take_outgoing()) m0.receive(1, std::move(fs));
+  }
+  const auto closed = m0.take_closed();
+  ASSERT_EQ(closed.size(), 1u);
+  const std::vector<Fragment> mine = m0.take_mine(closed[0]);
+  ASSERT_EQ(mine.size(), 1u);
+  EXPECT_EQ(mine[0].root, 10u);
+  ASSERT_EQ(mine[0].manifolds.size(), 1u);
+  EXPECT_EQ(mine[0].manifolds[0].points.size(), 1u);
+  ASSERT_EQ(mine[0].links_out.size(), 1u);
+  // The merger's copy keeps the header, not the data.
+  EXPECT_EQ(closed[0][0]->root, 10u);
+  EXPECT_EQ(closed[0][0]->links_out.size(), 1u);
+  EXPECT_TRUE(closed[0][0]->manifolds.empty());
+
+  IslandMerger carrying;
+  carrying.start(0, {f0}, true);
+  EXPECT_THROW(carrying.take_mine({}), std::logic_error);
+}
+
 TEST(Validator, NamesBrokenInvariants) {
   const Scene s = test::scene("falling-cubes", 4);  // ground 0, cubes 1..4
   Validator ok(s, 2);
