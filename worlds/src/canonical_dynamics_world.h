@@ -32,9 +32,8 @@
 #pragma once
 
 #include <atomic>
-#include <memory>
-
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <btBulletDynamicsCommon.h>

@@ -452,7 +452,8 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
     });
   } else {
     run_in_chunks(pool, manifold_count, kParallelMinPairs, kPairsPerTask, [&](int begin, int end) {
-      for (int i = begin; i < end; ++i) result.manifolds[static_cast<std::size_t>(i)] = *manifolds[static_cast<std::size_t>(i)].state;
+      for (int i = begin; i < end; ++i)
+        result.manifolds[static_cast<std::size_t>(i)] = *manifolds[static_cast<std::size_t>(i)].state;
     });
   }
   result.bodies.resize(bodies.size());
