@@ -193,6 +193,8 @@ nlohmann::json lb_summary_json(const RunDescription& d, const LbExperimentConfig
       {"partition", config.run.partition},
       {"schedule", first.schedule},
       {"threads", first.threads},
+      {"solver_threads", config.run.solver_threads},
+      {"solver_guests", config.run.solver_guests},
       {"anticipation", config.run.anticipation},
       {"sync_test", config.run.sync_test},
       {"validate", config.run.validate},

@@ -102,6 +102,12 @@ void add_run_options(CLI::App& cmd, Options& o) {
                  "all worlds; results are identical for every value; canonical world only); docs/coloured-solve.md")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
+  cmd.add_option("--solver-guests", o.config.solver_guests,
+                 "Territories > 1, one thread per world: how many world threads waiting for a message may take "
+                 "tasks of another world's solve meanwhile (-1: the cores the run leaves free; 0: none; results "
+                 "are identical for every value); docs/coloured-solve.md")
+      ->check(CLI::Range(-1, 256))
+      ->capture_default_str();
   cmd.add_option("--shuffle-seed", o.config.shuffle_seed,
                  "Every world (each territory's too) inserts its bodies in an order shuffled by this seed (0: "
                  "scene order); the canonical world's results do not depend on it")
@@ -214,8 +220,10 @@ void print_summary(const soda::RunResult& r) {
                 static_cast<unsigned long long>(r.messages), r.cpu_seconds,
                 soda::slowest_world_cpu_seconds(r.world_metrics));
   if (r.coloured_islands > 0 || r.solver_threads > 1)
-    std::printf("  coloured solve: %llu islands solved coloured, on up to %d solver thread(s)\n",
-                static_cast<unsigned long long>(r.coloured_islands), r.solver_threads);
+    std::printf("  coloured solve: %llu islands solved coloured, on up to %d solver thread(s); %llu tasks taken by "
+                "waiting world threads\n",
+                static_cast<unsigned long long>(r.coloured_islands), r.solver_threads,
+                static_cast<unsigned long long>(r.guest_tasks));
   if (r.substepped_islands > 0)
     std::printf("  substeps per island: %llu islands solved in substeps\n",
                 static_cast<unsigned long long>(r.substepped_islands));

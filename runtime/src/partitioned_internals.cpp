@@ -20,6 +20,7 @@ class PartitionedWorld::Internals::ProcessTask final : public WorldTask {
   std::int64_t steps_done() const override { return process_.steps_done(); }
   std::string waiting_for() const override { return process_.waiting_for(); }
   void add_blocked_ns(std::int64_t ns) override { process_.add_blocked_ns(ns); }
+  void add_guest_work(std::int64_t tasks, std::int64_t cpu_ns) override { process_.add_guest_work(tasks, cpu_ns); }
 
  private:
   Process& process_;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <thread>
 
 #include <spdlog/spdlog.h>
 
@@ -78,8 +79,20 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.lead_max = std::max(t.lead_max, m.lead_max);
   t.kept_states_max = std::max(t.kept_states_max, m.kept_states_max);
   t.coloured_islands += m.coloured_islands;
+  t.guest_tasks += m.guest_tasks;
   t.substepped_islands += m.substepped_islands;
   t.solver_threads = std::max(t.solver_threads, m.solver_threads);
+}
+
+// PartitionedOptions::solver_guests resolved: -1, the cores the world
+// threads leave free while one waits (one thread per world only; never over
+// ranks, whose transport has no wake hook for a serving thread).
+int solver_guest_slots(const PartitionedOptions& o, int k) {
+  if (o.solver_guests < -1) throw std::invalid_argument("PartitionedWorld: solver_guests must be >= -1");
+  if (o.schedule != Schedule::ThreadPerWorld || o.group || k < 2) return 0;
+  if (o.solver_guests >= 0) return std::min(o.solver_guests, k - 1);
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return std::max(0, std::min(k - 1, cores - o.solver_threads));
 }
 
 }  // namespace
@@ -176,7 +189,9 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   if (in.validator && inputs_)
     for (const UserInput& input : inputs_->from(steps_done_)) in.validator->expect(input, substeps_);
   if (options_.solver_threads < 1) throw std::invalid_argument("PartitionedWorld: solver_threads must be >= 1");
-  if (options_.solver_threads > 1) in.solver_pool = std::make_shared<SolverPool>(options_.solver_threads);
+  const int guests = solver_guest_slots(options_, k);
+  if (options_.solver_threads > 1 || guests > 0)
+    in.solver_pool = std::make_shared<SolverPool>(options_.solver_threads, guests);
   for (WorldId w = 0; w < k; ++w) {
     in.worlds.push_back(make_world(w));
     in.worlds.back()->set_solver_pool(in.solver_pool);
@@ -305,6 +320,7 @@ void PartitionedWorld::run_to(std::int64_t scene_step) {
   o.schedule = options_.schedule;
   o.threads = options_.threads;
   o.pin = options_.pin;
+  if (in_->solver_pool && in_->solver_pool->guest_slots() > 0) o.guest_pool = in_->solver_pool.get();
   Scheduler(std::move(o), in_->task_list(), *in_->transport, nullptr).run();
   steps_done_ = scene_step;
   collect_step_loads();

@@ -208,6 +208,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   options.balance = config.balance;
   if (config.inputs) options.inputs = *config.inputs;
   options.solver_threads = config.solver_threads;
+  options.solver_guests = config.solver_guests;
   options.group = config.group;
   r.solver_threads = config.solver_threads;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
@@ -273,6 +274,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.step_loads = world.step_loads();
   for (const WorldMetrics& m : r.world_metrics) r.migrations += m.migrations_out;
   for (const WorldMetrics& m : r.world_metrics) r.coloured_islands += m.coloured_islands;
+  for (const WorldMetrics& m : r.world_metrics) r.guest_tasks += m.guest_tasks;
   for (const WorldMetrics& m : r.world_metrics) r.substepped_islands += m.substepped_islands;
   if (config.validate) {
     const WorldSnapshot s = world.snapshot();

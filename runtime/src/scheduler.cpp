@@ -1,5 +1,6 @@
 #include "scheduler.h"
 
+#include <algorithm>
 #include <condition_variable>
 #include <deque>
 #include <stdexcept>
@@ -7,6 +8,7 @@
 #include "run_control.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/transport.h"
+#include "soda/worlds/solver_pool.h"
 #include "thread_pinning.h"
 
 namespace soda {
@@ -76,6 +78,14 @@ void Scheduler::launch() {
       });
       break;
     case Schedule::ThreadPerWorld:
+      if (options_.guest_pool) {
+        arrived_ = std::make_unique<std::atomic<bool>[]>(tasks_.size());
+        for (std::size_t w = 0; w < tasks_.size(); ++w) arrived_[w].store(false);
+        transport_.set_wake_hook([this](WorldId w) {
+          arrived_[static_cast<std::size_t>(w)].store(true, std::memory_order_release);
+          options_.guest_pool->wake_guests();
+        });
+      }
       for (WorldId w = 0; w < k; ++w)
         if (local(w))
           threads_.emplace_back([this, w] {
@@ -118,7 +128,7 @@ void Scheduler::launch() {
 void Scheduler::join() {
   for (std::thread& t : threads_) t.join();
   threads_.clear();
-  if (pool_) {
+  if (pool_ || arrived_) {
     transport_.set_wake_hook([](WorldId) {});
     if (control_) control_->set_wake_hook({});
   }
@@ -139,7 +149,12 @@ void Scheduler::fail(WorldId world, std::exception_ptr error) {
     error_ = error;
   }
   if (on_error_) on_error_(world, error);
+  closing_.store(true, std::memory_order_seq_cst);
   transport_.close();
+  if (arrived_) {  // serving worlds leave the pool and find the transport closed
+    for (std::size_t w = 0; w < tasks_.size(); ++w) arrived_[w].store(true, std::memory_order_seq_cst);
+    options_.guest_pool->wake_guests();
+  }
   if (pool_) {
     {
       std::lock_guard lock(pool_->mutex);
@@ -201,6 +216,10 @@ void Scheduler::run_world(WorldId w) {
         task.publish_blocking();
         continue;
       }
+      if (arrived_) {
+        task.deliver(receive_serving(w, task));
+        continue;
+      }
       const std::int64_t t0 = wall_ns();
       Message m = transport_.receive(w);
       task.add_blocked_ns(wall_ns() - t0);
@@ -209,6 +228,34 @@ void Scheduler::run_world(WorldId w) {
   } catch (...) {
     fail(w, std::current_exception());
   }
+}
+
+// Park on the mailbox (its next message calls the wake hook: arrived_),
+// then serve the pool until then (SolverPool::serve waits for a free guest
+// slot if need be). The time spent in the pool's jobs is the world's work,
+// not its wait. A closing transport falls back to the plain blocking
+// receive, which throws TransportClosed.
+Message Scheduler::receive_serving(WorldId w, WorldTask& task) {
+  std::atomic<bool>& arrived = arrived_[static_cast<std::size_t>(w)];
+  const std::int64_t t0 = wall_ns();
+  std::int64_t served_ns = 0;  // CPU in the pool's jobs: as good as wall time for a running thread
+  auto waited = [&] { return std::max<std::int64_t>(0, wall_ns() - t0 - served_ns); };
+  for (;;) {
+    if (std::optional<Message> m = transport_.try_receive(w)) {
+      task.add_blocked_ns(waited());
+      return std::move(*m);
+    }
+    arrived.store(false, std::memory_order_seq_cst);
+    if (!transport_.park(w)) continue;  // a message is queued
+    if (closing_.load(std::memory_order_seq_cst)) break;
+    const SolverPool::Served s = options_.guest_pool->serve(arrived);
+    if (!s.admitted && options_.guest_pool->guest_slots() == 0) break;
+    served_ns += s.cpu_ns;
+    if (s.tasks > 0) task.add_guest_work(s.tasks, s.cpu_ns);
+  }
+  Message m = transport_.receive(w);
+  task.add_blocked_ns(waited());
+  return m;
 }
 
 // A worker runs a world until it must wait. Waiting for a message parks it

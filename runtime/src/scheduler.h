@@ -10,7 +10,10 @@
 //   ThreadPerWorld  world i's thread: advance; done -> wait for the limit to
 //                   rise (gated) or end; buffer full -> wait in
 //                   publish_blocking; missing a message -> block on its
-//                   mailbox (Transport::receive).
+//                   mailbox (Transport::receive), or, given a solver pool
+//                   with guest slots, serve that pool (SolverPool::serve:
+//                   the colours of a merged island its root is solving)
+//                   until the mailbox's wake hook says a message came.
 //   Pool            T workers share a ready queue. A world runs until it must
 //                   wait, then parks: on its mailbox (Transport::park; the
 //                   transport's wake hook re-queues it) or, gated, at the
@@ -48,6 +51,7 @@
 namespace soda {
 
 class RunControl;
+class SolverPool;
 class Transport;
 
 /// One world as the scheduler sees it (world_tasks.h adapts the world
@@ -74,6 +78,10 @@ class WorldTask {
   virtual std::string waiting_for() const = 0;
   /// Wall time (ns) the world spent blocked on or parked for its mailbox.
   virtual void add_blocked_ns(std::int64_t ns) = 0;
+  /// Tasks of other worlds' solves the world's thread ran while it waited
+  /// (SolverPool::serve), and their thread CPU time (ns): the world's own
+  /// work, as far as its load is concerned (busy, not waiting, meanwhile).
+  virtual void add_guest_work(std::int64_t tasks, std::int64_t cpu_ns) = 0;
 };
 
 class Scheduler {
@@ -90,6 +98,10 @@ class Scheduler {
     /// process_group.h); empty: all. Not with Sequential (whose deadlock
     /// check cannot see messages still on their way from another rank).
     std::vector<bool> local = {};
+    /// ThreadPerWorld: a world's thread waiting for a message serves this
+    /// pool's jobs meanwhile (while it has a free guest slot). Null: it
+    /// blocks on its mailbox. Outlives the scheduler.
+    SolverPool* guest_pool = nullptr;
   };
   /// Called once, on the failing thread, with the first error and the world
   /// it came from (kNoWorld if unknown), before the transport is closed.
@@ -125,6 +137,8 @@ class Scheduler {
   void run_sequential();
   void run_world(WorldId world);
   void run_pool_worker(int index);
+  /// run_world's wait for a message, serving the guest pool meanwhile.
+  Message receive_serving(WorldId world, WorldTask& task);
   bool local(WorldId world) const;
   std::size_t local_count() const;
 
@@ -134,6 +148,10 @@ class Scheduler {
   RunControl* const control_;
   const ErrorHook on_error_;
   std::shared_ptr<Pool> pool_;  // shared with the wake hooks, which may run late
+  /// Guests (Options::guest_pool): per world, set by the transport's wake
+  /// hook when a message came for it while it was parked serving.
+  std::unique_ptr<std::atomic<bool>[]> arrived_;
+  std::atomic<bool> closing_{false};  // fail() closed the transport: guests stop serving
   std::vector<std::thread> threads_;
   std::size_t launched_ = 0;          // threads launch() started
   std::atomic<std::size_t> ended_{0};  // ... that have ended

@@ -48,6 +48,13 @@ class StageClock {
   /// Wall time waited for what `stage` needs.
   void add_wait(Stage stage, std::int64_t ns) { totals_.wait_ns[index(stage)] += ns; }
   void count(Stage stage, std::uint64_t items) { totals_.items[index(stage)] += items; }
+  /// CPU time the world's thread spent for the world outside every Scope
+  /// (a guest's share of another world's solve, scheduler.h), given to
+  /// `stage`; no clock read here.
+  void add_cpu(Stage stage, std::int64_t ns) {
+    totals_.cpu_ns[index(stage)] += ns;
+    totals_.cpu_ns_sum += ns;
+  }
   /// A message of `kind` and `bytes` bytes sent to `to` in the current
   /// stage (also counted by destination and kind: published_traffic()).
   void sent(WorldId to, MessageKind kind, std::uint64_t bytes) {

@@ -103,6 +103,10 @@ class PartitionedWorld::Process {
   /// Wall time the world's thread waited for it (a blocking receive, a
   /// park): counted in the stage the world waits in.
   void add_blocked_ns(std::int64_t ns);
+  /// Tasks of another world's solve this world's thread ran while it
+  /// waited (Scheduler: SolverPool guests); their CPU time counts in
+  /// Stage::Solve.
+  void add_guest_work(std::int64_t tasks, std::int64_t cpu_ns);
 
   WorldMetrics metrics() const;
 
@@ -188,6 +192,7 @@ class PartitionedWorld::Process {
   std::int64_t step_cpu_max_ns_ = 0;
   std::vector<std::int64_t> step_cpu_history_ns_;  // CPU time of every finished internal step
   std::int64_t blocked_ns_ = 0;
+  std::uint64_t guest_tasks_ = 0;  // add_guest_work
   std::int64_t step_start_blocked_ns_ = 0;  // blocked_ns_ at the last step's end
   std::vector<StepRecord> step_log_;         // since the last take_step_log()
   std::int64_t room_blocked_ns_ = 0;

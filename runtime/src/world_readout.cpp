@@ -47,6 +47,11 @@ void PartitionedWorld::Process::add_blocked_ns(std::int64_t ns) {
   clock_.add_wait(waiting_stage(), ns);
 }
 
+void PartitionedWorld::Process::add_guest_work(std::int64_t tasks, std::int64_t cpu_ns) {
+  guest_tasks_ += static_cast<std::uint64_t>(tasks);
+  clock_.add_cpu(Stage::Solve, cpu_ns);
+}
+
 std::string PartitionedWorld::Process::waiting_for() const {
   std::ostringstream s;
   s << "world " << s_.world->id() << " at step " << s_.step << " ";
@@ -98,6 +103,7 @@ WorldMetrics PartitionedWorld::Process::metrics() const {
   m.cpu_step_ms.reserve(step_cpu_history_ns_.size());
   for (std::int64_t ns : step_cpu_history_ns_) m.cpu_step_ms.push_back(static_cast<double>(ns) * 1e-6);
   m.blocked_seconds = static_cast<double>(blocked_ns_) * 1e-9;
+  m.guest_tasks = guest_tasks_;
   m.buffer_blocked_seconds = static_cast<double>(room_blocked_ns_) * 1e-9;
   m.entries_published = entries_published_;
   m.entries_dropped = entries_dropped_;

@@ -67,6 +67,9 @@ TEST(ColouredSolve, CubePileEveryTerritoryCountAndSolverThreadCount) {
       o.threads = 2;
       o.anticipation = i % 2 ? 8 : 0;
       o.solver_threads = threads;
+      // A waiting world's thread as a guest of the pool: explicit, so that
+      // the threads counted below do not depend on the machine's cores.
+      o.solver_guests = o.schedule == Schedule::ThreadPerWorld && k > 1 ? 1 : 0;
       ++i;
       const Outcome r = run(s, map, o);
       std::printf("[ cube-pile %d %s K=%d ] %s, anticipation %d, solver threads %d: %s (one world %s), %llu "
@@ -75,9 +78,64 @@ TEST(ColouredSolve, CubePileEveryTerritoryCountAndSolverThreadCount) {
                   hash_hex(r.hash).c_str(), hash_hex(reference).c_str(),
                   static_cast<unsigned long long>(r.total.coloured_islands), r.total.solver_threads);
       EXPECT_EQ(hash_hex(r.hash), hash_hex(reference)) << "K=" << k << ", solver threads " << threads;
-      expect_coloured(r, k, threads);
+      expect_coloured(r, k, threads + o.solver_guests);
     }
   }
+}
+
+// Waiting world threads as guests of the pool (PartitionedOptions::
+// solver_guests, scheduler.h): while the root solves the merged heap, the
+// other worlds' threads, blocked on their mailboxes, take tasks of its
+// colours. One-world hash; the guests really took tasks, and their CPU time
+// is their own world's (stage solve). Whether a guest gets one of a small
+// colour's few tasks before the root has run them all is a matter of
+// timing (on 2 cores at K = 2 from 0 to thousands in 150 steps; at K >= 4
+// thousands), so the count is checked over all the runs.
+TEST(ColouredSolve, WaitingWorldsServeTheRootsSolve) {
+  const Scene s = test::scene("cube-pile", kBodies);
+  const std::uint64_t reference = test::reference_hash(s, kSteps);
+  struct Config {
+    int k, solver_threads, guests, anticipation;
+  };
+#if defined(__SANITIZE_THREAD__)
+  const std::vector<Config> configs = {{2, 1, 1, 0}, {4, 2, 3, 8}};
+#else
+  const std::vector<Config> configs = {{2, 1, 1, 0}, {2, 2, 1, 8}, {4, 1, 1, 0}, {4, 2, 3, 8}, {8, 1, 7, 0}};
+#endif
+  std::uint64_t guest_tasks = 0;
+  for (const Config& c : configs) {
+    PartitionedOptions o;
+    o.schedule = Schedule::ThreadPerWorld;
+    o.anticipation = c.anticipation;
+    o.solver_threads = c.solver_threads;
+    o.solver_guests = c.guests;
+    PartitionedWorld w(s, make_partition("kmeans", s, c.k, GridOptions{}), o);
+    w.step(kSteps);
+    const std::vector<WorldMetrics> metrics = w.metrics();
+    const WorldMetrics total = test::total(metrics);
+    std::printf("[ cube-pile %d %s K=%d ] solver threads %d, guests %d, anticipation %d: %s (one world %s), %llu "
+                "tasks taken by guests\n",
+                kBodies, kPrecisionName, c.k, c.solver_threads, c.guests, c.anticipation,
+                hash_hex(w.state_hash()).c_str(), hash_hex(reference).c_str(),
+                static_cast<unsigned long long>(total.guest_tasks));
+    EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(reference)) << "K=" << c.k << ", guests " << c.guests;
+    expect_coloured(Outcome{w.state_hash(), total}, c.k, c.solver_threads + c.guests);
+    guest_tasks += total.guest_tasks;
+    for (const WorldMetrics& m : metrics)
+      if (m.guest_tasks > 0) {
+        EXPECT_GT(m.stages[static_cast<std::size_t>(Stage::Solve)].cpu_seconds, 0.0) << "world " << m.world;
+      }
+  }
+  EXPECT_GT(guest_tasks, 0u) << "no waiting world took a task of a root's solve";
+}
+
+// Guests must be a count (or -1, automatic).
+TEST(ColouredSolve, SolverGuestsMustNotBeBelowMinusOne) {
+  const Scene s = test::scene("cube-pile", 20);
+  PartitionedOptions o;
+  o.schedule = Schedule::ThreadPerWorld;
+  o.solver_guests = -2;
+  EXPECT_THROW(PartitionedWorld(s, make_partition("kmeans", s, 2, GridOptions{}), o), std::invalid_argument);
 }
 
 // The other scenes of the fuzz suite, each on its own partition, with 3
@@ -212,6 +270,7 @@ TEST(ColouredSolve, StepStagesOnThePoolEveryThreadCount) {
       PartitionedOptions o;
       o.schedule = Schedule::ThreadPerWorld;
       o.solver_threads = threads;
+      o.solver_guests = threads - 1;
       PartitionedWorld w(s, make_partition("kmeans", s, 2, GridOptions{}), o);
       w.step(kStageSteps);
       EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(reference)) << name << ", K=2, solver threads " << threads;

@@ -51,6 +51,7 @@ class RingWorld final : public WorldTask {
     return "world " + std::to_string(id_) + " waits for step " + std::to_string(step_);
   }
   void add_blocked_ns(std::int64_t ns) override { blocked_ns_ += ns; }
+  void add_guest_work(std::int64_t, std::int64_t) override {}
 
  private:
   const WorldId id_, next_;

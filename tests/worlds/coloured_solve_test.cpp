@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
@@ -229,6 +230,86 @@ TEST(SolverPool, BusyPoolRunsTheSecondCallerAlone) {
   first.join();
   EXPECT_EQ(second_threads.load(), 1);
   EXPECT_EQ(done, 4);
+}
+
+// Guests (SolverPool::serve): threads that are not the pool's take tasks of
+// its jobs while they serve, every task still runs once, a guest leaves when
+// told, and a guest beyond the slots is turned away at once.
+TEST(SolverPool, GuestsTakeTasksUntilTold) {
+  SolverPool pool(1, 2);  // no helper: the guests are the only other threads
+  EXPECT_EQ(pool.threads(), 3);
+  std::atomic<bool> until[2] = {false, false};
+  SolverPool::Served served[2];
+  std::vector<std::thread> guests;
+  for (int g = 0; g < 2; ++g) guests.emplace_back([&, g] { served[g] = pool.serve(until[g]); });
+  while (pool.guests() < 2) std::this_thread::yield();
+  // A job of two tasks that each wait for the other: done only if a guest
+  // takes one (the caller alone would wait for ever; 10 s is a failure).
+  std::atomic<int> running{0};
+  std::atomic<bool> met{true};
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  const int threads = pool.run(2, [&](int) {
+    running.fetch_add(1);
+    while (running.load() < 2 && std::chrono::steady_clock::now() < deadline) std::this_thread::yield();
+    if (running.load() < 2) met = false;
+  });
+  EXPECT_TRUE(met.load()) << "no guest took the second task";
+  EXPECT_EQ(threads, 3);
+  for (int round = 0; round < 200; ++round) {
+    const int count = 2 + round % 37;
+    std::vector<std::atomic<int>> hits(static_cast<std::size_t>(count));
+    pool.run(count, [&](int i) { hits[static_cast<std::size_t>(i)].fetch_add(1); });
+    for (const auto& h : hits) ASSERT_EQ(h.load(), 1);
+  }
+  // Guest 0 is told to leave; guest 1 still serves.
+  until[0] = true;
+  pool.wake_guests();
+  guests[0].join();
+  EXPECT_EQ(pool.guests(), 1);
+  std::atomic<int> done{0};
+  pool.run(8, [&](int) { ++done; });
+  EXPECT_EQ(done.load(), 8);
+  until[1] = true;
+  pool.wake_guests();
+  guests[1].join();
+  EXPECT_EQ(pool.guests(), 0);
+  EXPECT_TRUE(served[0].admitted && served[1].admitted);
+  EXPECT_GE(served[0].tasks + served[1].tasks, 1) << "the guests counted none of their tasks";
+  EXPECT_GT(served[0].cpu_ns + served[1].cpu_ns, 0) << "the guests' CPU time inside jobs was not measured";
+  EXPECT_THROW(SolverPool(1, -1), std::invalid_argument);
+}
+
+// A guest that finds every slot taken waits for one, and gets it when the
+// holder leaves; told to stop first, it returns without one.
+TEST(SolverPool, AGuestWaitsForAFreeSlot) {
+  SolverPool pool(1, 1);
+  std::atomic<bool> until_first{false}, until_second{false};
+  std::thread first([&] { EXPECT_TRUE(pool.serve(until_first).admitted); });
+  while (pool.guests() < 1) std::this_thread::yield();
+  const std::atomic<bool> at_once{true};
+  EXPECT_FALSE(pool.serve(at_once).admitted) << "a guest told to stop took the slot";
+  SolverPool::Served second_served;
+  std::thread second([&] { second_served = pool.serve(until_second); });
+  until_first = true;
+  pool.wake_guests();
+  first.join();
+  while (pool.guests() < 1) std::this_thread::yield();  // the second took the freed slot
+  // Only the second guest can take the second task of this job.
+  std::atomic<int> running{0};
+  std::atomic<bool> met{true};
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  pool.run(2, [&](int) {
+    running.fetch_add(1);
+    while (running.load() < 2 && std::chrono::steady_clock::now() < deadline) std::this_thread::yield();
+    if (running.load() < 2) met = false;
+  });
+  EXPECT_TRUE(met.load()) << "the waiting guest did not get the freed slot";
+  until_second = true;
+  pool.wake_guests();
+  second.join();
+  EXPECT_TRUE(second_served.admitted);
+  EXPECT_GE(second_served.tasks, 1);
+  EXPECT_FALSE(SolverPool(1, 0).serve(until_second).admitted);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "soda/worlds/solver_pool.h"
 
+#include <ctime>
 #include <stdexcept>
 
 #if defined(__x86_64__) || defined(__i386__)
@@ -36,10 +37,17 @@ void spin_until(Done done) {
   }
 }
 
+std::int64_t thread_cpu_now() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
+
 }  // namespace
 
-SolverPool::SolverPool(int threads) {
+SolverPool::SolverPool(int threads, int guest_slots) : guest_slots_(guest_slots) {
   if (threads < 1) throw std::invalid_argument("SolverPool: threads must be >= 1");
+  if (guest_slots < 0) throw std::invalid_argument("SolverPool: guest_slots must be >= 0");
   helpers_.reserve(static_cast<std::size_t>(threads - 1));
   for (int i = 0; i + 1 < threads; ++i) helpers_.emplace_back([this] { helper_loop(); });
 }
@@ -48,21 +56,25 @@ SolverPool::~SolverPool() {
   stop_.store(true, std::memory_order_seq_cst);
   generation_.fetch_add(1, std::memory_order_seq_cst);
   generation_.notify_all();
+  wake_guests();
   for (std::thread& t : helpers_) t.join();
 }
 
-void SolverPool::work() {
+int SolverPool::work() {
   const int count = count_.load(std::memory_order_relaxed);
+  int ran = 0;
   for (int i = next_.fetch_add(1, std::memory_order_relaxed); i < count;
        i = next_.fetch_add(1, std::memory_order_relaxed)) {
     (*task_)(i);
+    ++ran;
     finished_.fetch_add(1, std::memory_order_release);
   }
+  return ran;
 }
 
 int SolverPool::run(int count, const std::function<void(int)>& task) {
   std::unique_lock<std::mutex> lock(submit_, std::try_to_lock);
-  if (!lock.owns_lock() || helpers_.empty() || count <= 1) {
+  if (!lock.owns_lock() || count <= 1 || (helpers_.empty() && guests_.load(std::memory_order_seq_cst) == 0)) {
     for (int i = 0; i < count; ++i) task(i);
     return 1;
   }
@@ -72,7 +84,13 @@ int SolverPool::run(int count, const std::function<void(int)>& task) {
   finished_.store(0, std::memory_order_relaxed);
   next_.store(0, std::memory_order_relaxed);
   const std::uint64_t g = generation_.fetch_add(1, std::memory_order_seq_cst) + 1;
-  generation_.notify_all();
+  if (!helpers_.empty()) generation_.notify_all();
+  // A guest that came in after this read sees the job when it looks at
+  // generation_ (both seq_cst): it never sleeps through it.
+  if (guests_.load(std::memory_order_seq_cst) > 0) {
+    guest_epoch_.fetch_add(1, std::memory_order_seq_cst);
+    guest_epoch_.notify_all();
+  }
   work();
   spin_until([&] { return finished_.load(std::memory_order_acquire) == count; });
   // Close the job, then wait for the helpers inside to leave. A helper
@@ -99,10 +117,73 @@ void SolverPool::helper_loop() {
     }
     if (stop_.load(std::memory_order_seq_cst)) return;
     seen = g;
-    inside_.fetch_add(1, std::memory_order_seq_cst);
-    if (generation_.load(std::memory_order_seq_cst) == g && closed_.load(std::memory_order_seq_cst) != g) work();
-    inside_.fetch_sub(1, std::memory_order_release);
+    visit(g);
   }
+}
+
+int SolverPool::visit(std::uint64_t g) {
+  inside_.fetch_add(1, std::memory_order_seq_cst);
+  int ran = 0;
+  if (generation_.load(std::memory_order_seq_cst) == g && closed_.load(std::memory_order_seq_cst) != g) ran = work();
+  inside_.fetch_sub(1, std::memory_order_release);
+  return ran;
+}
+
+// A guest visits each job at most once (`joined`), as a helper does, and
+// only open ones: a job closed before the guest came is none of its
+// business. It spins as a helper does between jobs, then sleeps on
+// guest_epoch_, which run() bumps for every job while a guest is in and
+// wake_guests() for the guest's own reasons; the epoch is read before
+// `until` and generation_, so neither a job nor a wake falls between the
+// look and the sleep.
+SolverPool::Served SolverPool::serve(const std::atomic<bool>& until) {
+  Served served;
+  // A slot, or wait for one: the thread that holds it may be about to leave
+  // (a world woken by its message leaves as its neighbour, which just sent
+  // that message, comes to wait; the neighbour must not miss the solve).
+  for (;;) {
+    const std::uint32_t epoch = guest_epoch_.load(std::memory_order_seq_cst);
+    if (guest_slots_ == 0 || until.load(std::memory_order_acquire) || stop_.load(std::memory_order_seq_cst))
+      return served;
+    int in = guests_.load(std::memory_order_seq_cst);
+    if (in < guest_slots_) {
+      if (guests_.compare_exchange_weak(in, in + 1, std::memory_order_seq_cst)) break;
+      continue;
+    }
+    guest_epoch_.wait(epoch, std::memory_order_seq_cst);
+  }
+  served.admitted = true;
+  std::uint64_t joined = 0;
+  for (;;) {
+    const std::uint32_t epoch = guest_epoch_.load(std::memory_order_seq_cst);
+    if (until.load(std::memory_order_acquire) || stop_.load(std::memory_order_seq_cst)) break;
+    bool woke = false;
+    for (int spins = 0; spins < kSpinsBeforeSleep; ++spins) {
+      const std::uint64_t g = generation_.load(std::memory_order_seq_cst);
+      if (g != joined && closed_.load(std::memory_order_seq_cst) != g) {
+        joined = g;
+        const std::int64_t t0 = thread_cpu_now();
+        served.tasks += visit(g);
+        served.cpu_ns += thread_cpu_now() - t0;
+        spins = 0;
+      }
+      if (until.load(std::memory_order_acquire)) {
+        woke = true;
+        break;
+      }
+      cpu_relax();
+    }
+    if (woke) break;
+    guest_epoch_.wait(epoch, std::memory_order_seq_cst);
+  }
+  guests_.fetch_sub(1, std::memory_order_seq_cst);
+  wake_guests();  // a thread waiting for a slot (no system call if none sleeps)
+  return served;
+}
+
+void SolverPool::wake_guests() {
+  guest_epoch_.fetch_add(1, std::memory_order_seq_cst);
+  guest_epoch_.notify_all();
 }
 
 }  // namespace soda

@@ -173,8 +173,16 @@ struct PartitionedOptions {
   /// one pool of solver_threads - 1 helper threads shared by every world of
   /// this PartitionedWorld, joined by the thread of the world solving; a
   /// world that finds it busy solves alone. Results never depend on it.
-  /// 1: no pool. >= 1.
+  /// 1: no pool (unless guests, below). >= 1.
   int solver_threads = 1;
+  /// Guests of that pool (SolverPool::serve): with Schedule::ThreadPerWorld,
+  /// the thread of a world waiting for a message (a merged island's root
+  /// solving it, say) takes tasks of the pool's jobs meanwhile, at most this
+  /// many at once; their CPU time counts as their own world's work (stage
+  /// solve). -1: automatic, the cores a run leaves free: min(K - 1,
+  /// hardware threads - solver_threads), at least 0. 0: none. Results never
+  /// depend on it. Other schedules and ranks: none.
+  int solver_guests = -1;
   /// Ranks (process_group.h; docs/mpi.md): this process steps only the
   /// worlds group->rank_of() gives its rank, and messages to other ranks'
   /// worlds go through the group. Every rank builds the same world from the
@@ -263,6 +271,10 @@ struct WorldMetrics {
   std::uint64_t coloured_islands = 0;        // islands solved coloured (docs/coloured-solve.md)
   std::uint64_t substepped_islands = 0;      // islands solved in substeps, re-solves included (docs/stress.md)
   int solver_threads = 0;                    // most threads a coloured island could use
+  /// Tasks of other worlds' solves this world's thread ran while it waited
+  /// for a message (PartitionedOptions::solver_guests); their CPU time is
+  /// in stages[solve].
+  std::uint64_t guest_tasks = 0;
 };
 
 /// The per-world metrics summed over worlds: counters, sizes, CPU and

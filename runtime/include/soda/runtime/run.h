@@ -125,6 +125,9 @@ struct RunConfig {
   /// K = 1, the canonical world's pool; K > 1, PartitionedOptions::solver_threads.
   /// Results never depend on it. 1: none. >= 1. Not with the stock world.
   int solver_threads = 1;
+  /// K > 1, one thread per world: PartitionedOptions::solver_guests (-1:
+  /// automatic; 0: none).
+  int solver_guests = -1;
   /// Ranks (MPI: docs/mpi.md; PartitionedOptions::group): the worlds are
   /// spread over the group's processes, every rank running run_scene with
   /// the same config; rank 0's result is the whole scene's (state hash,
@@ -184,6 +187,7 @@ struct RunResult {
   double record_cpu_seconds = 0;
   int solver_threads = 1;                   // RunConfig::solver_threads
   std::uint64_t coloured_islands = 0;       // islands solved coloured, summed over steps (and worlds)
+  std::uint64_t guest_tasks = 0;            // K > 1: WorldMetrics::guest_tasks summed over worlds
   std::uint64_t substepped_islands = 0;     // islands solved in substeps (docs/stress.md), summed over steps (and worlds)
   /// RunConfig::group, rank 0: every rank's traffic, by rank (else empty).
   std::vector<RankTraffic> ranks;

@@ -16,7 +16,13 @@
 //  2. one job at a time: a caller that finds the pool busy (another world
 //     solving on it) runs its tasks alone, on its own thread;
 //  3. helpers spin a short while between jobs (the jobs of one solve come
-//     back to back) and then sleep; they never run a task outside run().
+//     back to back) and then sleep; they never run a task outside run();
+//  4. guests (threads that are not the pool's: a territory's thread waiting
+//     for its neighbours' messages, runtime/src/scheduler.cpp) take tasks by
+//     the same protocol as helpers, at most guest_slots at a time, and only
+//     inside serve() (a thread finding every slot taken waits there for
+//     one); a job counts them in threads() whether or not they
+//     come, so nothing a caller sees depends on who was waiting.
 #pragma once
 
 #include <atomic>
@@ -31,16 +37,34 @@ namespace soda {
 
 class SolverPool {
  public:
-  /// threads >= 1: the caller of run() plus threads - 1 helpers started here.
-  /// Throws std::invalid_argument otherwise.
-  explicit SolverPool(int threads);
+  /// threads >= 1: the caller of run() plus threads - 1 helpers started here;
+  /// guest_slots >= 0: how many other threads may serve() at once. Throws
+  /// std::invalid_argument otherwise.
+  explicit SolverPool(int threads, int guest_slots = 0);
   /// Stops and joins the helpers. No run() may be in progress.
   ~SolverPool();
   SolverPool(const SolverPool&) = delete;
   SolverPool& operator=(const SolverPool&) = delete;
 
-  /// The threads a job can use (the caller included).
-  int threads() const { return static_cast<int>(helpers_.size()) + 1; }
+  /// The threads a job can use (the caller included, guests' slots too).
+  int threads() const { return static_cast<int>(helpers_.size()) + 1 + guest_slots_; }
+  int guest_slots() const { return guest_slots_; }
+  /// Guests inside serve() now (a moment's figure; for tests and reports).
+  int guests() const { return guests_.load(std::memory_order_acquire); }
+
+  /// What one serve() did.
+  struct Served {
+    bool admitted = false;    // took a guest slot (false: `until` came first, or the pool has no slots)
+    std::int64_t tasks = 0;   // tasks it ran
+    std::int64_t cpu_ns = 0;  // thread CPU time inside jobs
+  };
+  /// A guest: takes tasks of the jobs run() publishes, on the calling
+  /// thread, until `until` is true (set by another thread, which then calls
+  /// wake_guests()) or the pool is destroyed. With every guest slot taken
+  /// it waits for one (or for `until`); with no slots it returns at once.
+  Served serve(const std::atomic<bool>& until);
+  /// Wakes every guest to look at its `until` again. Any thread.
+  void wake_guests();
 
   /// Runs task(i) for every i in [0, count) and returns when all are done.
   /// Returns the number of threads that could take tasks: threads(), or 1
@@ -52,7 +76,9 @@ class SolverPool {
 
  private:
   void helper_loop();
-  void work();
+  int work();  // the tasks it ran
+  /// One helper's or guest's visit to job `g`: joins it unless it closed.
+  int visit(std::uint64_t g);
 
   std::mutex submit_;                          // held by the caller of the current job
   std::atomic<std::uint64_t> generation_{0};   // one more per job; release-publishes the job
@@ -64,6 +90,9 @@ class SolverPool {
   alignas(64) std::atomic<int> finished_{0};   // tasks of the current job finished
   alignas(64) std::atomic<int> inside_{0};     // helpers inside the current job
   std::vector<std::thread> helpers_;
+  const int guest_slots_;
+  alignas(64) std::atomic<int> guests_{0};          // threads inside serve()
+  std::atomic<std::uint32_t> guest_epoch_{0};       // guests sleep on it: one more per job (when guests) and wake
 };
 
 }  // namespace soda
