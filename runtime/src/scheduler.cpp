@@ -238,7 +238,7 @@ void Scheduler::run_world(WorldId w) {
 Message Scheduler::receive_serving(WorldId w, WorldTask& task) {
   std::atomic<bool>& arrived = arrived_[static_cast<std::size_t>(w)];
   const std::int64_t t0 = wall_ns();
-  std::int64_t served_ns = 0;  // CPU in the pool's jobs: as good as wall time for a running thread
+  std::int64_t served_ns = 0;  // time inside the pool's jobs (SolverPool::Served::busy_ns)
   auto waited = [&] { return std::max<std::int64_t>(0, wall_ns() - t0 - served_ns); };
   for (;;) {
     if (std::optional<Message> m = transport_.try_receive(w)) {
@@ -250,8 +250,8 @@ Message Scheduler::receive_serving(WorldId w, WorldTask& task) {
     if (closing_.load(std::memory_order_seq_cst)) break;
     const SolverPool::Served s = options_.guest_pool->serve(arrived);
     if (!s.admitted && options_.guest_pool->guest_slots() == 0) break;
-    served_ns += s.cpu_ns;
-    if (s.tasks > 0) task.add_guest_work(s.tasks, s.cpu_ns);
+    served_ns += s.busy_ns;
+    if (s.tasks > 0) task.add_guest_work(s.tasks, s.busy_ns);
   }
   Message m = transport_.receive(w);
   task.add_blocked_ns(waited());

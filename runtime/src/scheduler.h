@@ -79,9 +79,9 @@ class WorldTask {
   /// Wall time (ns) the world spent blocked on or parked for its mailbox.
   virtual void add_blocked_ns(std::int64_t ns) = 0;
   /// Tasks of other worlds' solves the world's thread ran while it waited
-  /// (SolverPool::serve), and their thread CPU time (ns): the world's own
-  /// work, as far as its load is concerned (busy, not waiting, meanwhile).
-  virtual void add_guest_work(std::int64_t tasks, std::int64_t cpu_ns) = 0;
+  /// (SolverPool::serve), and the time (ns) it spent inside their jobs: the
+  /// world's own work, as far as its load is concerned (busy, not waiting).
+  virtual void add_guest_work(std::int64_t tasks, std::int64_t busy_ns) = 0;
 };
 
 class Scheduler {

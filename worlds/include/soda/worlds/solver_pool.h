@@ -56,7 +56,7 @@ class SolverPool {
   struct Served {
     bool admitted = false;    // took a guest slot (false: `until` came first, or the pool has no slots)
     std::int64_t tasks = 0;   // tasks it ran
-    std::int64_t cpu_ns = 0;  // thread CPU time inside jobs
+    std::int64_t busy_ns = 0;  // wall time inside jobs (the thread runs there: its CPU time but for preemption)
   };
   /// A guest: takes tasks of the jobs run() publishes, on the calling
   /// thread, until `until` is true (set by another thread, which then calls
