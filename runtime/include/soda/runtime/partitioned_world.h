@@ -179,9 +179,10 @@ struct PartitionedOptions {
   /// the thread of a world waiting for a message (a merged island's root
   /// solving it, say) takes tasks of the pool's jobs meanwhile, at most this
   /// many at once; their CPU time counts as their own world's work (stage
-  /// solve). -1: automatic, the cores a run leaves free: min(K - 1,
-  /// hardware threads - solver_threads), at least 0. 0: none. Results never
-  /// depend on it. Other schedules and ranks: none.
+  /// solve). -1: automatic, the cores a run leaves free: none if K >
+  /// hardware threads (a waiting world's core runs another world), else
+  /// min(K - 1, hardware threads - solver_threads), at least 0. 0: none.
+  /// Results never depend on it. Other schedules and ranks: none.
   int solver_guests = -1;
   /// Ranks (process_group.h; docs/mpi.md): this process steps only the
   /// worlds group->rank_of() gives its rank, and messages to other ranks'
