@@ -324,7 +324,7 @@ void PartitionedWorld::run_to(std::int64_t scene_step) {
   o.schedule = options_.schedule;
   o.threads = options_.threads;
   o.pin = options_.pin;
-  if (in_->solver_pool && in_->solver_pool->guest_slots() > 0) o.guest_pool = in_->solver_pool.get();
+  o.guest_pool = in_->solver_pool.get();
   Scheduler(std::move(o), in_->task_list(), *in_->transport, nullptr).run();
   steps_done_ = scene_step;
   collect_step_loads();

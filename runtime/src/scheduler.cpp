@@ -78,7 +78,7 @@ void Scheduler::launch() {
       });
       break;
     case Schedule::ThreadPerWorld:
-      if (options_.guest_pool) {
+      if (options_.guest_pool && options_.guest_pool->guest_slots() > 0) {
         arrived_ = std::make_unique<std::atomic<bool>[]>(tasks_.size());
         for (std::size_t w = 0; w < tasks_.size(); ++w) arrived_[w].store(false);
         transport_.set_wake_hook([this](WorldId w) {
@@ -249,7 +249,6 @@ Message Scheduler::receive_serving(WorldId w, WorldTask& task) {
     if (!transport_.park(w)) continue;  // a message is queued
     if (closing_.load(std::memory_order_seq_cst)) break;
     const SolverPool::Served s = options_.guest_pool->serve(arrived);
-    if (!s.admitted && options_.guest_pool->guest_slots() == 0) break;
     served_ns += s.busy_ns;
     if (s.tasks > 0) task.add_guest_work(s.tasks, s.busy_ns);
   }

@@ -99,8 +99,8 @@ class Scheduler {
     /// check cannot see messages still on their way from another rank).
     std::vector<bool> local = {};
     /// ThreadPerWorld: a world's thread waiting for a message serves this
-    /// pool's jobs meanwhile (while it has a free guest slot). Null: it
-    /// blocks on its mailbox. Outlives the scheduler.
+    /// pool's jobs meanwhile (SolverPool::serve). Null, or a pool without
+    /// guest slots: it blocks on its mailbox. Outlives the scheduler.
     SolverPool* guest_pool = nullptr;
   };
   /// Called once, on the failing thread, with the first error and the world

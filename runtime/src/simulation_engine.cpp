@@ -169,7 +169,7 @@ void SimulationEngine::launch_locked() {
   o.threads = threads;
   o.pin = config_.pin;
   o.name = "Simulation";
-  if (parts().solver_pool && parts().solver_pool->guest_slots() > 0) o.guest_pool = parts().solver_pool.get();
+  o.guest_pool = parts().solver_pool.get();
   scheduler_ = std::make_unique<Scheduler>(std::move(o), parts().task_list(), *parts().transport, &core->control,
                                            [this](WorldId w, std::exception_ptr e) { fail(w, std::move(e)); });
   scheduler_->launch();

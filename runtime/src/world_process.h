@@ -104,9 +104,9 @@ class PartitionedWorld::Process {
   /// park): counted in the stage the world waits in.
   void add_blocked_ns(std::int64_t ns);
   /// Tasks of another world's solve this world's thread ran while it
-  /// waited (Scheduler: SolverPool guests); their CPU time counts in
-  /// Stage::Solve.
-  void add_guest_work(std::int64_t tasks, std::int64_t cpu_ns);
+  /// waited (Scheduler: SolverPool guests); the time inside their jobs
+  /// (a running thread's: its CPU time) counts in Stage::Solve.
+  void add_guest_work(std::int64_t tasks, std::int64_t busy_ns);
 
   WorldMetrics metrics() const;
 

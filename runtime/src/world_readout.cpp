@@ -47,9 +47,9 @@ void PartitionedWorld::Process::add_blocked_ns(std::int64_t ns) {
   clock_.add_wait(waiting_stage(), ns);
 }
 
-void PartitionedWorld::Process::add_guest_work(std::int64_t tasks, std::int64_t cpu_ns) {
+void PartitionedWorld::Process::add_guest_work(std::int64_t tasks, std::int64_t busy_ns) {
   guest_tasks_ += static_cast<std::uint64_t>(tasks);
-  clock_.add_cpu(Stage::Solve, cpu_ns);
+  clock_.add_cpu(Stage::Solve, busy_ns);
 }
 
 std::string PartitionedWorld::Process::waiting_for() const {

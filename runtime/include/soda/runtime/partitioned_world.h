@@ -178,7 +178,7 @@ struct PartitionedOptions {
   /// Guests of that pool (SolverPool::serve): with Schedule::ThreadPerWorld,
   /// the thread of a world waiting for a message (a merged island's root
   /// solving it, say) takes tasks of the pool's jobs meanwhile, at most this
-  /// many at once; their CPU time counts as their own world's work (stage
+  /// many at once; their time inside its jobs counts as their own world's work (stage
   /// solve). -1: automatic, the cores a run leaves free: none if K >
   /// hardware threads (a waiting world's core runs another world), else
   /// min(K - 1, hardware threads - solver_threads), at least 0. 0: none.
@@ -273,7 +273,7 @@ struct WorldMetrics {
   std::uint64_t substepped_islands = 0;      // islands solved in substeps, re-solves included (docs/stress.md)
   int solver_threads = 0;                    // most threads a coloured island could use
   /// Tasks of other worlds' solves this world's thread ran while it waited
-  /// for a message (PartitionedOptions::solver_guests); their CPU time is
+  /// for a message (PartitionedOptions::solver_guests); the time inside them is
   /// in stages[solve].
   std::uint64_t guest_tasks = 0;
 };
