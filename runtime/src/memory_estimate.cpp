@@ -34,10 +34,9 @@ constexpr std::uint64_t kWorldBytesPerBody = 2100;
 // territories has more; the margin below covers it).
 constexpr double kGhostShare = 0.25;
 
-// Manifolds per body and points per manifold in a kept state: a resting
-// dense pile has about three manifolds per body, four points at most each.
+// Manifolds per body in a kept state: a resting dense pile has about three
+// manifolds per body. A ManifoldState holds its (at most four) points inline.
 constexpr std::uint64_t kKeptManifoldsPerBody = 3;
-constexpr std::uint64_t kPointsPerManifold = 4;
 
 // The model is refused only when the estimate times this margin does not
 // fit: it guards against what the model misses (allocator slack, per-step
@@ -45,8 +44,7 @@ constexpr std::uint64_t kPointsPerManifold = 4;
 constexpr double kSafetyMargin = 1.25;
 
 std::uint64_t kept_state_bytes_per_body() {
-  return sizeof(BodySnapshot) +
-         kKeptManifoldsPerBody * (sizeof(ManifoldState) + kPointsPerManifold * sizeof(ContactPointState));
+  return sizeof(BodySnapshot) + kKeptManifoldsPerBody * sizeof(ManifoldState);
 }
 
 // Stack of a std::thread: glibc takes RLIMIT_STACK (8 MiB unless changed),

@@ -185,7 +185,8 @@ MigrantBatch read_migrants(ByteReader& r) {
 
 void write_payload(ByteWriter& w, const ResultBatch& b) {
   w.count(b.results.size());
-  for (const IslandResult& r : b.results) {
+  for (const std::shared_ptr<const IslandResult>& p : b.results) {
+    const IslandResult& r = *p;
     w.put(r.island);
     w.count(r.bodies.size());
     for (const BodyResult& x : r.bodies) {
@@ -200,8 +201,10 @@ void write_payload(ByteWriter& w, const ResultBatch& b) {
 ResultBatch read_results(ByteReader& r) {
   constexpr std::size_t kBodyResultBytes = 4 + 18 * sizeof(btScalar) + 4 + sizeof(btScalar);
   ResultBatch b;
-  b.results.resize(r.count(4 + 4 + 4));
-  for (IslandResult& res : b.results) {
+  const std::size_t count = r.count(4 + 4 + 4);
+  b.results.reserve(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    IslandResult res;
     res.island = read_id(r);
     res.bodies.resize(r.count(kBodyResultBytes));
     for (BodyResult& x : res.bodies) {
@@ -215,6 +218,7 @@ ResultBatch read_results(ByteReader& r) {
                  "island result bodies");
     if (res.bodies.empty() || res.bodies.front().id != res.island) r.fail("island result without its first body");
     res.manifolds = read_manifolds(r);
+    b.results.push_back(std::make_shared<const IslandResult>(std::move(res)));
   }
   return b;
 }

@@ -105,10 +105,10 @@ void PartitionedWorld::Process::gathered(BodyId island) {
   });
   std::vector<const Fragment*> fragments;
   for (const Fragment& f : is.data) fragments.push_back(&f);
-  IslandResult result;
+  std::shared_ptr<const IslandResult> result;
   {
     StageClock::Scope solve(clock_, Stage::Solve);
-    result = s_.world->solve_border_island(fragments);
+    result = std::make_shared<const IslandResult>(s_.world->solve_border_island(fragments));
   }
   take_result(std::move(result));
 }
@@ -116,18 +116,18 @@ void PartitionedWorld::Process::gathered(BodyId island) {
 // A solved island: keep this world's part and pass it down the tree. (It
 // cannot arrive before the island is complete here: the root needs this
 // world's data first.)
-void PartitionedWorld::Process::take_result(IslandResult result) {
-  auto it = s_.islands.find(result.island);
+void PartitionedWorld::Process::take_result(std::shared_ptr<const IslandResult> result) {
+  auto it = s_.islands.find(result->island);
   if (it == s_.islands.end())
     throw std::logic_error("world " + std::to_string(s_.world->id()) + ": result for island " +
-                           std::to_string(result.island) + ", which is not complete here");
+                           std::to_string(result->island) + ", which is not complete here");
   // Children first: they apply their part while this world applies its own.
   for (WorldId child : it->second.children) {
     ++sums_.relay_messages_sent;
     send(child, Message{.payload = ResultBatch{{result}}});
   }
   s_.islands.erase(it);
-  s_.world->apply_island_result(result);
+  s_.world->apply_island_result(*result);
 }
 
 }  // namespace soda

@@ -332,7 +332,8 @@ bool PartitionedWorld::Process::merge() {
     ++sums_.relay_messages_received;
     if (spec_) spec_->merged();
     if (m.kind() == MessageKind::Results) {
-      for (IslandResult& r : std::get<ResultBatch>(m.payload).results) take_result(std::move(r));
+      for (std::shared_ptr<const IslandResult>& r : std::get<ResultBatch>(m.payload).results)
+        take_result(std::move(r));
     } else if (m.kind() == MessageKind::Gather) {
       GatherBatch& g = std::get<GatherBatch>(m.payload);
       take_gather(g.island, std::move(g.fragments));

@@ -151,7 +151,7 @@ class PartitionedWorld::Process {
   void close_island(const std::vector<const Fragment*>& island);
   void take_gather(BodyId island, std::vector<Fragment> fragments);
   void gathered(BodyId island);
-  void take_result(IslandResult result);
+  void take_result(std::shared_ptr<const IslandResult> result);
   void end_step();
   void check_watchdog();
   void apply_inputs();

@@ -69,7 +69,7 @@ std::vector<Message> sample_messages() {
     r.bodies.push_back(b);
   }
   r.manifolds.assign(v.manifolds.begin(), v.manifolds.begin() + 2);
-  out.push_back(Message{4, 1, 21, ResultBatch{{r, r}}});
+  out.push_back(Message{4, 1, 21, ResultBatch{{std::make_shared<const IslandResult>(r), std::make_shared<const IslandResult>(r)}}});
   Fragment header{3, 2, kNoBody, {{0, 2}}, {}, {}, {}};  // only a ghost: no first body
   out.push_back(Message{1, 2, 22, GatherBatch{r.island, {f, header}}});
   return out;

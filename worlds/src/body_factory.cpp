@@ -173,6 +173,8 @@ void bullet_aabb(const btCollisionObject& object, btVector3& min, btVector3& max
   }
 }
 
+static_assert(ContactPoints::kCapacity == MANIFOLD_CACHE_SIZE, "a ManifoldState holds what a btPersistentManifold can");
+
 ManifoldState read_manifold_state(const btPersistentManifold& m) {
   ManifoldState ms;
   read_manifold_state(m, ms);
@@ -182,8 +184,8 @@ ManifoldState read_manifold_state(const btPersistentManifold& m) {
 void read_manifold_state(const btPersistentManifold& m, ManifoldState& out) {
   out.id0 = static_cast<BodyId>(m.getBody0()->getUserIndex());
   out.id1 = static_cast<BodyId>(m.getBody1()->getUserIndex());
-  out.points.resize(static_cast<std::size_t>(m.getNumContacts()));
-  for (int p = 0; p < m.getNumContacts(); ++p) out.points[static_cast<std::size_t>(p)] = to_state(m.getContactPoint(p));
+  out.points.clear();
+  for (int p = 0; p < m.getNumContacts(); ++p) out.points.push_back(to_state(m.getContactPoint(p)));
 }
 
 void write_manifold_points(const ManifoldState& ms, btPersistentManifold& m) {

@@ -23,6 +23,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <variant>
 #include <vector>
@@ -38,8 +39,12 @@ struct FragmentBatch {
 };
 
 /// Solved border islands relayed from their root down the island's tree.
+/// Immutable and shared: in one process the root and every world below it
+/// read the same result, none copies it (a copy per child was a fresh
+/// allocation of every manifold of the island each step); across processes
+/// the codec writes and reads it like any payload.
 struct ResultBatch {
-  std::vector<IslandResult> results;
+  std::vector<std::shared_ptr<const IslandResult>> results;
 };
 
 /// The fragments (with data) of a subtree of one border island's tree, on

@@ -17,7 +17,10 @@
 // at the end of every step). Bodies are sorted by id, manifolds by (id0, id1).
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
+#include <initializer_list>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -70,12 +73,81 @@ struct ContactPointState {
   btScalar lateral_friction_dir1[3], lateral_friction_dir2[3];
 };
 
+/// The points of one manifold, in cache order: at most kCapacity (Bullet's
+/// MANIFOLD_CACHE_SIZE), held inline. A merged island's manifolds are copied
+/// four times a step (fragment, the root's copy, the result, the holder), and
+/// a heap allocation each was 4 % of a partitioned cube-pile's CPU
+/// (docs/coloured-solve.md, session 15). A sequence of at most 4: resize or
+/// push_back beyond that throws std::length_error, never overflows.
+class ContactPoints {
+ public:
+  static constexpr std::size_t kCapacity = 4;
+  using value_type = ContactPointState;
+  using iterator = ContactPointState*;
+  using const_iterator = const ContactPointState*;
+
+  ContactPoints() = default;
+  ContactPoints(std::initializer_list<ContactPointState> points) {
+    check(points.size());
+    for (const ContactPointState& p : points) points_[size_++] = p;
+  }
+  ContactPoints(const ContactPoints& other) : size_(other.size_) { copy_from(other); }
+  ContactPoints& operator=(const ContactPoints& other) {
+    size_ = other.size_;
+    copy_from(other);
+    return *this;
+  }
+
+  std::size_t size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  static constexpr std::size_t capacity() { return kCapacity; }
+
+  /// New points (growing) are value-initialised (all fields zero).
+  void resize(std::size_t n) {
+    check(n);
+    for (std::size_t i = size_; i < n; ++i) points_[i] = ContactPointState{};
+    size_ = static_cast<std::uint32_t>(n);
+  }
+  void push_back(const ContactPointState& p) {
+    check(size_ + 1u);
+    points_[size_++] = p;
+  }
+  void pop_back() {
+    if (size_ == 0) throw std::out_of_range("ContactPoints::pop_back on no points");
+    --size_;
+  }
+  void clear() { size_ = 0; }
+
+  ContactPointState& operator[](std::size_t i) { return points_[i]; }
+  const ContactPointState& operator[](std::size_t i) const { return points_[i]; }
+  ContactPointState& front() { return points_[0]; }
+  const ContactPointState& front() const { return points_[0]; }
+  ContactPointState& back() { return points_[size_ - 1]; }
+  const ContactPointState& back() const { return points_[size_ - 1]; }
+  iterator begin() { return points_.data(); }
+  iterator end() { return points_.data() + size_; }
+  const_iterator begin() const { return points_.data(); }
+  const_iterator end() const { return points_.data() + size_; }
+
+ private:
+  static void check(std::size_t n) {
+    if (n > kCapacity) throw std::length_error("a manifold holds at most 4 contact points");
+  }
+  // Only the points in use: a copy of a one-point manifold moves one point.
+  void copy_from(const ContactPoints& other) {
+    for (std::size_t i = 0; i < size_; ++i) points_[i] = other.points_[i];
+  }
+
+  std::array<ContactPointState, kCapacity> points_;  // [size_, 4) unspecified
+  std::uint32_t size_ = 0;
+};
+
 /// The contact state of one pair: a persistent manifold's points in cache
 /// order (at most 4). id0 < id1 are the ids of Bullet's body0 and body1.
 struct ManifoldState {
   BodyId id0 = 0;
   BodyId id1 = 0;
-  std::vector<ContactPointState> points;
+  ContactPoints points;
 };
 
 struct WorldSnapshot {
