@@ -163,13 +163,21 @@ std::vector<Fragment> TerritoryWorld::border_fragments(const std::vector<std::pa
     if (!f.bodies.empty()) f.first_body = f.bodies.front().body.description.id;
     std::sort(c.links_in.begin(), c.links_in.end());
     f.links_in = c.links_in;
+    f.manifolds.resize(static_cast<std::size_t>(held_begin_[uk + 1] - held_begin_[uk]));
     for (int j = held_begin_[uk]; j < held_begin_[uk + 1]; ++j) {
       btPersistentManifold* m = held_ptrs_[static_cast<std::size_t>(j)];
-      f.manifolds.push_back(read_manifold_state(*m));
-      held_by_key_[PairKey{f.manifolds.back().id0, f.manifolds.back().id1}] = m;
+      ManifoldState& state = f.manifolds[static_cast<std::size_t>(j - held_begin_[uk])];
+      read_manifold_state(*m, state);
+      held_by_key_.emplace_back(PairKey{state.id0, state.id1}, m);
     }
     fragments.push_back(std::move(f));
   }
+  std::sort(held_by_key_.begin(), held_by_key_.end());
+  for (std::size_t i = 1; i < held_by_key_.size(); ++i)
+    if (held_by_key_[i].first == held_by_key_[i - 1].first)
+      throw std::logic_error("world " + std::to_string(id_) + ": two held manifolds of pair " +
+                             std::to_string(held_by_key_[i].first.first) + "-" +
+                             std::to_string(held_by_key_[i].first.second));
   counters_.border_fragments = fragments.size();
   solve_local(local);
   return fragments;
@@ -493,10 +501,18 @@ void TerritoryWorld::apply_island_result(const IslandResult& result) {
     rb.forceActivationState(r.activation_state);
     rb.setDeactivationTime(r.deactivation_time);
   }
+  // Both sorted by key: each search starts where the last one ended.
+  auto held = held_by_key_.begin();
+  PairKey last{0, 0};
   for (const ManifoldState& m : result.manifolds) {
     const PairKey key{m.id0, m.id1};
-    auto held = held_by_key_.find(key);
-    if (held != held_by_key_.end()) {
+    if (&m != &result.manifolds.front() && !(last < key))
+      throw std::logic_error("world " + std::to_string(id_) + ": island result " + std::to_string(result.island) +
+                             " has its manifolds out of order");
+    last = key;
+    held = std::lower_bound(held, held_by_key_.end(), key,
+                            [](const std::pair<PairKey, void*>& h, const PairKey& k) { return h.first < k; });
+    if (held != held_by_key_.end() && held->first == key) {
       write_manifold_points(m, *static_cast<btPersistentManifold*>(held->second));
     } else if (owns(key_of(key.first, key.second)) && !is_speculative(m) && !m.points.empty()) {
       // A speculative point is no contact state: it ends with the solve;

@@ -404,7 +404,10 @@ class TerritoryWorld {
   std::vector<int> pending_of_;                // component -> index in components_ or -1
   std::vector<Component> components_;          // pending components only
   std::map<WorldId, GlueBatch> glue_out_;
-  std::map<PairKey, void*> held_by_key_;  // btPersistentManifold* of held manifolds in border fragments
+  // btPersistentManifold* of the manifolds held in border fragments, sorted
+  // by key after border_fragments (a flat vector: a std::map's node per
+  // manifold and its lookups were ~1.5 % of a partitioned cube-pile's CPU).
+  std::vector<std::pair<PairKey, void*>> held_by_key_;
   // Rollback and Propagate (set_replay): the step's replay, the old run's
   // islands by smallest id, and what integrate() writes back.
   StepReplay replay_;
