@@ -349,22 +349,28 @@ void TerritoryWorld::finish_replay() {
 }
 
 IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragment*>& island) {
+  // Sort keys are held beside the pointers: comparing through the pointers
+  // missed the cache at every step of the sort (this runs on the root alone).
   struct HeldManifold {
+    std::pair<BodyId, BodyId> key;
     const ManifoldState* state;
     WorldId holder;
   };
-  std::vector<const BodyRecord*> records;
+  std::vector<std::pair<BodyId, const BodyRecord*>> by_id;
   std::vector<HeldManifold> manifolds;
   for (const Fragment* f : island) {
-    for (const BodyRecord& r : f->bodies) records.push_back(&r);
-    for (const ManifoldState& m : f->manifolds) manifolds.push_back(HeldManifold{&m, f->world});
+    for (const BodyRecord& r : f->bodies) by_id.emplace_back(r.body.description.id, &r);
+    for (const ManifoldState& m : f->manifolds) manifolds.push_back(HeldManifold{{m.id0, m.id1}, &m, f->world});
   }
-  std::sort(records.begin(), records.end(), [](const BodyRecord* a, const BodyRecord* b) {
-    return a->body.description.id < b->body.description.id;
-  });
-  std::sort(manifolds.begin(), manifolds.end(), [](const HeldManifold& a, const HeldManifold& b) {
-    return std::make_pair(a.state->id0, a.state->id1) < std::make_pair(b.state->id0, b.state->id1);
-  });
+  std::sort(by_id.begin(), by_id.end(),
+            [](const std::pair<BodyId, const BodyRecord*>& a, const std::pair<BodyId, const BodyRecord*>& b) {
+              return a.first < b.first;
+            });
+  std::sort(manifolds.begin(), manifolds.end(),
+            [](const HeldManifold& a, const HeldManifold& b) { return a.key < b.key; });
+  std::vector<const BodyRecord*> records(by_id.size());
+  std::vector<BodyId> ids(by_id.size());  // for the searches below
+  for (std::size_t i = 0; i < by_id.size(); ++i) ids[i] = by_id[i].first, records[i] = by_id[i].second;
   auto fail = [&](const std::string& what) {
     throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) +
                          ", border island of body " +
@@ -372,12 +378,11 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
                          ": " + what);
   };
   if (records.empty()) fail("no bodies");
-  for (std::size_t i = 1; i < records.size(); ++i)
-    if (records[i]->body.description.id == records[i - 1]->body.description.id)
-      fail("body " + std::to_string(records[i]->body.description.id) + " has two owners");
+  for (std::size_t i = 1; i < ids.size(); ++i)
+    if (ids[i] == ids[i - 1]) fail("body " + std::to_string(ids[i]) + " has two owners");
   for (std::size_t i = 1; i < manifolds.size(); ++i)
-    if (manifolds[i].state->id0 == manifolds[i - 1].state->id0 && manifolds[i].state->id1 == manifolds[i - 1].state->id1)
-      fail("pair " + std::to_string(manifolds[i].state->id0) + "-" + std::to_string(manifolds[i].state->id1) +
+    if (manifolds[i].key == manifolds[i - 1].key)
+      fail("pair " + std::to_string(manifolds[i].key.first) + "-" + std::to_string(manifolds[i].key.second) +
            " has two holders");
 
   // Copies of the island's bodies, in the state their owners sent. Made
@@ -408,9 +413,8 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
     }
   });
   auto object_of = [&](BodyId id) -> btCollisionObject* {
-    auto it = std::lower_bound(records.begin(), records.end(), id,
-                               [](const BodyRecord* r, BodyId x) { return r->body.description.id < x; });
-    if (it != records.end() && (*it)->body.description.id == id) return bodies[static_cast<std::size_t>(it - records.begin())];
+    auto it = std::lower_bound(ids.begin(), ids.end(), id);
+    if (it != ids.end() && *it == id) return bodies[static_cast<std::size_t>(it - ids.begin())];
     auto s = entries_.find(id);
     if (s == entries_.end() || s->second->role != Role::Static)
       fail("manifold refers to body " + std::to_string(id) + ", which is neither in the island nor static");
@@ -430,7 +434,7 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
     std::vector<btPersistentManifold*> ptrs(manifolds.size());
     std::vector<std::pair<btCollisionObject*, btCollisionObject*>> ends(manifolds.size());
     for (std::size_t i = 0; i < manifolds.size(); ++i) {  // here: object_of may throw
-      ends[i] = {object_of(manifolds[i].state->id0), object_of(manifolds[i].state->id1)};
+      ends[i] = {object_of(manifolds[i].key.first), object_of(manifolds[i].key.second)};
       ptrs[i] = copies[i].get();
     }
     run_in_chunks(pool, manifold_count, kParallelMinPairs, kPairsPerTask, [&](int begin, int end) {
