@@ -6,12 +6,14 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
 #include <btBulletDynamicsCommon.h>
 
 #include "soda/worlds/canonical_world.h"
+#include "soda/worlds/value_codec.h"
 #include "worlds/world_test_util.h"
 
 namespace soda {
@@ -175,6 +177,44 @@ TEST(Snapshot, MalformedBytesThrow) {
     } catch (const SnapshotFormatError&) {
     }
   }
+}
+
+// A manifold's points are held inline (at most 4): growing past 4 throws
+// instead of writing past the storage, and a copy carries exactly the points
+// in use, field for field.
+TEST(ContactPoints, HoldsAtMostFourAndCopiesThePointsInUse) {
+  ContactPoints points;
+  EXPECT_TRUE(points.empty());
+  for (int i = 0; i < 4; ++i) {
+    ContactPointState p{};
+    p.applied_impulse = btScalar(i + 1);
+    p.lifetime = 10 + i;
+    points.push_back(p);
+  }
+  EXPECT_EQ(points.size(), 4u);
+  EXPECT_THROW(points.push_back(ContactPointState{}), std::length_error);
+  EXPECT_THROW(points.resize(5), std::length_error);
+  EXPECT_EQ(points.size(), 4u);
+
+  ManifoldState a{3, 7, points};
+  a.points.pop_back();
+  ManifoldState b = a;
+  ASSERT_EQ(b.points.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(b.points[i].applied_impulse, btScalar(i + 1));
+    EXPECT_EQ(b.points[i].lifetime, 10 + static_cast<int>(i));
+  }
+  EXPECT_TRUE(same_bits(a, b));
+  b.points.resize(4);  // a new point is all zeros, not the old fourth
+  EXPECT_EQ(b.points.back().applied_impulse, btScalar(0));
+  EXPECT_EQ(b.points.back().lifetime, 0);
+  EXPECT_FALSE(same_bits(a, b));
+
+  b.points.clear();
+  EXPECT_THROW(b.points.pop_back(), std::out_of_range);
+  EXPECT_THROW((ContactPoints{ContactPointState{}, ContactPointState{}, ContactPointState{}, ContactPointState{},
+                              ContactPointState{}}),
+               std::length_error);
 }
 
 }  // namespace
