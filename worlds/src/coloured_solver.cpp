@@ -180,11 +180,14 @@ ColouredSolver::Residual ColouredSolver::sweep(Sweep kind) {
   for (int c = 0; c < colours; ++c) {
     const int begin = colour_begin_[static_cast<std::size_t>(c)];
     const int count = colour_begin_[static_cast<std::size_t>(c) + 1] - begin;
-    const int tasks = (count + kRunsPerTask - 1) / kRunsPerTask;
+    const int per_task =
+        pool_ ? std::clamp(count / (kTasksPerThread * pool_->threads()), kMinRunsPerTask, kMaxRunsPerTask)
+              : kMaxRunsPerTask;
+    const int tasks = (count + per_task - 1) / per_task;
     task_residuals_.assign(static_cast<std::size_t>(tasks), Residual{});
     auto task = [&](int t) {
-      const int first = begin + t * kRunsPerTask;
-      const int n = std::min(kRunsPerTask, begin + count - first);
+      const int first = begin + t * per_task;
+      const int n = std::min(per_task, begin + count - first);
       solve_runs(kind, &colour_runs_[static_cast<std::size_t>(first)], n, task_residuals_[static_cast<std::size_t>(t)]);
     };
     if (pool_) {

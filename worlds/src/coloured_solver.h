@@ -59,9 +59,17 @@ constexpr int kMaxColours = 32;
 /// A colour with fewer runs goes to the overflow: a pool job for a handful of
 /// runs costs more than solving them on one thread.
 constexpr int kMinRunsPerColour = 16;
-/// Runs per pool task: a few microseconds of rows, so that two threads
-/// share a colour evenly while a task still amortises its claim.
-constexpr int kRunsPerTask = 16;
+/// Runs per pool task: as many as amortise a task's claim and the cache
+/// lines it pulls from the other thread, up to kMaxRunsPerTask, but no more
+/// than leave every thread kTasksPerThread tasks of a colour and no fewer
+/// than kMinRunsPerTask. cube-pile 4000, 300 steps, three alternating runs,
+/// least wall s with a fixed 8 / 16 / 32 runs: K = 2 on 2 threads 11.86 /
+/// 10.92 / 10.28; 32 / 64 / 128: 9.81 / 9.41 / 9.39; one territory on 2
+/// solver threads 16 / 64: 10.42 / 9.35 (session 15). A fixed 64 left small
+/// heaps (cube-pile 200) on one thread. Any split gives the same bits.
+constexpr int kMinRunsPerTask = 16;
+constexpr int kMaxRunsPerTask = 64;
+constexpr int kTasksPerThread = 4;
 /// Manifolds from which the contact and friction rows are built on the pool
 /// (coloured_setup.cpp): a manifold's rows are ~2,000-4,000 instructions, so
 /// below this a pool job costs more than it gains. Results never depend on it.
