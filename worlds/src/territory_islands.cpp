@@ -354,13 +354,12 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
   struct HeldManifold {
     std::pair<BodyId, BodyId> key;
     const ManifoldState* state;
-    WorldId holder;
   };
   std::vector<std::pair<BodyId, const BodyRecord*>> by_id;
   std::vector<HeldManifold> manifolds;
   for (const Fragment* f : island) {
     for (const BodyRecord& r : f->bodies) by_id.emplace_back(r.body.description.id, &r);
-    for (const ManifoldState& m : f->manifolds) manifolds.push_back(HeldManifold{{m.id0, m.id1}, &m, f->world});
+    for (const ManifoldState& m : f->manifolds) manifolds.push_back(HeldManifold{{m.id0, m.id1}, &m});
   }
   std::sort(by_id.begin(), by_id.end(),
             [](const std::pair<BodyId, const BodyRecord*>& a, const std::pair<BodyId, const BodyRecord*>& b) {
