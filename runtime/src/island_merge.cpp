@@ -133,7 +133,7 @@ void IslandMerger::update() {
         if (carry_data_) {
           outgoing_[n].push_back(f);
         } else {
-          outgoing_[n].push_back(Fragment{f.world, f.root, f.first_body, f.links_out, f.links_in, {}, {}});
+          outgoing_[n].push_back(Fragment{f.world, f.root, f.first_body, f.weight, f.links_out, f.links_in, {}, {}});
         }
         if (f.world != me_) ++relayed_;
       }
@@ -182,7 +182,8 @@ std::vector<Fragment> IslandMerger::take_mine(const std::vector<const Fragment*>
       throw std::logic_error("IslandMerger::take_mine: the island is not closed");
     out.push_back(std::move(node.fragment));
     // The node keeps its header (update() and later lookups read it).
-    node.fragment = Fragment{out.back().world, out.back().root, out.back().first_body, out.back().links_out,
+    node.fragment = Fragment{out.back().world, out.back().root, out.back().first_body, out.back().weight,
+                             out.back().links_out,
                              out.back().links_in, {}, {}};
   }
   return out;

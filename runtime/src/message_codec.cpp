@@ -11,7 +11,7 @@ namespace soda {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'M', 'S', 'G', '1'};
-constexpr std::uint32_t kVersion = 2;  // 2: epoch, Control
+constexpr std::uint32_t kVersion = 3;  // 2: epoch, Control; 3: a fragment's weight
 constexpr std::size_t kMinRecordBytes = kMinBodyBytes + 6 * sizeof(btScalar);
 
 [[noreturn]] void raise_message_error(const std::string& message) { throw MessageFormatError(message); }
@@ -110,7 +110,7 @@ GlueBatch read_glue(ByteReader& r) {
 void write_fragments(ByteWriter& w, const std::vector<Fragment>& fragments) {
   w.count(fragments.size());
   for (const Fragment& f : fragments) {
-    w.put(f.world), w.put(f.root), w.put(f.first_body);
+    w.put(f.world), w.put(f.root), w.put(f.first_body), w.put(f.weight);
     w.count(f.links_out.size());
     for (const LinkOut& l : f.links_out) w.put(l.owner), w.put(l.body);
     w.count(f.links_in.size());
@@ -122,12 +122,13 @@ void write_fragments(ByteWriter& w, const std::vector<Fragment>& fragments) {
 }
 
 std::vector<Fragment> read_fragment_list(ByteReader& r) {
-  std::vector<Fragment> fragments(r.count(4 + 4 + 4 + 4 * 4));
+  std::vector<Fragment> fragments(r.count(4 + 4 + 4 + 4 + 4 * 4));
   for (Fragment& f : fragments) {
     f.world = read_world(r);
     f.root = read_id(r);
     f.first_body = r.get<BodyId>();
     if (f.first_body != kNoBody && f.first_body > kMaxBodyId) r.fail("bad first body id");
+    f.weight = r.get<std::uint32_t>();
     f.links_out.resize(r.count(8));
     for (LinkOut& l : f.links_out) l.owner = read_world(r), l.body = read_id(r);
     check_sorted(r, f.links_out, std::less<LinkOut>(), "fragment links out");
@@ -142,6 +143,8 @@ std::vector<Fragment> read_fragment_list(ByteReader& r) {
     f.manifolds = read_manifolds(r);
     if (!f.bodies.empty() && f.bodies.front().body.description.id != f.first_body)
       r.fail("fragment's first body differs from its bodies");
+    if ((!f.bodies.empty() || !f.manifolds.empty()) && f.weight != f.bodies.size() + f.manifolds.size())
+      r.fail("fragment's weight differs from its bodies and manifolds");
   }
   return fragments;
 }

@@ -19,22 +19,31 @@ void PartitionedWorld::Process::flush_merger() {
   for (const std::vector<const Fragment*>& island : s_.merger.take_closed()) close_island(island);
 }
 
-// An island is complete here. Its root is the owner of its smallest body;
-// its tree is the BFS tree of its worlds (joined by its links, ascending)
-// from the root, the same in every world.
+// An island is complete here. Its root is the world whose fragments weigh
+// most (owned bodies + manifolds held: the least data to gather, and the
+// roots of many islands spread over their worlds in proportion to their
+// shares), ties to the owner of the smallest body; its tree is the BFS tree
+// of its worlds (joined by its links, ascending) from the root. Every world
+// sees the same headers, so every world names the same root; the solve is on
+// copies in id order, so which world solves changes no bit.
 void PartitionedWorld::Process::close_island(const std::vector<const Fragment*>& island) {
   std::map<WorldId, std::set<WorldId>> adjacent;
+  std::map<WorldId, std::uint64_t> weight;
   BodyId smallest = kNoBody;
-  WorldId root = kNoWorld;
+  WorldId smallest_owner = kNoWorld;
   for (const Fragment* f : island) {
     adjacent[f->world];
+    weight[f->world] += f->weight;
     for (const LinkOut& l : f->links_out) adjacent[f->world].insert(l.owner), adjacent[l.owner].insert(f->world);
     for (const LinkIn& l : f->links_in) adjacent[f->world].insert(l.world), adjacent[l.world].insert(f->world);
     if (f->first_body < smallest) {
       smallest = f->first_body;
-      root = f->world;
+      smallest_owner = f->world;
     }
   }
+  WorldId root = smallest_owner;
+  for (const auto& [w, units] : weight)  // ascending world: ties to the smallest body's owner
+    if (units > weight[root]) root = w;
   ++sums_.merged_islands;
   clock_.count(Stage::Merge, 1);
   sums_.merged_island_worlds_sum += adjacent.size();

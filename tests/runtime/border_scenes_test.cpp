@@ -84,5 +84,32 @@ TEST(BorderScenes, ChainSpanningEveryTerritoryOfAStrip) {
   EXPECT_GT(o.total.ghosts_sent, 0u);
 }
 
+TEST(BorderScenes, TheRootIsTheWorldWithTheLargestShare) {
+  // The chain's cells x in [-8, 4) cut in two at x = -2: world 0 owns boxes
+  // 1-6 (the smallest id), world 1 boxes 7-16. The world whose fragments
+  // weigh most (bodies + manifolds) solves the island, not the owner of its
+  // smallest body; the bits are the one world's either way.
+  GridOptions g = border_grid();
+  g.box = CellBox{{-4, 0, -1}, {1, 0, 0}};
+  const Scene s = test::scene("chain", 16);
+  const TerritoryMap map = make_partition("grid:2x1x1", s, 2, g);
+  PartitionedWorld world(s, map, PartitionedOptions{.validate = true});
+  world.step(120);
+  const std::uint64_t reference = test::reference_hash(s, 120);
+  EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(reference));
+  const std::vector<WorldMetrics> m = world.metrics();
+  ASSERT_EQ(m.size(), 2u);
+  std::printf("[ chain %s root ] owned %zu / %zu, islands solved %llu / %llu, merged %llu\n", kPrecisionName,
+              static_cast<std::size_t>(m[0].owned_bodies), static_cast<std::size_t>(m[1].owned_bodies),
+              static_cast<unsigned long long>(m[0].islands_solved),
+              static_cast<unsigned long long>(m[1].islands_solved),
+              static_cast<unsigned long long>(m[1].merged_islands));
+  EXPECT_EQ(m[0].owned_bodies, 6u);
+  EXPECT_EQ(m[1].owned_bodies, 10u);
+  EXPECT_GT(m[1].merged_islands, 0u);
+  EXPECT_EQ(m[1].islands_solved, m[1].merged_islands);
+  EXPECT_EQ(m[0].islands_solved, 0u);
+}
+
 }  // namespace
 }  // namespace soda

@@ -51,6 +51,7 @@ std::vector<Message> sample_messages() {
   for (std::size_t i = 0; i < 3; ++i) f.bodies.push_back(BodyRecord{v.bodies[i], {1, 2, 3}, {4, 5, 6}});
   f.first_body = f.bodies.front().body.description.id;
   f.manifolds.assign(v.manifolds.begin(), v.manifolds.begin() + 4);
+  f.weight = 3 + 4;  // bodies + manifolds
   out.push_back(Message{2, 3, 18, FragmentBatch{{f, f}}});
   MigrantBatch m;
   m.migrants.push_back(Migrant{v.bodies[0], {v.manifolds[0]}});
@@ -70,7 +71,7 @@ std::vector<Message> sample_messages() {
   }
   r.manifolds.assign(v.manifolds.begin(), v.manifolds.begin() + 2);
   out.push_back(Message{4, 1, 21, ResultBatch{{std::make_shared<const IslandResult>(r), std::make_shared<const IslandResult>(r)}}});
-  Fragment header{3, 2, kNoBody, {{0, 2}}, {}, {}, {}};  // only a ghost: no first body
+  Fragment header{3, 2, kNoBody, 0, {{0, 2}}, {}, {}, {}};  // only a ghost: no first body
   out.push_back(Message{1, 2, 22, GatherBatch{r.island, {f, header}}});
   return out;
 }
@@ -138,6 +139,14 @@ TEST(MessageCodec, MalformedBytesThrow) {
       }
     }
   }
+  // A fragment whose weight is not its bodies + manifolds (the root rule
+  // reads the weight of fragments whose data it never sees).
+  for (const Message& m : sample_messages()) {
+    if (m.kind() != MessageKind::Fragments) continue;
+    Message wrong = m;
+    std::get<FragmentBatch>(wrong.payload).fragments.front().weight += 1;
+    EXPECT_THROW(decode_message(encode_message(wrong)), MessageFormatError);
+  }
   try {
     (void)decode_message(std::vector<std::uint8_t>(10, 0));
     ADD_FAILURE() << "no exception";
@@ -192,9 +201,9 @@ TEST(IslandMerger, CompletesAnIslandAcrossThreeWorlds) {
   // World 0 holds a ghost of body 20 (owned by 1); world 1's fragment
   // {20, ghost 30} is glued by 0 and holds a ghost of 30 (owned by 2), which
   // world 2's fragment {30} is glued by.
-  Fragment f0{0, 10, 10, {{1, 20}}, {}, {}, {}};
-  Fragment f1{1, 20, 20, {{2, 30}}, {{0, 10, 20}}, {}, {}};
-  Fragment f2{2, 30, 30, {}, {{1, 20, 30}}, {}, {}};
+  Fragment f0{0, 10, 10, 1, {{1, 20}}, {}, {}, {}};
+  Fragment f1{1, 20, 20, 1, {{2, 30}}, {{0, 10, 20}}, {}, {}};
+  Fragment f2{2, 30, 30, 1, {}, {{1, 20, 30}}, {}, {}};
   IslandMerger m[3];
   m[0].start(0, {f0}, false);
   m[1].start(1, {f1}, false);
@@ -220,9 +229,9 @@ TEST(IslandMerger, CompletesAnIslandAcrossThreeWorlds) {
 // it (world_merge.cpp): only once the island is closed, only without
 // carry_data; the closed island keeps every fragment's header.
 TEST(IslandMerger, TakeMineMovesThisWorldsDataOutOfAClosedIsland) {
-  Fragment f0{0, 10, 10, {{1, 20}}, {}, {}, {}};
+  Fragment f0{0, 10, 10, 2, {{1, 20}}, {}, {}, {}};
   f0.manifolds.push_back(ManifoldState{10, 20, {ContactPointState{}}});
-  Fragment f1{1, 20, 20, {}, {{0, 10, 20}}, {}, {}};
+  Fragment f1{1, 20, 20, 1, {}, {{0, 10, 20}}, {}, {}};
   IslandMerger m0, m1;
   m0.start(0, {f0}, false);
   m1.start(1, {f1}, false);

@@ -170,6 +170,7 @@ std::vector<Fragment> TerritoryWorld::border_fragments(const std::vector<std::pa
       read_manifold_state(*m, state);
       held_by_key_.emplace_back(PairKey{state.id0, state.id1}, m);
     }
+    f.weight = static_cast<std::uint32_t>(f.bodies.size() + f.manifolds.size());
     fragments.push_back(std::move(f));
   }
   std::sort(held_by_key_.begin(), held_by_key_.end());

@@ -74,11 +74,16 @@ inline constexpr BodyId kNoBody = 0xffffffffu;
 /// contact graph (owned bodies and ghosts joined by the manifolds it holds).
 /// Identified by (world, root); root = smallest body id in it. Its header
 /// (ids and links) is what merge_islands floods; its data (bodies,
-/// manifolds) travels to the island's root only.
+/// manifolds) travels to the island's root only (its weight, in the header,
+/// decides which world that is).
 struct Fragment {
   WorldId world = kNoWorld;
   BodyId root = 0;
   BodyId first_body = kNoBody;            // smallest owned body (kNoBody: only ghosts)
+  /// Owned bodies + manifolds held: this fragment's share of the island's
+  /// copies and contact rows. The world whose fragments weigh most is the
+  /// island's root (docs/partitioned-step.md).
+  std::uint32_t weight = 0;
   std::vector<LinkOut> links_out;         // its ghosts, ascending
   std::vector<LinkIn> links_in;           // its glued owned bodies, ascending
   std::vector<BodyRecord> bodies;         // its owned bodies, ascending id
