@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <map>
 #include <set>
 #include <stdexcept>
 #include <utility>
@@ -134,16 +135,25 @@ TerritoryMap map_at(const TerritoryMap& first, const std::vector<BalanceRecord>&
 }
 
 void write_steps_csv(std::ostream& out, const LbExperimentResult& r) {
-  out << "policy,step,world,busy_ms,wait_ms,bodies,cells,lead,islands\n";
+  out << "policy,step,world,busy_ms,wait_ms,bodies,cells,lead,islands,cells_out,cells_in,bodies_out,bodies_in\n";
   char line[256];
-  for (const LbPolicyRun& run : r.runs)
-    for (const StepLoads& step : run.best.step_loads)
+  const BalanceRecord no_balance;  // steps without a balance step moved nothing
+  for (const LbPolicyRun& run : r.runs) {
+    std::map<std::int64_t, const BalanceRecord*> balanced;  // by the step a balance step ended
+    for (const BalanceRecord& rec : run.best.balance_log) balanced[rec.step] = &rec;
+    for (const StepLoads& step : run.best.step_loads) {
+      const auto it = balanced.find(step.step);
+      const BalanceRecord& b = it == balanced.end() ? no_balance : *it->second;
       for (std::size_t w = 0; w < step.worlds.size(); ++w) {
         const WorldStepLoad& l = step.worlds[w];
-        std::snprintf(line, sizeof line, ",%lld,%zu,%.6f,%.6f,%d,%d,%d,%d\n", static_cast<long long>(step.step), w,
-                      l.busy_seconds * 1e3, l.wait_seconds * 1e3, l.bodies, l.cells, l.lead, l.islands);
+        auto of = [w](const std::vector<std::int64_t>& v) { return static_cast<long long>(w < v.size() ? v[w] : 0); };
+        std::snprintf(line, sizeof line, ",%lld,%zu,%.6f,%.6f,%d,%d,%d,%d,%lld,%lld,%lld,%lld\n",
+                      static_cast<long long>(step.step), w, l.busy_seconds * 1e3, l.wait_seconds * 1e3, l.bodies,
+                      l.cells, l.lead, l.islands, of(b.cells_out), of(b.cells_in), of(b.bodies_out), of(b.bodies_in));
         out << run.policy << line;
       }
+    }
+  }
 }
 
 void write_balance_csv(std::ostream& out, const LbExperimentResult& r) {

@@ -133,7 +133,11 @@ nlohmann::json balance_json(const BalanceOptions& o, const std::vector<BalanceRe
                      {"decide_cpu_seconds", r.decide_cpu_seconds},
                      {"apply_cpu_seconds", r.apply_cpu_seconds},
                      {"wall_seconds", r.wall_seconds},
-                     {"cells_owned", r.cells_owned}});
+                     {"cells_owned", r.cells_owned},
+                     {"cells_out", r.cells_out},
+                     {"cells_in", r.cells_in},
+                     {"bodies_out", r.bodies_out},
+                     {"bodies_in", r.bodies_in}});
   return {{"policy", o.policy},
           {"period", o.period},
           {"seed", o.seed},

@@ -232,15 +232,24 @@ void PartitionedWorld::balance() {
   const std::int64_t cpu2 = thread_cpu_ns();
   check_moves(rec.moves, map, policy_->name(), steps_done_);
   rec.cells_moved = static_cast<std::int64_t>(rec.moves.size());
+  for (auto* per_world : {&rec.cells_out, &rec.cells_in, &rec.bodies_out, &rec.bodies_in})
+    per_world->assign(static_cast<std::size_t>(k), 0);
   if (!rec.moves.empty()) {
     std::vector<std::pair<CellCoord, WorldId>> changes;
-    std::set<std::size_t> moved;
+    std::map<std::size_t, const CellMove*> moved;  // by box index
     for (const CellMove& m : rec.moves) {
       changes.emplace_back(m.cell, m.to);
-      moved.insert(map.box().index(m.cell));
+      moved.emplace(map.box().index(m.cell), &m);
+      ++rec.cells_out[static_cast<std::size_t>(m.from)];
+      ++rec.cells_in[static_cast<std::size_t>(m.to)];
     }
-    for (const CellLoad& c : view.cells)
-      if (moved.count(map.box().index(c.cell))) rec.bodies_moved += c.bodies;
+    for (const CellLoad& c : view.cells) {
+      const auto it = moved.find(map.box().index(c.cell));
+      if (it == moved.end()) continue;
+      rec.bodies_moved += c.bodies;
+      rec.bodies_out[static_cast<std::size_t>(it->second->from)] += c.bodies;
+      rec.bodies_in[static_cast<std::size_t>(it->second->to)] += c.bodies;
+    }
     // The reach is the scene's and the cell size's, not the owners': the
     // map keeps it (reassigned), as map_with_reach would give it again.
     helper_ns = cede(state, map.reassigned(changes));

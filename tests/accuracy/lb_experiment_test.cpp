@@ -4,6 +4,7 @@
 
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -57,6 +58,28 @@ TEST(LbExperiment, EveryPolicyEndsOnOneHashAndTheFilesHoldEveryStep) {
   write_steps_csv(steps, r);
   write_balance_csv(balance, r);
   EXPECT_EQ(lines(steps.str()), 1u + 2u * 40u * 2u);  // header, policies x steps x worlds
+  // What each world gave at churn's balance steps adds up to balance.csv's cells_moved.
+  {
+    std::istringstream in(steps.str());
+    std::string row;
+    std::getline(in, row);
+    EXPECT_EQ(row, "policy,step,world,busy_ms,wait_ms,bodies,cells,lead,islands,cells_out,cells_in,bodies_out,bodies_in");
+    long long out_sum = 0, in_sum = 0, bodies_out = 0;
+    while (std::getline(in, row)) {
+      std::vector<std::string> f;
+      std::stringstream fields(row);
+      for (std::string x; std::getline(fields, x, ',');) f.push_back(x);
+      ASSERT_EQ(f.size(), 13u) << row;
+      out_sum += std::stoll(f[9]), in_sum += std::stoll(f[10]), bodies_out += std::stoll(f[11]);
+      if (f[0] == "none") {
+        for (std::size_t i = 9; i < 13; ++i) EXPECT_EQ(f[i], "0") << row;
+      }
+    }
+    const BalanceTotals t = balance_totals(r.runs[1].best.balance_log);
+    EXPECT_EQ(out_sum, t.cells_moved);
+    EXPECT_EQ(in_sum, t.cells_moved);
+    EXPECT_EQ(bodies_out, t.bodies_moved);
+  }
   EXPECT_EQ(lines(balance.str()), 1u + r.runs[1].best.balance_log.size());
   write_maps_csv(maps, r, {0, 40});
   EXPECT_EQ(lines(maps.str()), 1u + 2u * 2u * static_cast<std::size_t>(r.first_map.box().count()));

@@ -5,6 +5,7 @@
 // with and without speculation, under SyncTest and with validation; cells
 // and bodies really change hands; a world left with no cells (famine) keeps
 // running, and comes back when given cells again.
+#include <algorithm>
 #include <cctype>
 #include <map>
 #include <mutex>
@@ -180,6 +181,21 @@ TEST(BalanceLog, StepLoadsAddUpAcrossRebuilds) {
     EXPECT_EQ(r.step, 10 * static_cast<std::int64_t>(i + 1));
     EXPECT_EQ(r.cells_moved, static_cast<std::int64_t>(r.moves.size()));
     EXPECT_EQ(r.cells_owned.size(), 4u);
+    // Per world: what it gave and took adds up to the totals, and matches the moves.
+    ASSERT_EQ(r.cells_out.size(), 4u);
+    ASSERT_EQ(r.bodies_in.size(), 4u);
+    std::int64_t cells_out = 0, cells_in = 0, bodies_out = 0, bodies_in = 0;
+    for (std::size_t w = 0; w < 4; ++w) {
+      cells_out += r.cells_out[w], cells_in += r.cells_in[w];
+      bodies_out += r.bodies_out[w], bodies_in += r.bodies_in[w];
+      const auto gives = std::count_if(r.moves.begin(), r.moves.end(),
+                                       [&](const CellMove& m) { return m.from == static_cast<WorldId>(w); });
+      EXPECT_EQ(r.cells_out[w], gives);
+    }
+    EXPECT_EQ(cells_out, r.cells_moved);
+    EXPECT_EQ(cells_in, r.cells_moved);
+    EXPECT_EQ(bodies_out, r.bodies_moved);
+    EXPECT_EQ(bodies_in, r.bodies_moved);
     // The cells owned during the step after a balance step are the record's.
     const StepLoads& after = world.step_loads()[static_cast<std::size_t>(r.step)];
     for (std::size_t w = 0; w < 4; ++w) EXPECT_EQ(after.worlds[w].cells, r.cells_owned[w]);

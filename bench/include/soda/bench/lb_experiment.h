@@ -74,7 +74,9 @@ LbExperimentResult run_lb_experiment(const Scene& scene, const LbExperimentConfi
 /// moves of every balance step <= step applied in order.
 TerritoryMap map_at(const TerritoryMap& first, const std::vector<BalanceRecord>& log, std::int64_t step);
 
-/// steps.csv: policy,step,world,busy_ms,wait_ms,bodies,cells,lead,islands.
+/// steps.csv: policy,step,world,busy_ms,wait_ms,bodies,cells,lead,islands,
+/// cells_out,cells_in,bodies_out,bodies_in (the last four: what the world gave
+/// and took at a balance step at the end of this step, 0 at other steps).
 void write_steps_csv(std::ostream& out, const LbExperimentResult& r);
 /// balance.csv: policy,step,cells_moved,bodies_moved,gather_ms,decide_ms,apply_ms,wall_ms.
 void write_balance_csv(std::ostream& out, const LbExperimentResult& r);

@@ -30,6 +30,9 @@ struct BalanceRecord {
   double apply_cpu_seconds = 0;   // the new map and the worlds rebuilt for it (0 without moves)
   double wall_seconds = 0;        // the three together, wall clock
   std::vector<std::int64_t> cells_owned;  // box cells per world after the moves, by id
+  /// Per world, by id: cells and dynamic bodies it gave (out) and took (in)
+  /// at this balance step. Sums over worlds: cells_moved and bodies_moved.
+  std::vector<std::int64_t> cells_out, cells_in, bodies_out, bodies_in;
 };
 
 /// Sums over a balance log.
