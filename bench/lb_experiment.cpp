@@ -157,15 +157,18 @@ void write_steps_csv(std::ostream& out, const LbExperimentResult& r) {
 }
 
 void write_balance_csv(std::ostream& out, const LbExperimentResult& r) {
-  out << "policy,step,cells_moved,bodies_moved,gather_ms,decide_ms,apply_ms,wall_ms\n";
+  out << "policy,step,cells_moved,bodies_moved,gather_ms,decide_ms,apply_ms,wall_ms,model_error\n";
   char line[256];
   for (const LbPolicyRun& run : r.runs)
     for (const BalanceRecord& rec : run.best.balance_log) {
-      std::snprintf(line, sizeof line, ",%lld,%lld,%lld,%.4f,%.4f,%.4f,%.4f\n", static_cast<long long>(rec.step),
+      std::snprintf(line, sizeof line, ",%lld,%lld,%lld,%.4f,%.4f,%.4f,%.4f,", static_cast<long long>(rec.step),
                     static_cast<long long>(rec.cells_moved), static_cast<long long>(rec.bodies_moved),
                     rec.gather_cpu_seconds * 1e3, rec.decide_cpu_seconds * 1e3, rec.apply_cpu_seconds * 1e3,
                     rec.wall_seconds * 1e3);
       out << run.policy << line;
+      // Empty where the policy had no model or the model no data yet.
+      if (rec.prediction.samples > 0) out << rec.prediction.weighted_relative_error;
+      out << '\n';
     }
 }
 
@@ -246,6 +249,20 @@ nlohmann::json lb_summary_json(const RunDescription& d, const LbExperimentConfig
                         {"lb_wall_seconds", t.wall_seconds},
                         {"lb_overhead_share", b.wall_seconds > 0 ? t.wall_seconds / b.wall_seconds : 0.0},
                         {"state_hash", hash_hex(b.state_hash)}};
+    // The cost model's out-of-sample error over the balance steps where it had data.
+    double error_sum = 0, error_max = 0;
+    int predicted = 0;
+    for (const BalanceRecord& rec : b.balance_log) {
+      if (rec.prediction.samples == 0) continue;
+      ++predicted;
+      error_sum += rec.prediction.weighted_relative_error;
+      error_max = std::max(error_max, rec.prediction.weighted_relative_error);
+    }
+    if (predicted > 0) {
+      p["model_error_weighted_mean"] = error_sum / predicted;
+      p["model_error_weighted_max"] = error_max;
+      p["model_error_steps"] = predicted;
+    }
     if (r.stock && b.wall_seconds > 0) p["ratio_vs_baseline"] = r.stock->wall_seconds / b.wall_seconds;
     if (none && b.wall_seconds > 0) p["speedup_vs_none"] = none->best.wall_seconds / b.wall_seconds;
     policies.push_back(std::move(p));

@@ -57,7 +57,7 @@ class DiffusivePolicy final : public BalancePolicy {
   const char* name() const override { return "diffusive"; }
   std::vector<CellMove> decide(const LoadView& view) override;
   /// The loads, classes and cost model this policy decided on.
-  const LoadMonitor& monitor() const { return monitor_; }
+  const LoadMonitor* monitor() const override { return &monitor_; }
 
  private:
   class Planner;

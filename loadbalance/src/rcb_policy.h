@@ -48,7 +48,7 @@ class RcbPolicy final : public BalancePolicy {
   explicit RcbPolicy(const BalanceOptions& options) : options_(options), monitor_(options) {}
   const char* name() const override { return "rcb"; }
   std::vector<CellMove> decide(const LoadView& view) override;
-  const LoadMonitor& monitor() const { return monitor_; }
+  const LoadMonitor* monitor() const override { return &monitor_; }
 
  private:
   BalanceOptions options_;

@@ -27,6 +27,7 @@
 #include <string>
 
 #include "partitioned_internals.h"
+#include "soda/loadbalance/load_monitor.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/worlds/world_snapshot.h"
 
@@ -229,6 +230,7 @@ void PartitionedWorld::balance() {
   const std::int64_t cpu1 = thread_cpu_ns();
   std::int64_t helper_ns = 0;  // CPU time of the rebuild's helper threads
   rec.moves = policy_->decide(view);
+  if (const LoadMonitor* monitor = policy_->monitor()) rec.prediction = monitor->last_prediction();
   const std::int64_t cpu2 = thread_cpu_ns();
   check_moves(rec.moves, map, policy_->name(), steps_done_);
   rec.cells_moved = static_cast<std::int64_t>(rec.moves.size());

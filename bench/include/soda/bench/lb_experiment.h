@@ -78,7 +78,9 @@ TerritoryMap map_at(const TerritoryMap& first, const std::vector<BalanceRecord>&
 /// cells_out,cells_in,bodies_out,bodies_in (the last four: what the world gave
 /// and took at a balance step at the end of this step, 0 at other steps).
 void write_steps_csv(std::ostream& out, const LbExperimentResult& r);
-/// balance.csv: policy,step,cells_moved,bodies_moved,gather_ms,decide_ms,apply_ms,wall_ms.
+/// balance.csv: policy,step,cells_moved,bodies_moved,gather_ms,decide_ms,apply_ms,wall_ms,
+/// model_error (the cost model's weighted relative error predicting the worlds'
+/// busy time over the period that ended there, out of sample; empty without one).
 void write_balance_csv(std::ostream& out, const LbExperimentResult& r);
 /// maps.csv: policy,step,x,y,z,owner for every box cell of the map in force
 /// at each of `steps`.

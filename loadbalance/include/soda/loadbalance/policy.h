@@ -30,6 +30,8 @@
 
 namespace soda {
 
+class LoadMonitor;
+
 /// What one world measured over the last balance period. Times in seconds,
 /// per internal step (means over the period's steps).
 struct WorldLoad {
@@ -115,6 +117,11 @@ class BalancePolicy {
   virtual const char* name() const = 0;
   /// The cells that change owner at view.step; empty: none.
   virtual std::vector<CellMove> decide(const LoadView& view) = 0;
+  /// The monitor a measuring policy decided on (its loads, classes, cost
+  /// model and how well the model predicted the last period:
+  /// load_monitor.h); nullptr for a policy that measures nothing (churn).
+  /// Valid while the policy lives.
+  virtual const LoadMonitor* monitor() const { return nullptr; }
 };
 
 /// The policy named by options.policy. Throws BalanceError for an unknown

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "soda/loadbalance/cost_model.h"
 #include "soda/loadbalance/policy.h"
 
 namespace soda {
@@ -33,6 +34,11 @@ struct BalanceRecord {
   /// Per world, by id: cells and dynamic bodies it gave (out) and took (in)
   /// at this balance step. Sums over worlds: cells_moved and bodies_moved.
   std::vector<std::int64_t> cells_out, cells_in, bodies_out, bodies_in;
+  /// How well the policy's cost model, fitted before this balance step,
+  /// predicted each world's measured busy time over the period that ended
+  /// here (out of sample: LoadMonitor::last_prediction). samples 0 for a
+  /// policy without a model (churn) or before the model had data.
+  CostFitQuality prediction;
 };
 
 /// Sums over a balance log.
