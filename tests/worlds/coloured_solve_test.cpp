@@ -232,6 +232,33 @@ TEST(SolverPool, BusyPoolRunsTheSecondCallerAlone) {
   EXPECT_EQ(done, 4);
 }
 
+// Home blocks: of a job of 4 tasks on 2 threads, the caller takes tasks 0
+// and 1 (block 0), the helper 2 and 3 (block 1). Task 0 and task 2 wait for
+// each other, then 1 and 3: with one shared counter the helper would take
+// task 1 and both threads would wait for ever (10 s is a failure).
+TEST(SolverPool, EachThreadStartsInItsOwnBlock) {
+  SolverPool pool(2);
+  for (int round = 0; round < 20; ++round) {
+    std::atomic<int> started[4] = {0, 0, 0, 0};
+    std::thread::id ran_by[4];
+    std::atomic<bool> met{true};
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    const std::thread::id caller = std::this_thread::get_id();
+    pool.run(4, [&](int i) {
+      ran_by[i] = std::this_thread::get_id();
+      started[i] = 1;
+      const int partner = (i + 2) % 4;
+      while (!started[partner].load() && std::chrono::steady_clock::now() < deadline) std::this_thread::yield();
+      if (!started[partner].load()) met = false;
+    });
+    ASSERT_TRUE(met.load()) << "round " << round << ": a task's partner never started";
+    EXPECT_EQ(ran_by[0], caller);
+    EXPECT_EQ(ran_by[1], caller);
+    EXPECT_NE(ran_by[2], caller);
+    EXPECT_EQ(ran_by[3], ran_by[2]);
+  }
+}
+
 // Guests (SolverPool::serve): threads that are not the pool's take tasks of
 // its jobs while they serve, every task still runs once, a guest leaves when
 // told, and a guest beyond the slots is turned away at once.

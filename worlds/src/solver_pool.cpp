@@ -1,5 +1,6 @@
 #include "soda/worlds/solver_pool.h"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -51,8 +52,9 @@ std::int64_t now_ns() {
 SolverPool::SolverPool(int threads, int guest_slots) : guest_slots_(guest_slots) {
   if (threads < 1) throw std::invalid_argument("SolverPool: threads must be >= 1");
   if (guest_slots < 0) throw std::invalid_argument("SolverPool: guest_slots must be >= 0");
+  block_ = std::make_unique<Block[]>(static_cast<std::size_t>(threads + guest_slots));
   helpers_.reserve(static_cast<std::size_t>(threads - 1));
-  for (int i = 0; i + 1 < threads; ++i) helpers_.emplace_back([this] { helper_loop(); });
+  for (int i = 0; i + 1 < threads; ++i) helpers_.emplace_back([this, i] { helper_loop(i + 1); });
 }
 
 SolverPool::~SolverPool() {
@@ -63,14 +65,17 @@ SolverPool::~SolverPool() {
   for (std::thread& t : helpers_) t.join();
 }
 
-int SolverPool::work() {
-  const int count = count_.load(std::memory_order_relaxed);
+int SolverPool::work(int home) {
+  const int blocks = blocks_.load(std::memory_order_relaxed);
   int ran = 0;
-  for (int i = next_.fetch_add(1, std::memory_order_relaxed); i < count;
-       i = next_.fetch_add(1, std::memory_order_relaxed)) {
-    (*task_)(i);
-    ++ran;
-    finished_.fetch_add(1, std::memory_order_release);
+  for (int k = 0; k < blocks; ++k) {
+    Block& b = block_[static_cast<std::size_t>((home + k) % blocks)];
+    for (int i = b.next.fetch_add(1, std::memory_order_relaxed); i < b.end;
+         i = b.next.fetch_add(1, std::memory_order_relaxed)) {
+      (*task_)(i);
+      ++ran;
+      finished_.fetch_add(1, std::memory_order_release);
+    }
   }
   return ran;
 }
@@ -83,9 +88,14 @@ int SolverPool::run(int count, const std::function<void(int)>& task) {
   }
   // No helper is inside (invariant 1 of the last job): the job may be set.
   task_ = &task;
-  count_.store(count, std::memory_order_relaxed);
+  const int blocks = std::min(threads(), count);
+  for (int b = 0; b < blocks; ++b) {
+    block_[static_cast<std::size_t>(b)].next.store(static_cast<int>(static_cast<std::int64_t>(count) * b / blocks),
+                                                   std::memory_order_relaxed);
+    block_[static_cast<std::size_t>(b)].end = static_cast<int>(static_cast<std::int64_t>(count) * (b + 1) / blocks);
+  }
+  blocks_.store(blocks, std::memory_order_relaxed);
   finished_.store(0, std::memory_order_relaxed);
-  next_.store(0, std::memory_order_relaxed);
   const std::uint64_t g = generation_.fetch_add(1, std::memory_order_seq_cst) + 1;
   if (!helpers_.empty()) generation_.notify_all();
   // A guest that came in after this read sees the job when it looks at
@@ -94,7 +104,7 @@ int SolverPool::run(int count, const std::function<void(int)>& task) {
     guest_epoch_.fetch_add(1, std::memory_order_seq_cst);
     guest_epoch_.notify_all();
   }
-  work();
+  work(0);
   spin_until([&] { return finished_.load(std::memory_order_acquire) == count; });
   // Close the job, then wait for the helpers inside to leave. A helper
   // announces itself (inside_) before it checks closed_, the caller closes
@@ -106,7 +116,7 @@ int SolverPool::run(int count, const std::function<void(int)>& task) {
   return threads();
 }
 
-void SolverPool::helper_loop() {
+void SolverPool::helper_loop(int home) {
   std::uint64_t seen = 0;
   for (;;) {
     std::uint64_t g = generation_.load(std::memory_order_acquire);
@@ -120,14 +130,14 @@ void SolverPool::helper_loop() {
     }
     if (stop_.load(std::memory_order_seq_cst)) return;
     seen = g;
-    visit(g);
+    visit(g, home);
   }
 }
 
-int SolverPool::visit(std::uint64_t g) {
+int SolverPool::visit(std::uint64_t g, int home) {
   inside_.fetch_add(1, std::memory_order_seq_cst);
   int ran = 0;
-  if (generation_.load(std::memory_order_seq_cst) == g && closed_.load(std::memory_order_seq_cst) != g) ran = work();
+  if (generation_.load(std::memory_order_seq_cst) == g && closed_.load(std::memory_order_seq_cst) != g) ran = work(home);
   inside_.fetch_sub(1, std::memory_order_release);
   return ran;
 }
@@ -141,6 +151,7 @@ int SolverPool::visit(std::uint64_t g) {
 // look and the sleep.
 SolverPool::Served SolverPool::serve(const std::atomic<bool>& until) {
   Served served;
+  int home = 0;
   // A slot, or wait for one: the thread that holds it may be about to leave
   // (a world woken by its message leaves as its neighbour, which just sent
   // that message, comes to wait; the neighbour must not miss the solve).
@@ -150,7 +161,12 @@ SolverPool::Served SolverPool::serve(const std::atomic<bool>& until) {
       return served;
     int in = guests_.load(std::memory_order_seq_cst);
     if (in < guest_slots_) {
-      if (guests_.compare_exchange_weak(in, in + 1, std::memory_order_seq_cst)) break;
+      if (guests_.compare_exchange_weak(in, in + 1, std::memory_order_seq_cst)) {
+        // Its home block: that of the slot it took (two guests may share
+        // one after comings and goings; only where they start differs).
+        home = static_cast<int>(helpers_.size()) + 1 + in;
+        break;
+      }
       continue;
     }
     guest_epoch_.wait(epoch, std::memory_order_seq_cst);
@@ -166,7 +182,7 @@ SolverPool::Served SolverPool::serve(const std::atomic<bool>& until) {
       if (g != joined && closed_.load(std::memory_order_seq_cst) != g) {
         joined = g;
         const std::int64_t t0 = now_ns();
-        served.tasks += visit(g);
+        served.tasks += visit(g, home);
         served.busy_ns += now_ns() - t0;
         spins = 0;
       }

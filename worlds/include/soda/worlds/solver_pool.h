@@ -7,6 +7,13 @@
 // thread runs which task (the coloured solve does: the tasks of one job
 // touch disjoint bodies).
 //
+// Home blocks: a job's tasks are cut into threads() contiguous blocks, and
+// each thread claims from its own block first (the caller block 0, helper i
+// block i + 1, a guest the block of its slot), then from the others'. The
+// jobs of one solve cut their data alike (a colour's runs in id order), so a
+// thread keeps meeting the same bodies and their cache lines stay on its
+// core instead of crossing to the other at every colour.
+//
 // Invariants:
 //  1. run() returns only once every task of its job has finished and no
 //     helper is inside the job (so the job's data may be reused at once); a
@@ -75,18 +82,26 @@ class SolverPool {
   int run(int count, const std::function<void(int)>& task);
 
  private:
-  void helper_loop();
-  int work();  // the tasks it ran
+  void helper_loop(int home);
+  /// Claims and runs tasks, from block `home` first (mod the job's blocks);
+  /// the tasks it ran.
+  int work(int home);
   /// One helper's or guest's visit to job `g`: joins it unless it closed.
-  int visit(std::uint64_t g);
+  int visit(std::uint64_t g, int home);
+
+  // One block of a job's tasks: [next, end) are left to claim.
+  struct alignas(64) Block {
+    std::atomic<int> next{0};
+    int end = 0;
+  };
 
   std::mutex submit_;                          // held by the caller of the current job
   std::atomic<std::uint64_t> generation_{0};   // one more per job; release-publishes the job
   std::atomic<std::uint64_t> closed_{0};       // the last job whose tasks all finished
   std::atomic<bool> stop_{false};
   const std::function<void(int)>* task_ = nullptr;  // the current job (written before generation_)
-  std::atomic<int> count_{0};
-  alignas(64) std::atomic<int> next_{0};       // next task index to claim
+  std::atomic<int> blocks_{0};                 // blocks of the current job (<= threads())
+  std::unique_ptr<Block[]> block_;             // threads() of them
   alignas(64) std::atomic<int> finished_{0};   // tasks of the current job finished
   alignas(64) std::atomic<int> inside_{0};     // helpers inside the current job
   std::vector<std::thread> helpers_;
