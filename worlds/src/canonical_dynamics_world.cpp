@@ -81,7 +81,7 @@ bool decide_island_sleeping(btCollisionObject* const* bodies, int count) {
 
 CanonicalDynamicsWorld::CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtBroadphase* broadphase,
                                                ColouredSolver* solver, btCollisionConfiguration* config)
-    : btDiscreteDynamicsWorld(dispatcher, broadphase, solver, config), broadphase_(broadphase), solver_(solver) {
+    : DetachableWorld(dispatcher, broadphase, solver, config), broadphase_(broadphase), solver_(solver) {
   // Islands are never batched: one solveGroup per island (see header).
   getSolverInfo().m_minimumSolverBatchSize = 1;
 }
@@ -117,24 +117,25 @@ void CanonicalDynamicsWorld::sort_dynamic_bodies() {
 // islands an active body touches come back before it, their contact state
 // after it.
 void CanonicalDynamicsWorld::computeOverlappingPairs() {
-  if (parking_) parking_->wake_touched();
+  if (parking_ && parking_->parked_islands() > 0) {
+    if (gDisableDeactivation) {
+      parking_->touch_all();
+    } else {
+      for (btRigidBody* b : dynamic_bodies_) {
+        if (!b->isActive()) continue;
+        const btBroadphaseProxy* p = b->getBroadphaseHandle();
+        parking_->touch(p->m_aabbMin, p->m_aabbMax);
+      }
+    }
+    parking_->wake_touched();
+  }
   btCollisionWorld::computeOverlappingPairs();
   stats_.broadphase_pairs = remove_stale_pairs(*broadphase_, m_dispatcher1);
   if (parking_) parking_->restore_woken_contacts();
 }
 
 void CanonicalDynamicsWorld::forget_detached_bodies() {
-  int w = 0;
-  for (int i = 0; i < m_collisionObjects.size(); ++i) {
-    btCollisionObject* o = m_collisionObjects[i];
-    o->setWorldArrayIndex(o->getBroadphaseHandle() ? w : -1);
-    if (o->getBroadphaseHandle()) m_collisionObjects[w++] = o;
-  }
-  m_collisionObjects.resize(w);
-  w = 0;
-  for (int i = 0; i < m_nonStaticRigidBodies.size(); ++i)
-    if (m_nonStaticRigidBodies[i]->getBroadphaseHandle()) m_nonStaticRigidBodies[w++] = m_nonStaticRigidBodies[i];
-  m_nonStaticRigidBodies.resize(w);
+  compact_detached_bodies();
   std::size_t d = 0, sorted_kept = 0;
   for (std::size_t i = 0; i < dynamic_bodies_.size(); ++i) {
     btRigidBody* b = dynamic_bodies_[i];

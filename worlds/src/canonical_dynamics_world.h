@@ -39,11 +39,11 @@
 #include <btBulletDynamicsCommon.h>
 
 #include "coloured_solver.h"
+#include "parking.h"
 #include "soda/worlds/canonical_world.h"
 
 namespace soda {
 
-class Parking;
 
 /// Adds a body whose user index is its global id to a world over a dbvt
 /// broadphase: its proxy gets unique id = global id + 1, so every pair's body0
@@ -63,7 +63,7 @@ std::size_t remove_stale_pairs(btDbvtBroadphase& broadphase, btDispatcher* dispa
 /// awake afterwards (it must be solved).
 bool decide_island_sleeping(btCollisionObject* const* bodies, int count);
 
-class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
+class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost {
  public:
   CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtBroadphase* broadphase,
                          ColouredSolver* solver, btCollisionConfiguration* config);
@@ -87,9 +87,11 @@ class CanonicalDynamicsWorld final : public btDiscreteDynamicsWorld {
   btCollisionObject* const* island_bodies(int k) const { return island_bodies_.data() + island_begin_[k]; }
   /// The dynamic bodies in the world.
   const std::vector<btRigidBody*>& dynamic_bodies() const { return dynamic_bodies_; }
-  /// Drops every body whose broadphase proxy was destroyed (handle null)
-  /// from the world's lists, in one pass over each.
-  void forget_detached_bodies();
+  /// ParkingHost: a parked body back (add_body).
+  void return_body(btRigidBody* body) override { add_body(body); }
+  /// ParkingHost: drops every body whose broadphase proxy was destroyed
+  /// (handle null) from the world's lists, in one pass over each.
+  void forget_detached_bodies() override;
 
   void computeOverlappingPairs() override;
   /// Bullet's discrete collision detection, then a speculative contact for

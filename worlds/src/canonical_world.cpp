@@ -91,7 +91,7 @@ void CanonicalWorld::step() {
   const btScalar h = btScalar(settings_.dt / settings_.substeps);
   for (int i = 0; i < settings_.substeps; ++i) parts_->world.stepSimulation(h, 0, h);
   ++steps_done_;
-  if (parking_) parts_->parking.park_settled(h);
+  if (parking_) park_settled_islands(parts_->parking, parts_->world, parts_->dispatcher, h);
 }
 
 void CanonicalWorld::set_solver_pool(std::shared_ptr<SolverPool> pool) { parts_->solver.set_pool(std::move(pool)); }
@@ -102,7 +102,8 @@ void CanonicalWorld::set_parking(bool on) {
   if (on) {
     parts_->world.set_parking(&parts_->parking);
     // A scene's sleepers (Body::asleep) need not wait for the first step.
-    parts_->parking.park_lone_settled(btScalar(settings_.dt / settings_.substeps));
+    park_lone_settled_bodies(parts_->parking, parts_->world, parts_->dispatcher,
+                             btScalar(settings_.dt / settings_.substeps));
   } else {
     parts_->parking.unpark_all();
     parts_->world.set_parking(nullptr);

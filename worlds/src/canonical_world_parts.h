@@ -32,7 +32,7 @@ struct CanonicalWorldParts {
   btDbvtBroadphase broadphase{&pairs};
   ColouredSolver solver;  // docs/coloured-solve.md
   CanonicalDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
-  Parking parking{world, broadphase, dispatcher};  // idle unless CanonicalWorld::set_parking(true)
+  Parking parking{world, world, broadphase, dispatcher};  // idle unless CanonicalWorld::set_parking(true)
 };
 
 /// The insertion order of `count` bodies: `order` itself (it must list every

@@ -42,10 +42,25 @@ struct Collector final : btDbvt::ICollide {
 
 }  // namespace
 
-Parking::Parking(CanonicalDynamicsWorld& world, btDbvtBroadphase& broadphase, btCollisionDispatcher& dispatcher)
-    : world_(world), broadphase_(broadphase), dispatcher_(dispatcher) {}
+Parking::Parking(ParkingHost& host, btDiscreteDynamicsWorld& world, btDbvtBroadphase& broadphase,
+                 btCollisionDispatcher& dispatcher)
+    : host_(host), world_(world), broadphase_(broadphase), dispatcher_(dispatcher) {}
 
 Parking::~Parking() = default;
+
+void DetachableWorld::compact_detached_bodies() {
+  int w = 0;
+  for (int i = 0; i < m_collisionObjects.size(); ++i) {
+    btCollisionObject* o = m_collisionObjects[i];
+    o->setWorldArrayIndex(o->getBroadphaseHandle() ? w : -1);
+    if (o->getBroadphaseHandle()) m_collisionObjects[w++] = o;
+  }
+  m_collisionObjects.resize(w);
+  w = 0;
+  for (int i = 0; i < m_nonStaticRigidBodies.size(); ++i)
+    if (m_nonStaticRigidBodies[i]->getBroadphaseHandle()) m_nonStaticRigidBodies[w++] = m_nonStaticRigidBodies[i];
+  m_nonStaticRigidBodies.resize(w);
+}
 
 std::size_t Parking::add_island(btCollisionObject* const* bodies, int n) {
   std::size_t slot;
@@ -73,54 +88,59 @@ std::size_t Parking::add_island(btCollisionObject* const* bodies, int n) {
   return slot;
 }
 
-void Parking::park_lone_settled(btScalar h) {
+void Parking::add_contact(std::size_t slot, const btPersistentManifold& m) {
+  Island& island = islands_[slot];
+  island.manifolds.push_back(read_manifold_state(m));
+  island.pair_objects.emplace_back(const_cast<btCollisionObject*>(m.getBody0()),
+                                   const_cast<btCollisionObject*>(m.getBody1()));
+}
+
+void park_lone_settled_bodies(Parking& parking, CanonicalDynamicsWorld& world, btCollisionDispatcher& dispatcher,
+                              btScalar h) {
   if (gDisableDeactivation) return;
-  for (int i = 0; i < dispatcher_.getNumManifolds(); ++i)
-    if (dispatcher_.getManifoldByIndexInternal(i)->getNumContacts() > 0) return;
-  leaving_.clear();
-  const std::vector<btRigidBody*> candidates = world_.dynamic_bodies();
+  for (int i = 0; i < dispatcher.getNumManifolds(); ++i)
+    if (dispatcher.getManifoldByIndexInternal(i)->getNumContacts() > 0) return;
+  const std::vector<btRigidBody*> candidates = world.dynamic_bodies();
   for (btRigidBody* b : candidates)
     if (b->getBroadphaseHandle() && body_settled(*b, h) && within_contract(*b)) {
       btCollisionObject* one[] = {b};
-      add_island(one, 1);
+      parking.add_island(one, 1);
     }
-  remove_leaving();
+  parking.finish_parking();
 }
 
-void Parking::park_settled(btScalar h) {
+void park_settled_islands(Parking& parking, CanonicalDynamicsWorld& world, btCollisionDispatcher& dispatcher,
+                          btScalar h) {
   if (gDisableDeactivation) return;
-  const int islands = world_.island_count();
-  island_state_.assign(static_cast<std::size_t>(islands), -1);
-  leaving_.clear();
+  const int islands = world.island_count();
+  std::vector<int> slot_of(static_cast<std::size_t>(islands), -1);  // per island of the last stage
+  bool any = false;
   for (int k = 0; k < islands; ++k) {
-    const int n = world_.island_size(k);
-    btCollisionObject* const* bodies = world_.island_bodies(k);
+    const int n = world.island_size(k);
+    btCollisionObject* const* bodies = world.island_bodies(k);
     bool park = n > 0;
     for (int j = 0; j < n && park; ++j) {
       const btRigidBody* b = btRigidBody::upcast(bodies[j]);
       park = b && b->getBroadphaseHandle() && body_settled(*b, h) && within_contract(*b);
     }
     if (!park) continue;
-    island_state_[static_cast<std::size_t>(k)] = static_cast<int>(add_island(bodies, n));
+    slot_of[static_cast<std::size_t>(k)] = static_cast<int>(parking.add_island(bodies, n));
+    any = true;
   }
-  if (leaving_.empty()) return;
+  if (!any) return;
   // Their contact state: every manifold with points is within one island
   // (or with a static body).
-  for (int i = 0; i < dispatcher_.getNumManifolds(); ++i) {
-    const btPersistentManifold* m = dispatcher_.getManifoldByIndexInternal(i);
+  for (int i = 0; i < dispatcher.getNumManifolds(); ++i) {
+    const btPersistentManifold* m = dispatcher.getManifoldByIndexInternal(i);
     if (m->getNumContacts() == 0) continue;
     const int tag = m->getBody0()->getIslandTag() >= 0 ? m->getBody0()->getIslandTag() : m->getBody1()->getIslandTag();
-    if (tag < 0 || tag >= islands || island_state_[static_cast<std::size_t>(tag)] < 0) continue;
-    Island& island = islands_[static_cast<std::size_t>(island_state_[static_cast<std::size_t>(tag)])];
-    island.manifolds.push_back(read_manifold_state(*m));
-    island.pair_objects.emplace_back(const_cast<btCollisionObject*>(m->getBody0()),
-                                     const_cast<btCollisionObject*>(m->getBody1()));
+    if (tag < 0 || tag >= islands || slot_of[static_cast<std::size_t>(tag)] < 0) continue;
+    parking.add_contact(static_cast<std::size_t>(slot_of[static_cast<std::size_t>(tag)]), *m);
   }
-
-  remove_leaving();
+  parking.finish_parking();
 }
 
-void Parking::remove_leaving() {
+void Parking::finish_parking() {
   if (leaving_.empty()) return;
   // Out of the broadphase: their pairs in one sweep (freeing algorithms and
   // manifolds), then their proxies without Bullet's sweep of every pair per
@@ -142,7 +162,7 @@ void Parking::remove_leaving() {
     b->setBroadphaseHandle(nullptr);
   }
   cache.set_proxy_sweeps(true);
-  world_.forget_detached_bodies();
+  host_.forget_detached_bodies();
   // Bullet's trees keep the shape the removed leaves gave them (removal never
   // rebalances): after parking most of a world (100,000 sleepers after the
   // first step), every moving proxy's update walked that shape. Rebuilt top
@@ -150,6 +170,7 @@ void Parking::remove_leaving() {
   for (btDbvt& set : broadphase_.m_sets)
     if (static_cast<std::size_t>(set.m_leaves) * kRebuildAfterRemoving < leaving_.size())
       set.optimizeTopDown(kTopDownThreshold);
+  leaving_.clear();
 }
 
 void Parking::unpark_bodies(std::size_t slot) {
@@ -157,8 +178,8 @@ void Parking::unpark_bodies(std::size_t slot) {
   for (btDbvtNode* leaf : island.leaves) tree_.remove(leaf);
   island.leaves.clear();
   for (btRigidBody* b : island.bodies) {
-    world_.add_body(b);
-    world_.updateSingleAabb(b);  // as this step's updateAabbs (the body did not move)
+    host_.return_body(b);
+    world_.updateSingleAabb(b);  // as this step's AABB update (the body did not move)
   }
   island.parked = false;
   --parked_islands_;
@@ -166,23 +187,22 @@ void Parking::unpark_bodies(std::size_t slot) {
   woken_.push_back(slot);
 }
 
-void Parking::wake_touched() {
+void Parking::touch(const btVector3& lo, const btVector3& hi) {
   if (parked_islands_ == 0) return;
-  std::vector<std::size_t> hits;
-  if (gDisableDeactivation) {
-    for (std::size_t s = 0; s < islands_.size(); ++s)
-      if (islands_[s].parked) hits.push_back(s);
-  } else {
-    Collector collector;
-    collector.hits = &hits;
-    for (btRigidBody* b : world_.dynamic_bodies()) {
-      if (!b->isActive()) continue;
-      const btBroadphaseProxy* p = b->getBroadphaseHandle();
-      tree_.collideTV(tree_.m_root, btDbvtVolume::FromMM(p->m_aabbMin, p->m_aabbMax), collector);
-    }
-  }
-  for (std::size_t s : hits)
+  Collector collector;
+  collector.hits = &hits_;
+  tree_.collideTV(tree_.m_root, btDbvtVolume::FromMM(lo, hi), collector);
+}
+
+void Parking::touch_all() {
+  for (std::size_t s = 0; s < islands_.size(); ++s)
+    if (islands_[s].parked) hits_.push_back(s);
+}
+
+void Parking::wake_touched() {
+  for (std::size_t s : hits_)
     if (islands_[s].parked) unpark_bodies(s);
+  hits_.clear();
 }
 
 void Parking::restore_woken_contacts() {
@@ -205,6 +225,12 @@ void Parking::restore_woken_contacts() {
     free_.push_back(slot);
   }
   woken_.clear();
+}
+
+void Parking::unpark_island(std::size_t slot) {
+  if (slot >= islands_.size() || !islands_[slot].parked) throw std::logic_error("parking: no island parked there");
+  unpark_bodies(slot);
+  restore_woken_contacts();
 }
 
 void Parking::unpark_all() {

@@ -1,9 +1,10 @@
-// Internal: parking of sleeping islands outside a canonical world's Bullet
-// world (#18, docs/skip.md). A parked island costs nothing per step but one
-// query: its bodies are out of the broadphase, the body lists and the
+// Internal: parking of sleeping islands outside a world's Bullet world (#18,
+// docs/skip.md): the canonical world's (canonical_world.cpp) and a territory
+// world's (territory_parking.cpp). A parked island costs nothing per step but
+// one query: its bodies are out of the broadphase, the body lists and the
 // dispatcher; its contact state is kept as values; the btRigidBody objects
-// stay alive (CanonicalWorld::Entry owns them), so every field of a parked
-// body keeps its bits.
+// stay alive (the world's entries own them), so every field of a parked body
+// keeps its bits.
 //
 // Why it is exact (the state hash of a run is the same with parking on and
 // off, for every step):
@@ -22,20 +23,24 @@
 //     (every shape's contact breaking threshold at most
 //     sqrt(2) * gContactBreakingThreshold, the territory worlds' contract;
 //     an island with a body beyond it is never parked). **Wake rule**: in
-//     every step, after predictUnconstraintMotion and updateAabbs and before
-//     the broadphase pass, every island holding a body whose AABB (as
-//     updateSingleAabb computes it: bullet_aabb) overlaps (closed boxes) the
-//     broadphase AABB of an active body in the world goes back into the
-//     world, bodies first (their AABBs as that step computes them), its
-//     manifolds after the pair pass, before narrowphase. The step then runs
-//     exactly as if the island had never left; an island that stays settled
-//     is parked again at the step's end;
-//  3. islands are the canonical world's (from contact manifolds, solved and
-//     put to sleep per island), never broadphase pairs; which manifolds
-//     without points or pairs exist is not state (docs/determinism.md).
+//     every step, after the AABBs are updated and before the broadphase
+//     pass, every island holding a body whose AABB (as updateSingleAabb
+//     computes it: bullet_aabb) overlaps (closed boxes) the broadphase AABB
+//     of an active body in the world goes back into the world, bodies first
+//     (their AABBs as that step computes them), its manifolds after the pair
+//     pass, before narrowphase. The step then runs exactly as if the island
+//     had never left; an island that stays settled is parked again at the
+//     step's end;
+//  3. islands are the world's own (from contact manifolds, solved and put to
+//     sleep per island), never broadphase pairs; which manifolds without
+//     points or pairs exist is not state (docs/determinism.md).
 // Parking needs Bullet's sleeping on: with gDisableDeactivation every
 // sleeper wakes at the next step, so nothing is parked and every parked
 // island comes back.
+//
+// A Parking holds the parked islands; its world decides which islands to
+// park (add_island, add_contact, finish_parking) and which active bodies to
+// test (touch, wake_touched), and takes bodies back through its ParkingHost.
 //
 // Thread safety: none; one world's thread uses it.
 #pragma once
@@ -53,29 +58,70 @@ namespace soda {
 
 class CanonicalDynamicsWorld;
 
+/// What a world does for its Parking.
+class ParkingHost {
+ public:
+  /// Puts a parked dynamic body back into the Bullet world with its
+  /// canonical proxy (add_body_with_canonical_proxy) and into the world's own
+  /// lists.
+  virtual void return_body(btRigidBody* body) = 0;
+  /// Drops every body whose broadphase proxy was destroyed (handle null)
+  /// from the Bullet world's lists and the world's own, in one pass each.
+  virtual void forget_detached_bodies() = 0;
+
+ protected:
+  ~ParkingHost() = default;
+};
+
+/// A btDiscreteDynamicsWorld that can drop many bodies at once: removing
+/// them one by one is linear each (its arrays are searched), quadratic for a
+/// world that parks most of its bodies.
+class DetachableWorld : public btDiscreteDynamicsWorld {
+ public:
+  using btDiscreteDynamicsWorld::btDiscreteDynamicsWorld;
+  /// Drops every collision object whose broadphase proxy was destroyed
+  /// (handle null) from the world's object and rigid-body arrays, keeping
+  /// the others' order.
+  void compact_detached_bodies();
+};
+
 class Parking {
  public:
-  Parking(CanonicalDynamicsWorld& world, btDbvtBroadphase& broadphase, btCollisionDispatcher& dispatcher);
+  Parking(ParkingHost& host, btDiscreteDynamicsWorld& world, btDbvtBroadphase& broadphase,
+          btCollisionDispatcher& dispatcher);
   ~Parking();
   Parking(const Parking&) = delete;
   Parking& operator=(const Parking&) = delete;
 
-  /// After a whole step (every substep of length h): parks every settled
-  /// island of the last island stage. O(bodies and manifolds in the world).
-  void park_settled(btScalar h);
-  /// Before the first step of a world without contact points (a scene
-  /// just built): parks every body that is settled (Body::asleep bodies
-  /// whose interpolation transform is already the prediction's), each its
-  /// own island; nothing if any manifold holds points.
-  void park_lone_settled(btScalar h);
-  /// The wake rule's first half (CanonicalDynamicsWorld::computeOverlappingPairs,
-  /// before Bullet's pair pass): puts back the bodies of every island an
-  /// active body's AABB touches (every island with sleeping off).
+  // --- parking, at a step's end (the host checked every body settled and
+  // within_contract, settled.h) -------------------------------------------
+  /// A parked island of these bodies (in the world now; they leave it at
+  /// finish_parking). Returns its slot (an index, reused once it is woken).
+  std::size_t add_island(btCollisionObject* const* bodies, int n);
+  /// A manifold with points of the island in `slot` (between two of its
+  /// bodies, or one of them and a static body): kept as a value.
+  void add_contact(std::size_t slot, const btPersistentManifold& manifold);
+  /// Takes the bodies of the islands added since the last call out of the
+  /// Bullet world (their pairs, proxies and places in its lists).
+  void finish_parking();
+
+  // --- the wake rule, between the AABB update and the pair pass ----------
+  /// Collects every parked island with a body whose AABB overlaps [lo, hi].
+  void touch(const btVector3& lo, const btVector3& hi);
+  /// Collects every parked island (sleeping switched off).
+  void touch_all();
+  /// Puts the bodies of the islands collected back into the world
+  /// (ParkingHost::return_body), each with the AABB updateSingleAabb gives.
   void wake_touched();
-  /// Its second half (after the pair pass): the woken islands' manifolds.
+  /// After the pair pass: the woken islands' manifolds, written into their
+  /// pairs (created where the pass did not).
   void restore_woken_contacts();
-  /// Puts every parked island back (bodies and manifolds) at a step
-  /// boundary: parking switched off.
+
+  /// At a step boundary: puts one island back, bodies and contacts (an
+  /// input for one of its bodies).
+  void unpark_island(std::size_t slot);
+  /// At a step boundary: puts every parked island back (parking switched
+  /// off): a broadphase pass, as a snapshot restore does, then the manifolds.
   void unpark_all();
 
   /// Appends the manifolds of every parked island (unsorted).
@@ -92,13 +138,10 @@ class Parking {
     std::vector<btDbvtNode*> leaves;  // one per body in tree_
     bool parked = false;
   };
-  void unpark_bodies(std::size_t island);
-  /// A parked island of these bodies (leaves in tree_, bodies to leaving_); its slot.
-  std::size_t add_island(btCollisionObject* const* bodies, int n);
-  /// Takes leaving_'s bodies out of Bullet's world.
-  void remove_leaving();
+  void unpark_bodies(std::size_t slot);
 
-  CanonicalDynamicsWorld& world_;
+  ParkingHost& host_;
+  btDiscreteDynamicsWorld& world_;
   btDbvtBroadphase& broadphase_;
   btCollisionDispatcher& dispatcher_;
   btDbvt tree_;                     // parked bodies' AABBs; leaf data: island index
@@ -107,8 +150,20 @@ class Parking {
   std::vector<std::size_t> woken_;  // islands whose bodies are back, manifolds pending
   std::size_t parked_bodies_ = 0, parked_islands_ = 0;
   // Scratch.
-  std::vector<int> island_state_;   // per island of the last stage: 1 = park
+  std::vector<std::size_t> hits_;  // touched islands (repeats allowed)
   std::vector<btRigidBody*> leaving_;
 };
+
+/// The canonical world's parking passes (canonical_world.cpp).
+/// After a whole step (every substep of length h): parks every settled
+/// island of the last island stage. O(bodies and manifolds in the world).
+void park_settled_islands(Parking& parking, CanonicalDynamicsWorld& world, btCollisionDispatcher& dispatcher,
+                          btScalar h);
+/// Before the first step of a world without contact points (a scene just
+/// built): parks every body that is settled (Body::asleep bodies whose
+/// interpolation transform is already the prediction's), each its own
+/// island; nothing if any manifold holds points.
+void park_lone_settled_bodies(Parking& parking, CanonicalDynamicsWorld& world, btCollisionDispatcher& dispatcher,
+                              btScalar h);
 
 }  // namespace soda
