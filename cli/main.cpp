@@ -127,8 +127,8 @@ void add_run_options(CLI::App& cmd, Options& o) {
                  "measure what the defaults cost); docs/stress.md")
       ->capture_default_str();
   cmd.add_flag("--no-parking{false}", o.config.parking,
-               "One territory: keep sleeping islands inside Bullet's world instead of parking them outside it "
-               "(same state hash; docs/skip.md)");
+               "Keep sleeping islands inside Bullet's world (the canonical world's, or every territory "
+               "world's) instead of parking them outside it (same state hash; docs/skip.md)");
   cmd.add_flag("--no-idle-skip{false}", o.config.idle_territories,
                "K > 1: every world runs every stage of every step, idle territories too (same state hash; "
                "docs/skip.md)");

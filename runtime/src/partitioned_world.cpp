@@ -199,6 +199,7 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   for (WorldId w = 0; w < k; ++w) {
     in.worlds.push_back(make_world(w));
     in.worlds.back()->set_solver_pool(in.solver_pool);
+    in.worlds.back()->set_parking(options_.parking);
   }
   const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
   std::unique_ptr<SharedMemoryHorizon> horizon;

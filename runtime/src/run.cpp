@@ -204,6 +204,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   options.rollback = config.rollback;
   options.eager_bets = config.eager_bets;
   options.idle_territories = config.idle_territories;
+  options.parking = config.parking;
   options.reach_speed = config.reach_speed;
   options.balance = config.balance;
   if (config.inputs) options.inputs = *config.inputs;

@@ -84,6 +84,7 @@ SimulationConfig simulation_config(const RunConfig& config) {
   sc.checkpoint_every = config.checkpoint_every;
   sc.eager_bets = config.eager_bets;
   sc.idle_territories = config.idle_territories;
+  sc.parking = config.parking;
   sc.reach_speed = config.reach_speed;
   sc.watchdog = config.watchdog;
   sc.balance = config.balance;  // a Simulation refuses any policy but "none"

@@ -32,6 +32,7 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
   o.checkpoint_every = c.checkpoint_every;
   o.eager_bets = c.eager_bets;
   o.idle_territories = c.idle_territories;
+  o.parking = c.parking;
   o.watchdog = c.watchdog;
   if (c.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument("SimulationConfig: watchdog heal is not supported by a Simulation (off or stop)");
@@ -252,6 +253,7 @@ void SimulationEngine::rollback_locked(std::int64_t scene_step) {
 void SimulationEngine::rewind_world(WorldId w, const WorldSnapshot& state) {
   auto fresh = std::make_unique<TerritoryWorld>(state, w, world->world(w).map());
   fresh->set_solver_pool(world->world(w).solver_pool());
+  fresh->set_parking(world->world(w).parking());
   core->buffers[static_cast<std::size_t>(w)]->invalidate_from(state.steps_done + 1);
   parts().process(w).rewind(*fresh, state.steps_done);
   parts().worlds[static_cast<std::size_t>(w)] = std::move(fresh);

@@ -49,9 +49,9 @@ void Validator::check(std::int64_t step, const std::vector<WorldStepReport>& rep
   for (const WorldStepReport& r : reports) {
     if (r.statics != static_count_)
       err << "world " << r.world << " holds " << r.statics << " statics, the scene has " << static_count_ << "; ";
-    if (r.bullet_objects != r.owned.size() + r.ghosts + r.statics)
+    if (r.parked > r.owned.size() || r.bullet_objects != r.owned.size() - r.parked + r.ghosts + r.statics)
       err << "world " << r.world << " has " << r.bullet_objects << " Bullet objects but " << r.owned.size()
-          << " owned + " << r.ghosts << " ghosts + " << r.statics << " statics; ";
+          << " owned (" << r.parked << " of them parked) + " << r.ghosts << " ghosts + " << r.statics << " statics; ";
   }
   std::map<BodyId, std::vector<WorldId>> owners;
   for (const WorldStepReport& r : reports)

@@ -33,6 +33,7 @@ struct WorldStepReport {
   std::size_t statics = 0;
   std::size_t bullet_objects = 0;
   std::vector<std::pair<BodyId, BodyId>> held_pairs;  // ascending
+  std::size_t parked = 0;               // owned bodies parked outside the Bullet world
 };
 
 class Validator {

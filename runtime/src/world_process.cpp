@@ -399,13 +399,15 @@ void PartitionedWorld::Process::end_step() {
   clock_.count(Stage::BuildIslands, c.local_islands);
   clock_.count(Stage::Glue, c.border_fragments);
   clock_.count(Stage::Solve, c.border_islands);
-  clock_.count(Stage::Integrate, s_.world->owned_count());
+  clock_.count(Stage::Integrate, s_.world->owned_count() - s_.world->parked_count());  // parked bodies are not
   clock_.count(Stage::Migrate, c.migrations_in + c.migrations_out);
   ++s_.step;
   s_.phase = StepPhase::Predict;
   if (validator_) {
-    WorldStepReport report{s_.world->id(), s_.step, s_.world->owned_ids(), s_.world->ghost_count(),
-                           s_.world->static_count(), s_.world->bullet_object_count(), s_.world->held_contact_pairs()};
+    WorldStepReport report{s_.world->id(),           s_.step,
+                           s_.world->owned_ids(),    s_.world->ghost_count(),
+                           s_.world->static_count(), s_.world->bullet_object_count(),
+                           s_.world->held_contact_pairs(), s_.world->parked_count()};
     if (spec_) {
       spec_->report(std::move(report));
     } else {

@@ -278,6 +278,14 @@ TEST(Validator, NamesBrokenInvariants) {
   EXPECT_THROW(lost.report(WorldStepReport{1, 2, {3, 4}, 0, 1, 5, {{0, 1}}}), ValidationError);  // 2 lost, pair
                                                                                                    // held twice,
                                                                                                    // count wrong
+  // Parked bodies are owned but out of the Bullet world: the count allows
+  // for them, and no more of them than bodies owned.
+  Validator parked(s, 2);
+  parked.report(WorldStepReport{0, 3, {1, 2}, 0, 1, 2, {}, 1});  // one parked: 1 owned + 1 static in Bullet
+  EXPECT_THROW(parked.report(WorldStepReport{1, 3, {3, 4}, 0, 1, 3, {}, 1}), ValidationError);  // 3 != 1 + 1
+  Validator too_many(s, 2);
+  too_many.report(WorldStepReport{0, 4, {1, 2}, 0, 1, 3, {}, 0});
+  EXPECT_THROW(too_many.report(WorldStepReport{1, 4, {3, 4}, 0, 1, 0, {}, 3}), ValidationError);  // 3 parked of 2
 }
 
 }  // namespace

@@ -1,8 +1,9 @@
 // Parking of sleeping islands (#18, worlds/src/parking.h, docs/skip.md): the
-// state is the same with parking on and off at every step, and equals the
-// partitioned runs' (N territories vs 1, speculation, SyncTest), which park
-// nothing. Small sleepers scenes: sleepers woken by falling bodies, woken
-// islands parked again.
+// state is the same with parking on and off at every step, in the canonical
+// world and in territory worlds, and the partitioned runs (N territories vs
+// 1, speculation, SyncTest, load balancing) end on the one-territory hash
+// with parking on and off. Small sleepers scenes: sleepers woken by falling
+// bodies, woken islands parked again.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -156,16 +157,126 @@ TEST(Parking, FarSleepersChangeNothing) {
               full.bodies.size(), moved, hash_hex(b.state_hash()).c_str());
 }
 
+// --- territory worlds --------------------------------------------------------
+
+std::size_t parked_in(const PartitionedWorld& world) {
+  std::size_t n = 0;
+  for (WorldId w = 0; w < world.world_count(); ++w) n += world.world(w).parked_count();
+  return n;
+}
+
+// Territory worlds park too: 2 and 4 territories, step by step against the
+// same worlds with parking off (state hash every step, the whole scene's
+// snapshot with its contacts every 10 steps). The sleepers inside each
+// world's cells are parked when the worlds are built; the falling cubes wake
+// some (they land across the borders) and the woken ones are parked again.
+TEST(TerritoryParking, EveryStepEqualsTheWorldsWithoutParking) {
+  const Scene s = test::scene("sleepers", kSleepers);
+  for (const char* partition : {"grid:2x1x1", "grid:2x1x2"}) {
+    const int k = std::string(partition) == "grid:2x1x1" ? 2 : 4;
+    const TerritoryMap map = make_partition(partition, s, k, GridOptions{});
+    PartitionedOptions off_options;
+    off_options.parking = false;
+    PartitionedWorld on(s, map, PartitionedOptions{});
+    PartitionedWorld off(s, map, off_options);
+    const std::size_t built = parked_in(on);
+    EXPECT_GT(built, static_cast<std::size_t>(kSleepers) * 3 / 4) << partition;
+    EXPECT_EQ(parked_in(off), 0u);
+    std::size_t most = built, fewest_after_most = built;
+    bool woke = false, parked_again = false;
+    for (int step = 1; step <= kSteps; ++step) {
+      on.step(1);
+      off.step(1);
+      ASSERT_EQ(hash_hex(on.state_hash()), hash_hex(off.state_hash())) << partition << ", step " << step;
+      if (step % 10 == 0) {
+        ASSERT_EQ(serialize(on.snapshot()), serialize(off.snapshot())) << partition << ", step " << step;
+      }
+      const std::size_t parked = parked_in(on);
+      if (parked < fewest_after_most) fewest_after_most = parked, woke = true;
+      if (woke && parked > fewest_after_most) parked_again = true;
+      most = std::max(most, parked);
+    }
+    EXPECT_TRUE(woke) << partition << ": no parked island was woken";
+    EXPECT_TRUE(parked_again) << partition << ": no woken island was parked again";
+    std::size_t in_bullet_on = 0, in_bullet_off = 0;
+    for (WorldId w = 0; w < k; ++w) {
+      in_bullet_on += on.world(w).bullet_object_count();
+      in_bullet_off += off.world(w).bullet_object_count();
+    }
+    EXPECT_LT(in_bullet_on + static_cast<std::size_t>(kSleepers) / 2, in_bullet_off) << partition;
+    std::printf("[ territory parking %s ] %zu parked when built, at most %zu, %zu at the end; %s\n", partition,
+                built, most, parked_in(on), hash_hex(on.state_hash()).c_str());
+  }
+}
+
+// Inputs name parked bodies: a push and a velocity wake the body's island
+// (and its contacts) at the step boundary they apply at; a removal takes a
+// parked body out with its contact state. Same hash as without parking.
+TEST(TerritoryParking, InputsToParkedBodiesAsWithoutParking) {
+  const Scene s = test::scene("sleepers", 600);
+  // Sleepers far from the falling cubes (x, z in [-18, 18], cubes near 0).
+  std::vector<BodyId> far;
+  for (const Body& b : s.bodies)
+    if (b.asleep && std::abs(b.position.x()) > 10.0 && std::abs(b.position.z()) > 10.0) far.push_back(b.id);
+  ASSERT_GE(far.size(), 3u);
+  auto input = [](UserInput::Kind kind, std::int64_t step, BodyId id, Vec3 linear, Vec3 angular) {
+    UserInput u;
+    u.kind = kind;
+    u.step = step;
+    u.sequence = static_cast<std::uint64_t>(step);
+    u.id = id;
+    u.linear = linear;
+    u.angular = angular;
+    return u;
+  };
+  const std::vector<UserInput> inputs = {
+      input(UserInput::Kind::ApplyImpulse, 40, far[0], Vec3(3.0, 2.0, 0.0), Vec3::Zero()),
+      input(UserInput::Kind::SetVelocity, 60, far[1], Vec3(0.0, 4.0, 1.0), Vec3(0.0, 2.0, 0.0)),
+      input(UserInput::Kind::RemoveBody, 80, far[2], Vec3::Zero(), Vec3::Zero())};
+  const TerritoryMap map = make_partition("grid:2x1x1", s, 2, GridOptions{});
+  PartitionedOptions on_options, off_options;
+  on_options.inputs = inputs;
+  off_options.inputs = inputs;
+  off_options.parking = false;
+  PartitionedWorld on(s, map, on_options);
+  PartitionedWorld off(s, map, off_options);
+  const std::size_t built = parked_in(on);
+  for (int step = 1; step <= 150; ++step) {
+    on.step(1);
+    off.step(1);
+    ASSERT_EQ(hash_hex(on.state_hash()), hash_hex(off.state_hash())) << "step " << step;
+  }
+  EXPECT_EQ(serialize(on.snapshot()), serialize(off.snapshot()));
+  EXPECT_GT(built, 0u);
+  // The pushed sleepers moved.
+  const WorldSnapshot end = on.snapshot();
+  for (BodyId id : {far[0], far[1]})
+    for (const BodySnapshot& b : end.bodies)
+      if (b.description.id == id) {
+        const Body* start = nullptr;
+        for (const Body& x : s.bodies)
+          if (x.id == id) start = &x;
+        ASSERT_NE(start, nullptr);
+        EXPECT_GT(std::abs(double(b.state.origin[0]) - start->position.x()) +
+                      std::abs(double(b.state.origin[1]) - start->position.y()),
+                  0.1)
+            << "body " << id << " did not move";
+      }
+  for (const BodySnapshot& b : end.bodies) EXPECT_NE(b.description.id, far[2]);
+}
+
 struct Case {
   int territories;
   int anticipation;
   int sync_test;
+  bool churn;  // load balancing moves cells (worlds rebuilt mid-run)
 };
 
 class ParkingVsPartitioned : public ::testing::TestWithParam<Case> {};
 
 // The one-territory run with parking (the default of run_scene) against
-// K territories (no parking there), with speculation or SyncTest.
+// K territories with parking on (the default) and off, with speculation,
+// SyncTest or churn's cessions.
 TEST_P(ParkingVsPartitioned, SameHashAsOneTerritoryWithParking) {
   const Case c = GetParam();
   const Scene s = test::scene("sleepers", kSleepers);
@@ -179,21 +290,30 @@ TEST_P(ParkingVsPartitioned, SameHashAsOneTerritoryWithParking) {
   k.threads = 1;
   k.anticipation = c.anticipation;
   k.sync_test = c.sync_test;
+  if (c.churn) {
+    k.balance.policy = "churn";
+    k.balance.period = 20;
+  }
+  RunConfig k_unparked = k;
+  k_unparked.parking = false;
   const RunResult parked = run_scene(s, one);
   const RunResult unparked = run_scene(s, no_parking);
   const RunResult partitioned = run_scene(s, k);
+  const RunResult partitioned_unparked = run_scene(s, k_unparked);
   EXPECT_EQ(hash_hex(parked.state_hash), hash_hex(unparked.state_hash));
   EXPECT_EQ(hash_hex(partitioned.state_hash), hash_hex(parked.state_hash));
-  std::printf("[ parking vs K=%d, anticipation %d, sync-test %d ] %s\n", c.territories, c.anticipation, c.sync_test,
-              hash_hex(parked.state_hash).c_str());
+  EXPECT_EQ(hash_hex(partitioned_unparked.state_hash), hash_hex(parked.state_hash));
+  std::printf("[ parking vs K=%d, anticipation %d, sync-test %d%s ] %s\n", c.territories, c.anticipation,
+              c.sync_test, c.churn ? ", churn" : "", hash_hex(parked.state_hash).c_str());
 }
 
 INSTANTIATE_TEST_SUITE_P(Runtime, ParkingVsPartitioned,
-                         ::testing::Values(Case{4, 8, 0}, Case{2, 0, 2}),
+                         ::testing::Values(Case{4, 8, 0, false}, Case{2, 0, 2, false}, Case{3, 8, 1, false},
+                                           Case{4, 0, 0, true}),
                          [](const ::testing::TestParamInfo<Case>& info) {
                            return "K" + std::to_string(info.param.territories) + "_anticipation" +
                                   std::to_string(info.param.anticipation) + "_sync" +
-                                  std::to_string(info.param.sync_test);
+                                  std::to_string(info.param.sync_test) + (info.param.churn ? "_churn" : "");
                          });
 
 }  // namespace

@@ -66,9 +66,11 @@ void TerritoryWorld::collide() {
   info.m_debugDraw = nullptr;
   world.getSolverInfo().m_timeStep = h;
   update_aabbs();
+  wake_parked();  // parked islands an active body or ghost touches (territory_parking.cpp)
   parts_->speculative.clear();
   world.computeOverlappingPairs();
   remove_stale_pairs(parts_->broadphase, &parts_->dispatcher);
+  parts_->parking.restore_woken_contacts();
   parts_->dispatcher.dispatchAllCollisionPairs(parts_->broadphase.getOverlappingPairCache(), info,
                                                &parts_->dispatcher);
   seeds_.clear();

@@ -39,7 +39,8 @@ bool TerritoryWorld::idle_ready() const {
 
 void TerritoryWorld::begin_idle_step() {
   counters_ = TerritoryCounters{};
-  counters_.owned_bodies = owned_.size();
+  counters_.owned_bodies = owned_.size() + parked_.size();
+  counters_.parked_bodies = parked_.size();
   local_islands_.clear();
 }
 

@@ -60,6 +60,8 @@ void TerritoryWorld::integrate() {
     if (!replay_.mid_step) finish_replay();
     replay_ = StepReplay{};
   }
+  park_settled_islands();
+  counters_.parked_bodies = parked_.size();
 }
 
 void TerritoryWorld::export_manifolds_involving(const std::vector<const Entry*>& leaving,

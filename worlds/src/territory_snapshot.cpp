@@ -46,6 +46,7 @@ TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, Territ
   } else {
     init_interior();
   }
+  if (share_pools_of) set_parking(share_pools_of->parking());
 }
 
 WorldSnapshot TerritoryWorld::part_snapshot() const {
@@ -71,16 +72,9 @@ bool TerritoryWorld::solved_state(LocalIslands& islands, WorldSnapshot& out) con
 void TerritoryWorld::snapshot_into(WorldSnapshot& out, bool with_kept) const {
   out.settings = settings_;
   out.steps_done = steps_done_ / settings_.substeps;
-  // By id: owned_ is sorted but for migrants absorbed since (a short tail).
-  // Sorting pointers, not the snapshots (large: every speculative
+  // By id. Sorting pointers, not the snapshots (large: every speculative
   // checkpoint spent 1400 instructions a body swapping them).
-  std::vector<const Entry*> order(owned_.begin(), owned_.end());
-  const auto by_id = [](const Entry* a, const Entry* b) { return a->id() < b->id(); };
-  const auto tail = std::is_sorted_until(order.begin(), order.end(), by_id);
-  if (tail != order.end()) {
-    std::sort(tail, order.end(), by_id);
-    std::inplace_merge(order.begin(), tail, order.end(), by_id);
-  }
+  const std::vector<const Entry*> order = all_owned_by_id();
   out.bodies.resize(order.size());
   for (std::size_t i = 0; i < order.size(); ++i)
     out.bodies[i] = BodySnapshot{order[i]->description, read_dynamic_state(*order[i]->body)};
@@ -97,6 +91,7 @@ void TerritoryWorld::snapshot_into(WorldSnapshot& out, bool with_kept) const {
   if (with_kept)
     for (const auto& [pair, state] : kept_) next() = state;
   out.manifolds.resize(n);
+  parts_->parking.append_contacts(out.manifolds);  // held here, out of the world
   std::sort(out.manifolds.begin(), out.manifolds.end(), [](const ManifoldState& a, const ManifoldState& b) {
     return std::make_pair(a.id0, a.id1) < std::make_pair(b.id0, b.id1);
   });
@@ -122,6 +117,7 @@ std::vector<WatchdogFinding> TerritoryWorld::watchdog_findings(const WatchdogLim
 bool TerritoryWorld::set_velocity(BodyId id, const Vec3& linear, const Vec3& angular) {
   auto it = entries_.find(id);
   if (it == entries_.end() || it->second->role != Role::Owned) return false;
+  unpark_for_input(*it->second);
   quiet_ = -1;
   btRigidBody& rb = *it->second->body;
   rb.setLinearVelocity(btVector3(btScalar(linear.x()), btScalar(linear.y()), btScalar(linear.z())));
@@ -134,6 +130,7 @@ bool TerritoryWorld::set_velocity(BodyId id, const Vec3& linear, const Vec3& ang
 bool TerritoryWorld::apply_impulse(BodyId id, const Vec3& impulse) {
   auto it = entries_.find(id);
   if (it == entries_.end() || it->second->role != Role::Owned) return false;
+  unpark_for_input(*it->second);
   quiet_ = -1;
   btRigidBody& rb = *it->second->body;
   rb.applyCentralImpulse(btVector3(btScalar(impulse.x()), btScalar(impulse.y()), btScalar(impulse.z())));
@@ -156,6 +153,7 @@ bool TerritoryWorld::add_body(const Body& body) {
 
 bool TerritoryWorld::remove_body(BodyId id) {
   if (!owns(id)) return false;
+  unpark_for_input(*entries_.at(id));
   for (auto it = kept_.begin(); it != kept_.end();)
     it = (it->first.first == id || it->first.second == id) ? kept_.erase(it) : std::next(it);
   remove_entry(id);

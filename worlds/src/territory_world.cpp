@@ -169,6 +169,7 @@ void TerritoryWorld::remove_entry(BodyId id) {
   auto it = entries_.find(id);
   if (it == entries_.end()) throw std::logic_error("TerritoryWorld: removing an unknown body");
   Entry* e = it->second.get();
+  if (e->parked) throw std::logic_error("TerritoryWorld: removing a parked body");
   std::vector<Entry*>& list = e->role == Role::Owned ? owned_ : (e->role == Role::Ghost ? ghosts_ : statics_);
   list.erase(std::find(list.begin(), list.end(), e));  // keeps the order
   parts_->world.removeRigidBody(e->body.get());
@@ -211,6 +212,8 @@ void TerritoryWorld::predict() {
   const CellBox& box = map_.box();
   const std::span<const WorldId> owners = map_.owners();
   const bool cull = border_culling();
+  counters_.owned_bodies = parked_.size();  // parked bodies are not predicted (parking.h rule 1)
+  counters_.parked_bodies = parked_.size();
   for (Entry* ep : owned_) {
     Entry& e = *ep;
     ++counters_.owned_bodies;
@@ -389,8 +392,7 @@ bool TerritoryWorld::received_ghosts_from(WorldId neighbour) const {
 
 std::vector<BodyState> TerritoryWorld::owned_states() const {
   std::vector<BodyState> out;
-  for (const Entry* e : owned_) out.push_back(read_body_state(*e->body));
-  std::sort(out.begin(), out.end(), [](const BodyState& a, const BodyState& b) { return a.id < b.id; });
+  for (const Entry* e : all_owned_by_id()) out.push_back(read_body_state(*e->body));
   return out;
 }
 
@@ -403,12 +405,11 @@ std::vector<BodyState> TerritoryWorld::static_states() const {
 
 std::vector<BodyId> TerritoryWorld::owned_ids() const {
   std::vector<BodyId> out;
-  for (const Entry* e : owned_) out.push_back(e->id());
-  std::sort(out.begin(), out.end());
+  for (const Entry* e : all_owned_by_id()) out.push_back(e->id());
   return out;
 }
 
-std::size_t TerritoryWorld::owned_count() const { return owned_.size(); }
+std::size_t TerritoryWorld::owned_count() const { return owned_.size() + parked_.size(); }
 std::size_t TerritoryWorld::ghost_count() const { return ghosts_.size(); }
 std::size_t TerritoryWorld::static_count() const { return statics_.size(); }
 std::size_t TerritoryWorld::bullet_object_count() const {
@@ -416,7 +417,7 @@ std::size_t TerritoryWorld::bullet_object_count() const {
 }
 
 std::size_t TerritoryWorld::sleeping_count() const {
-  std::size_t n = 0;
+  std::size_t n = parked_.size();  // settled: asleep
   for (const Entry* e : owned_)
     if (e->body->getActivationState() == ISLAND_SLEEPING) ++n;
   return n;
@@ -431,6 +432,9 @@ std::vector<std::pair<BodyId, BodyId>> TerritoryWorld::held_contact_pairs() cons
     out.emplace_back(static_cast<BodyId>(m->getBody0()->getUserIndex()),
                      static_cast<BodyId>(m->getBody1()->getUserIndex()));
   }
+  std::vector<ManifoldState> parked;  // held here, out of the world
+  parts_->parking.append_contacts(parked);
+  for (const ManifoldState& m : parked) out.emplace_back(m.id0, m.id1);
   std::sort(out.begin(), out.end());
   return out;
 }
@@ -443,6 +447,7 @@ std::vector<ManifoldState> TerritoryWorld::kept_contact_state() const {
     if (m->getNumContacts() > 0) out.push_back(read_manifold_state(*m));
   }
   for (const auto& [pair, state] : kept_) out.push_back(state);
+  parts_->parking.append_contacts(out);
   std::sort(out.begin(), out.end(), [](const ManifoldState& a, const ManifoldState& b) {
     return std::make_pair(a.id0, a.id1) < std::make_pair(b.id0, b.id1);
   });

@@ -14,6 +14,7 @@
 
 #include "body_factory.h"
 #include "pair_cache.h"
+#include "parking.h"
 #include "coloured_solver.h"
 #include "soda/worlds/territory_world.h"
 #include "world_teardown.h"
@@ -41,6 +42,9 @@ struct TerritoryWorld::Entry {
   Vec3 safe_lo = Vec3::Constant(std::numeric_limits<double>::infinity());
   Vec3 safe_hi = Vec3::Constant(-std::numeric_limits<double>::infinity());
   bool clean = false;              // owned, in a replayed step: state and contacts at its start as the old run's
+  bool parked = false;             // owned, parked outside the Bullet world (TerritoryWorld::set_parking)
+  std::size_t parked_slot = 0;     // parked: its island's slot in Parts::parking
+  std::size_t parked_index = 0;    // parked: its index in TerritoryWorld::parked_
 
   BodyId id() const { return description.id; }
 };
@@ -60,6 +64,14 @@ class TerritoryWorld::Dispatcher final : public btCollisionDispatcher {
   TerritoryWorld* world_;
 };
 
+/// What a territory world does for its Parking (parking.h).
+struct TerritoryWorld::ParkingLink final : ParkingHost {
+  explicit ParkingLink(TerritoryWorld* w) : world(w) {}
+  void return_body(btRigidBody* body) override { world->return_parked(body); }
+  void forget_detached_bodies() override { world->forget_parked(); }
+  TerritoryWorld* world;
+};
+
 /// Every Bullet object of one territory world is its own (pool allocators
 /// are not thread-safe), except that a world rebuilt from a snapshot may
 /// share the collision configuration (its pools) of the world it replaces.
@@ -68,7 +80,8 @@ class TerritoryWorld::Dispatcher final : public btCollisionDispatcher {
 struct TerritoryWorld::Parts {
   Parts(TerritoryWorld* owner, std::shared_ptr<btDefaultCollisionConfiguration> shared)
       : config(shared ? std::move(shared) : std::make_shared<btDefaultCollisionConfiguration>()),
-        dispatcher(config.get(), owner) {}
+        dispatcher(config.get(), owner),
+        parking_link(owner) {}
   ~Parts() { release_all_pairs(broadphase, dispatcher); }
   Parts(const Parts&) = delete;
   Parts& operator=(const Parts&) = delete;
@@ -77,7 +90,9 @@ struct TerritoryWorld::Parts {
   PairCache pairs;  // before the broadphase, which uses it (pair_cache.h)
   btDbvtBroadphase broadphase{&pairs};
   ColouredSolver solver;  // docs/coloured-solve.md
-  btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, config.get()};
+  DetachableWorld world{&dispatcher, &broadphase, &solver, config.get()};
+  ParkingLink parking_link;
+  Parking parking{parking_link, world, broadphase, dispatcher};  // idle unless TerritoryWorld::set_parking(true)
   btManifoldArray scratch;  // near callback
   std::vector<btPersistentManifold*> speculative;  // held manifolds given a speculative point this step
   // solve_border_island's copies of a merged island's manifolds, reused from

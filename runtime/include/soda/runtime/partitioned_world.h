@@ -129,6 +129,13 @@ struct PartitionedOptions {
   /// off (tests/runtime/idle_territories_test.cpp). False: every world runs
   /// every stage of every step (for comparison and measurement).
   bool idle_territories = true;
+  /// Parking (#18, docs/skip.md): each world parks its settled sleeping
+  /// islands that lie inside its own cells outside its Bullet world
+  /// (TerritoryWorld::set_parking); a parked island comes back when an
+  /// active body or ghost touches it, or an input names one of its bodies.
+  /// Exact: the state hash is the same on and off
+  /// (tests/runtime/parking_test.cpp). False: sleepers stay in Bullet.
+  bool parking = true;
   /// Internal: the knobs only tests set (an injected fault, fuzzing, the
   /// solve-everywhere protocol variant, replay verification); set through
   /// runtime/src/testing_hooks.h. Leave empty.

@@ -52,10 +52,11 @@ struct RunConfig {
   /// step meanwhile; docs/bullet-globals.md). For benchmarks that compare
   /// worlds whose islands, hence sleepers, differ (`ratio_vs_baseline_awake`).
   bool sleeping = true;
-  /// One territory, canonical world: park settled sleeping islands outside
-  /// Bullet's world (CanonicalWorld::set_parking; #18, docs/skip.md). Exact:
-  /// the state hash is the same on and off. `--no-parking` turns it off. No
-  /// effect on the territory worlds (not yet parked there) or stock Bullet.
+  /// Park settled sleeping islands outside Bullet's world: the canonical
+  /// world's (CanonicalWorld::set_parking) with one territory, every
+  /// territory world's (PartitionedOptions::parking) with more; #18,
+  /// docs/skip.md. Exact: the state hash is the same on and off.
+  /// `--no-parking` turns it off. No effect on stock Bullet.
   bool parking = true;
   /// One territory, canonical world: the solver settings it steps with
   /// (CanonicalWorld::set_solver_defaults). Bullet: the settings before #17,

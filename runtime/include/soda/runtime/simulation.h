@@ -97,6 +97,9 @@ struct SimulationConfig {
   /// Idle territories skip their Bullet stages
   /// (PartitionedOptions::idle_territories; docs/skip.md). Exact.
   bool idle_territories = true;
+  /// Territory worlds park their settled sleeping islands outside Bullet
+  /// (PartitionedOptions::parking; docs/skip.md). Exact.
+  bool parking = true;
   /// After every step each world checks its bodies and contacts
   /// (watchdog.h): off or stop (a WatchdogError is the cause of the
   /// SimulationError); heal is not supported by a Simulation.

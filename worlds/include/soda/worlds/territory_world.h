@@ -56,6 +56,7 @@ namespace soda {
 class SolverPool;
 }
 class btVector3;
+class btRigidBody;
 class btCollisionObject;
 
 namespace soda {
@@ -93,6 +94,7 @@ struct TerritoryCounters {
   std::size_t bodies_replayed = 0;        // their bodies
   std::size_t coloured_islands = 0;       // islands solved coloured here (docs/coloured-solve.md)
   std::size_t substepped_islands = 0;     // islands (local and border) solved in substeps here (island_substeps.h)
+  std::size_t parked_bodies = 0;          // owned bodies parked outside Bullet's world at the step's end (set_parking)
   int solver_threads = 0;                 // most threads a coloured island of this world could use, so far
 };
 
@@ -248,6 +250,26 @@ class TerritoryWorld {
   /// The islands solved (or replayed) in place in the last step.
   const LocalIslands& local_islands() const { return local_islands_; }
 
+  /// Parking (#18, docs/skip.md, worlds/src/parking.h): at the end of every
+  /// step, each island this world solved in place whose bodies are all
+  /// settled (settled.h), lie inside this world's cells (sent to no
+  /// neighbour) and keep no contact state here for a pair held elsewhere
+  /// leaves the Bullet world; its contact state is kept as values. It comes
+  /// back in collide() when the AABB of an active owned body or ghost
+  /// overlaps one of its bodies (before the pair pass, its manifolds after
+  /// it), or at once when an input names one of its bodies. Parked bodies
+  /// are still owned: every readout and snapshot includes them and their
+  /// contacts. Exact: every state is the same on and off
+  /// (tests/runtime/parking_test.cpp). Switched on in a world without
+  /// contact state (built from a scene), every settled body inside its
+  /// cells is parked at once, each its own island; switched off, every
+  /// island comes back. A world built with share_pools_of takes the other
+  /// world's setting. Off by default; call at a step boundary.
+  void set_parking(bool on);
+  bool parking() const { return parking_; }
+  /// Owned bodies parked now.
+  std::size_t parked_count() const { return parked_.size(); }
+
   /// The pool that large islands solved here (in place or merged) share
   /// their colours on (docs/coloured-solve.md); null: this world's thread
   /// alone. Several worlds may share one pool (one job at a time; a world
@@ -327,6 +349,7 @@ class TerritoryWorld {
   struct Component;
   struct Copy;
   class Dispatcher;
+  struct ParkingLink;
 
  private:
   using PairKey = std::pair<BodyId, BodyId>;
@@ -356,6 +379,16 @@ class TerritoryWorld {
   void finish_replay();
   void export_manifolds_involving(const std::vector<const Entry*>& leaving,
                                   std::map<BodyId, MigrantBatch*>* payload_by_key);
+  // Parking (territory_parking.cpp).
+  bool inside_own_cells(const Entry& e) const;
+  void park_lone_settled();
+  void park_settled_islands();
+  void wake_parked();
+  void unpark_for_input(Entry& e);
+  void return_parked(btRigidBody* body);  // ParkingLink
+  void forget_parked();                   // ParkingLink
+  /// owned_ and parked_, by id.
+  std::vector<const Entry*> all_owned_by_id() const;
 
   WorldId id_;
   TerritoryMap map_;
@@ -365,6 +398,10 @@ class TerritoryWorld {
   std::vector<Entry*> owned_;    // ascending id once sort_lists() ran
   std::vector<Entry*> ghosts_;   // ascending id once sort_lists() ran
   std::vector<Entry*> statics_;  // ascending id once sort_lists() ran
+  // Owned bodies parked outside the Bullet world (not in owned_), any order;
+  // each Entry holds its index here.
+  std::vector<Entry*> parked_;
+  bool parking_ = false;
   bool lists_sorted_ = true;
   std::vector<std::uint64_t> interior_;  // bit per box cell: owned here with all 26 neighbours
   std::int64_t steps_done_ = 0;
