@@ -53,6 +53,49 @@ TEST(TerritoryWorld, OneTerritoryStepsAsTheCanonicalWorld) {
   }
 }
 
+// Parking in a territory world (#18, docs/skip.md): one territory world with
+// parking against the canonical world without it, step by step; switched
+// off mid-run every island comes back with its contacts; a world rebuilt
+// from the snapshot of a parking world (parking taken over through
+// share_pools_of) steps on identically.
+TEST(TerritoryWorld, ParkingOnOffAndRebuiltAsTheCanonicalWorld) {
+  const Scene s = test::scene("sleepers", 500);
+  CanonicalWorld reference(s);
+  TerritoryWorld parked(s, 0, TerritoryMap());
+  parked.set_parking(true);
+  EXPECT_GE(parked.parked_count(), 500u);  // the scene's sleepers, at once
+  EXPECT_EQ(parked.owned_count() + parked.static_count(), s.bodies.size());
+  for (int i = 0; i < 150; ++i) {
+    reference.step();
+    step_alone(parked);
+    ASSERT_EQ(hash_hex(hash_of(parked)), hash_hex(reference.state_hash())) << "step " << i + 1;
+  }
+  ASSERT_GT(parked.parked_count(), 0u);
+  EXPECT_LT(parked.bullet_object_count(), parked.owned_count() + parked.static_count());
+  EXPECT_EQ(parked.sleeping_count(), reference.sleeping_count());
+  const WorldSnapshot at150 = parked.part_snapshot();
+  EXPECT_EQ(at150.manifolds.size(), reference.snapshot().manifolds.size());
+  // Rebuilt from the parking world's state (statics added back), taking its setting.
+  WorldSnapshot whole = at150;
+  for (const BodySnapshot& b : parked.static_snapshots()) whole.bodies.push_back(b);
+  std::sort(whole.bodies.begin(), whole.bodies.end(),
+            [](const BodySnapshot& a, const BodySnapshot& b) { return a.description.id < b.description.id; });
+  TerritoryWorld rebuilt(whole, 0, TerritoryMap(), -1, &parked);
+  EXPECT_TRUE(rebuilt.parking());
+  parked.set_parking(false);
+  EXPECT_EQ(parked.parked_count(), 0u);
+  EXPECT_EQ(parked.bullet_object_count(), parked.owned_count() + parked.static_count());
+  EXPECT_EQ(serialize(parked.part_snapshot()), serialize(at150));
+  for (int i = 0; i < 100; ++i) {
+    reference.step();
+    step_alone(parked);
+    step_alone(rebuilt);
+  }
+  EXPECT_EQ(hash_hex(hash_of(parked)), hash_hex(reference.state_hash()));
+  EXPECT_EQ(hash_hex(hash_of(rebuilt)), hash_hex(reference.state_hash()));
+  EXPECT_GT(rebuilt.parked_count(), 0u);  // parked again at its steps' ends
+}
+
 // Rollback and Propagate at the level of one world. An old run records, at
 // every step, its state at both ends and the islands it solved; a world
 // rebuilt from its state at step kFrom replays it.
