@@ -264,6 +264,7 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
                         {"merged_islands", m.merged_islands},
                         {"islands_solved", m.islands_solved},
                         {"merged_island_bodies", m.merged_island_bodies},
+                        {"merged_island_bodies_in_place", m.merged_island_bodies_in_place},
                         {"merged_island_worlds_mean",
                          m.merged_islands ? static_cast<double>(m.merged_island_worlds_sum) /
                                                 static_cast<double>(m.merged_islands)

@@ -42,7 +42,8 @@ void each_scalar(WorldMetrics& m, F&& f) {
   f(m.cpu_step_max_ms), f(m.blocked_seconds), f(m.owned_bodies), f(m.ghosts), f(m.neighbours);
   f(m.border_bodies), f(m.ghosts_sent), f(m.ghosts_received), f(m.manifolds_attached), f(m.manifolds_seeded);
   f(m.manifolds_returned), f(m.migrations_out), f(m.migrations_in), f(m.local_islands), f(m.border_fragments);
-  f(m.merged_islands), f(m.islands_solved), f(m.merged_island_bodies), f(m.merged_island_worlds_sum);
+  f(m.merged_islands), f(m.islands_solved), f(m.merged_island_bodies), f(m.merged_island_bodies_in_place);
+  f(m.merged_island_worlds_sum);
   f(m.merged_island_worlds_max), f(m.relay_messages_sent), f(m.relay_messages_received), f(m.fragments_relayed);
   f(m.messages_sent), f(m.coloured_islands), f(m.substepped_islands), f(m.solver_threads);
   f(m.bets), f(m.bets_lost), f(m.rollbacks), f(m.steps_rolled_back), f(m.steps_rejoined), f(m.bodies_resolved);

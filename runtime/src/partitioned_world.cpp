@@ -59,6 +59,7 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.merged_islands += m.merged_islands;
   t.islands_solved += m.islands_solved;
   t.merged_island_bodies += m.merged_island_bodies;
+  t.merged_island_bodies_in_place += m.merged_island_bodies_in_place;
   t.merged_island_worlds_sum += m.merged_island_worlds_sum;
   t.merged_island_worlds_max = std::max(t.merged_island_worlds_max, m.merged_island_worlds_max);
   t.relay_messages_sent += m.relay_messages_sent;

@@ -389,6 +389,7 @@ void PartitionedWorld::Process::end_step() {
   sums_.local_islands += c.local_islands;
   sums_.border_fragments += c.border_fragments;
   sums_.merged_island_bodies += c.border_island_bodies;
+  sums_.merged_island_bodies_in_place += c.border_island_bodies_in_place;
   sums_.islands_solved += c.border_islands;
   sums_.coloured_islands += c.coloured_islands;
   sums_.substepped_islands += c.substepped_islands;

@@ -46,6 +46,10 @@ void expect_coloured(const Outcome& r, int k, int threads) {
   EXPECT_EQ(r.total.solver_threads, threads) << "the coloured solve did not get the pool's threads";
   if (k > 1) {
     EXPECT_GT(r.total.islands_solved, 0u);
+    // The root solves its own share in place and the others' on copies.
+    EXPECT_GT(r.total.merged_island_bodies_in_place, 0u) << "no root solved its own bodies in place";
+    EXPECT_LT(r.total.merged_island_bodies_in_place, r.total.merged_island_bodies)
+        << "every merged island's bodies were the root's own";
   }
 }
 

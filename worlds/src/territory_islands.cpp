@@ -142,6 +142,8 @@ std::vector<Fragment> TerritoryWorld::border_fragments(const std::vector<std::pa
   std::vector<int> local;
   std::vector<Fragment> fragments;
   held_by_key_.clear();
+  own_fragments_.clear();
+  solved_in_place_.clear();
   for (Component& c : components_) {
     const std::size_t uk = static_cast<std::size_t>(c.index);
     if (!c.has_ghost && c.links_in.empty()) {
@@ -171,6 +173,7 @@ std::vector<Fragment> TerritoryWorld::border_fragments(const std::vector<std::pa
       held_by_key_.emplace_back(PairKey{state.id0, state.id1}, m);
     }
     f.weight = static_cast<std::uint32_t>(f.bodies.size() + f.manifolds.size());
+    own_fragments_.emplace_back(f.root, c.index);
     fragments.push_back(std::move(f));
   }
   std::sort(held_by_key_.begin(), held_by_key_.end());
@@ -349,28 +352,75 @@ void TerritoryWorld::finish_replay() {
   replayed_manifolds_.clear();
 }
 
+int TerritoryWorld::take_own_fragment(const Fragment& f) {
+  if (f.world != id_) return -1;
+  auto it = std::find_if(own_fragments_.begin(), own_fragments_.end(),
+                         [&](const std::pair<BodyId, int>& o) { return o.first == f.root; });
+  if (it == own_fragments_.end()) return -1;
+  const int component = it->second;
+  own_fragments_.erase(it);
+  const std::size_t uk = static_cast<std::size_t>(component);
+  // The fragment must be the one border_fragments() made of the component.
+  const std::size_t held = static_cast<std::size_t>(held_begin_[uk + 1] - held_begin_[uk]);
+  bool same = f.manifolds.size() == held;
+  for (std::size_t i = 0; same && i < held; ++i) {
+    const Held& h = held_[static_cast<std::size_t>(held_begin_[uk]) + i];
+    same = h.id0 == f.manifolds[i].id0 && h.id1 == f.manifolds[i].id1;
+  }
+  if (!same)
+    throw std::logic_error("world " + std::to_string(id_) + ": fragment " + std::to_string(f.root) +
+                           " is not the one this world made of its component");
+  return component;
+}
+
 IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragment*>& island) {
   // Sort keys are held beside the pointers: comparing through the pointers
   // missed the cache at every step of the sort (this runs on the root alone).
+  // `original`: this world's own body or held manifold, solved in place.
+  struct IslandBody {
+    BodyId id;
+    const BodyRecord* record;
+    btRigidBody* original;
+  };
   struct HeldManifold {
     std::pair<BodyId, BodyId> key;
     const ManifoldState* state;
+    btPersistentManifold* original;
   };
-  std::vector<std::pair<BodyId, const BodyRecord*>> by_id;
+  std::vector<IslandBody> by_id;
   std::vector<HeldManifold> manifolds;
+  bool any_in_place = false, copied_own = false;
   for (const Fragment* f : island) {
-    for (const BodyRecord& r : f->bodies) by_id.emplace_back(r.body.description.id, &r);
-    for (const ManifoldState& m : f->manifolds) manifolds.push_back(HeldManifold{{m.id0, m.id1}, &m});
+    const int component = take_own_fragment(*f);
+    // An own fragment's bodies are its component's owned bodies, in order.
+    int next = component >= 0 ? component_begin_[static_cast<std::size_t>(component)] : 0;
+    const int last = component >= 0 ? component_begin_[static_cast<std::size_t>(component) + 1] : 0;
+    for (const BodyRecord& r : f->bodies) {
+      btRigidBody* original = nullptr;
+      if (component >= 0) {
+        while (next < last && entry_of(component_objects_[static_cast<std::size_t>(next)]).role != Role::Owned) ++next;
+        if (next == last || entry_of(component_objects_[static_cast<std::size_t>(next)]).id() != r.body.description.id)
+          throw std::logic_error("world " + std::to_string(id_) + ": body " +
+                                 std::to_string(r.body.description.id) + " of its own fragment is not its own");
+        original = btRigidBody::upcast(component_objects_[static_cast<std::size_t>(next++)]);
+      }
+      by_id.push_back(IslandBody{r.body.description.id, &r, original});
+    }
+    for (std::size_t i = 0; i < f->manifolds.size(); ++i) {
+      const ManifoldState& m = f->manifolds[i];
+      btPersistentManifold* original =
+          component >= 0 ? held_ptrs_[static_cast<std::size_t>(held_begin_[static_cast<std::size_t>(component)]) + i]
+                         : nullptr;
+      manifolds.push_back(HeldManifold{{m.id0, m.id1}, &m, original});
+    }
+    if (f->world == id_) (component >= 0 ? any_in_place : copied_own) = true;
   }
-  std::sort(by_id.begin(), by_id.end(),
-            [](const std::pair<BodyId, const BodyRecord*>& a, const std::pair<BodyId, const BodyRecord*>& b) {
-              return a.first < b.first;
-            });
+  std::sort(by_id.begin(), by_id.end(), [](const IslandBody& a, const IslandBody& b) { return a.id < b.id; });
   std::sort(manifolds.begin(), manifolds.end(),
             [](const HeldManifold& a, const HeldManifold& b) { return a.key < b.key; });
   std::vector<const BodyRecord*> records(by_id.size());
   std::vector<BodyId> ids(by_id.size());  // for the searches below
-  for (std::size_t i = 0; i < by_id.size(); ++i) ids[i] = by_id[i].first, records[i] = by_id[i].second;
+  for (std::size_t i = 0; i < by_id.size(); ++i) ids[i] = by_id[i].id, records[i] = by_id[i].record;
   auto fail = [&](const std::string& what) {
     throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) +
                          ", border island of body " +
@@ -384,13 +434,23 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
     if (manifolds[i].key == manifolds[i - 1].key)
       fail("pair " + std::to_string(manifolds[i].key.first) + "-" + std::to_string(manifolds[i].key.second) +
            " has two holders");
+  // The island's part here is solved in place: apply_island_result leaves it
+  // (if a part of it was solved on copies, writing the rest again is harmless).
+  if (any_in_place && !copied_own) solved_in_place_.push_back(ids.front());
 
-  // Copies of the island's bodies, in the state their owners sent. Made
+  // The other worlds' bodies: copies, in the state their owners sent. Made
   // here (the map of copies is this thread's), filled on the solver pool:
   // each item writes only its own copy, so any split gives the same bits.
+  // This world's own bodies are in that state already (the fragment read it).
   SolverPool* pool = parts_->solver.pool().get();
   std::vector<btCollisionObject*> bodies(records.size());
+  std::size_t in_place = 0;
   for (std::size_t i = 0; i < records.size(); ++i) {
+    if (by_id[i].original) {
+      bodies[i] = by_id[i].original;
+      ++in_place;
+      continue;
+    }
     const BodySnapshot& b = records[i]->body;
     std::unique_ptr<Copy>& c = copies_[b.description.id];
     if (!c) {
@@ -403,13 +463,14 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
   }
   run_in_chunks(pool, static_cast<int>(records.size()), kParallelMinBodies, kBodiesPerTask, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
-      const BodyRecord& r = *records[static_cast<std::size_t>(i)];
       btRigidBody& rb = *btRigidBody::upcast(bodies[static_cast<std::size_t>(i)]);
+      rb.setCompanionId(-1);
+      if (by_id[static_cast<std::size_t>(i)].original) continue;
+      const BodyRecord& r = *records[static_cast<std::size_t>(i)];
       write_dynamic_state(rb, r.body.state);
       rb.clearForces();
       rb.applyCentralForce(btVector3(r.total_force[0], r.total_force[1], r.total_force[2]));
       rb.applyTorque(btVector3(r.total_torque[0], r.total_torque[1], r.total_torque[2]));
-      rb.setCompanionId(-1);
     }
   });
   auto object_of = [&](BodyId id) -> btCollisionObject* {
@@ -426,19 +487,49 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
   result.manifolds.resize(manifolds.size());
   const int manifold_count = static_cast<int>(manifolds.size());
   if (decide_island_sleeping(bodies.data(), static_cast<int>(bodies.size()))) {
-    // Copies of the manifolds: each reset to what btCollisionDispatcher::
-    // getNewManifold makes (thresholds as it gives them), then the points.
+    // The other worlds' manifolds: copies, each reset to what
+    // btCollisionDispatcher::getNewManifold makes (thresholds as it gives
+    // them), then the points. A manifold held here is solved in place; one
+    // with a ghost at an end points at the copy of that body meanwhile (the
+    // ghost is this world's view of another world's body, not the island's).
     std::vector<std::unique_ptr<btPersistentManifold>>& copies = parts_->manifold_copies;
-    while (copies.size() < manifolds.size())
-      copies.push_back(std::make_unique<btPersistentManifold>(nullptr, nullptr, 0, btScalar(0), btScalar(0)));
     std::vector<btPersistentManifold*> ptrs(manifolds.size());
     std::vector<std::pair<btCollisionObject*, btCollisionObject*>> ends(manifolds.size());
+    std::size_t copy_count = 0;
     for (std::size_t i = 0; i < manifolds.size(); ++i) {  // here: object_of may throw
       ends[i] = {object_of(manifolds[i].key.first), object_of(manifolds[i].key.second)};
-      ptrs[i] = copies[i].get();
+      if (manifolds[i].original) {
+        ptrs[i] = manifolds[i].original;
+        continue;
+      }
+      if (copy_count == copies.size())
+        copies.push_back(std::make_unique<btPersistentManifold>(nullptr, nullptr, 0, btScalar(0), btScalar(0)));
+      ptrs[i] = copies[copy_count++].get();
     }
+    // Held manifolds pointed at copies get their own bodies back however the
+    // solve ends.
+    struct Redirected {
+      btPersistentManifold* manifold;
+      const btCollisionObject* body0;
+      const btCollisionObject* body1;
+    };
+    std::vector<Redirected> redirected;
+    for (std::size_t i = 0; i < manifolds.size(); ++i) {
+      btPersistentManifold* m = manifolds[i].original;
+      if (m && (m->getBody0() != ends[i].first || m->getBody1() != ends[i].second)) {
+        redirected.push_back(Redirected{m, m->getBody0(), m->getBody1()});
+        m->setBodies(ends[i].first, ends[i].second);
+      }
+    }
+    struct Restore {
+      std::vector<Redirected>& list;
+      ~Restore() {
+        for (const Redirected& r : list) r.manifold->setBodies(r.body0, r.body1);
+      }
+    } restore{redirected};
     run_in_chunks(pool, manifold_count, kParallelMinPairs, kPairsPerTask, [&](int begin, int end) {
       for (int i = begin; i < end; ++i) {
+        if (manifolds[static_cast<std::size_t>(i)].original) continue;
         const auto [b0, b1] = ends[static_cast<std::size_t>(i)];
         const btScalar breaking =
             btMin(b0->getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold),
@@ -487,11 +578,18 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
   });
   ++counters_.border_islands;
   counters_.border_island_bodies += records.size();
+  counters_.border_island_bodies_in_place += in_place;
   return result;
 }
 
 void TerritoryWorld::apply_island_result(const IslandResult& result) {
+  // Solved in place here (solve_border_island): this world's bodies and held
+  // manifolds are the result already.
+  auto solved_here = std::find(solved_in_place_.begin(), solved_in_place_.end(), result.island);
+  const bool in_place = solved_here != solved_in_place_.end();
+  if (in_place) solved_in_place_.erase(solved_here);
   for (const BodyResult& r : result.bodies) {
+    if (in_place) break;
     auto it = entries_.find(r.id);
     if (it == entries_.end() || it->second->role != Role::Owned) continue;
     btRigidBody& rb = *it->second->body;
@@ -517,7 +615,7 @@ void TerritoryWorld::apply_island_result(const IslandResult& result) {
     held = std::lower_bound(held, held_by_key_.end(), key,
                             [](const std::pair<PairKey, void*>& h, const PairKey& k) { return h.first < k; });
     if (held != held_by_key_.end() && held->first == key) {
-      write_manifold_points(m, *static_cast<btPersistentManifold*>(held->second));
+      if (!in_place) write_manifold_points(m, *static_cast<btPersistentManifold*>(held->second));
     } else if (owns(key_of(key.first, key.second)) && !is_speculative(m) && !m.points.empty()) {
       // A speculative point is no contact state: it ends with the solve;
       // nor is an emptied manifold (substeps, island_substeps.h).
@@ -531,6 +629,8 @@ void TerritoryWorld::finish_islands() {
   kept_ = std::move(kept_next_);
   kept_next_.clear();
   held_by_key_.clear();
+  own_fragments_.clear();
+  solved_in_place_.clear();
 }
 
 }  // namespace soda

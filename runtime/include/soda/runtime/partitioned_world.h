@@ -252,6 +252,7 @@ struct WorldMetrics {
   std::uint64_t merged_islands = 0;          // border islands this world took part in
   std::uint64_t islands_solved = 0;          // ... that it solved (as their root)
   std::uint64_t merged_island_bodies = 0;    // bodies of the islands solved here
+  std::uint64_t merged_island_bodies_in_place = 0;  // ... of them its own, solved in place (no copy)
   std::uint64_t merged_island_worlds_sum = 0;  // worlds per merged island, summed
   std::uint64_t merged_island_worlds_max = 0;
   std::uint64_t relay_messages_sent = 0;     // Fragments and Results messages

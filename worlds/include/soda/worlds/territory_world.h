@@ -86,8 +86,9 @@ struct TerritoryCounters {
   std::size_t held_manifolds = 0;         // manifolds with points held here after collide
   std::size_t local_islands = 0;          // awake islands solved in place (lone bodies included)
   std::size_t border_fragments = 0;
-  std::size_t border_islands = 0;         // merged islands solved here (on copies)
+  std::size_t border_islands = 0;         // merged islands solved here
   std::size_t border_island_bodies = 0;   // their bodies, summed
+  std::size_t border_island_bodies_in_place = 0;  // ... of them this world's own, solved in place (not copied)
   std::size_t migrations_out = 0;
   std::size_t migrations_in = 0;
   std::size_t islands_replayed = 0;       // islands a replayed step did not solve (set_replay)
@@ -198,13 +199,20 @@ class TerritoryWorld {
   /// world's fragments of border islands (ascending root) and solves the
   /// components that no neighbour glued.
   std::vector<Fragment> border_fragments(const std::vector<std::pair<WorldId, GlueBatch>>& glue);
-  /// solve: one merged border island on copies, given every fragment of it
-  /// (from every world involved, this one included); a pure function of the
-  /// fragments (any world computes the same result). Does not change this
-  /// world: apply_island_result does.
+  /// solve: one merged border island, given every fragment of it (from
+  /// every world involved, this one included); a pure function of the
+  /// fragments (any world computes the same result). This world's own
+  /// fragments of this step's border_fragments() are solved in place, each
+  /// at most once: their bodies and the manifolds held here take the result
+  /// now (the other worlds' bodies and manifolds are solved on copies; a
+  /// held manifold with a ghost at one end points at the copy of the ghost's
+  /// body during the solve). Bit for bit as on copies: a copy is written
+  /// from the state the fragment read from the original (docs/coloured-solve.md,
+  /// "The root's own share in place").
   IslandResult solve_border_island(const std::vector<const Fragment*>& island);
   /// Keeps this world's part of an island's result: its owned bodies, the
-  /// manifolds it holds, the manifolds it keeps that others hold.
+  /// manifolds it holds, the manifolds it keeps that others hold (what this
+  /// world solved in place is already there).
   void apply_island_result(const IslandResult& result);
   /// After the last border island of the step: the kept store now holds the
   /// step's contact state of pairs kept here and held elsewhere.
@@ -361,6 +369,9 @@ class TerritoryWorld {
   Entry& insert_dynamic(const Body& description, const BodyDynamicState* state, bool owned, WorldId owner);
   void remove_entry(BodyId id);
   void sort_lists();
+  /// The component of `f` if it is one of this step's own fragments not
+  /// yet solved in place (and marks it taken), else -1.
+  int take_own_fragment(const Fragment& f);
   WorldId owner_of_origin(const Entry& e) const;
   /// Owner of the home cell of a body whose origin Bullet holds as `origin`.
   WorldId owner_of_origin(const btVector3& origin) const;
@@ -445,6 +456,11 @@ class TerritoryWorld {
   // by key after border_fragments (a flat vector: a std::map's node per
   // manifold and its lookups were ~1.5 % of a partitioned cube-pile's CPU).
   std::vector<std::pair<PairKey, void*>> held_by_key_;
+  // This step's fragments by (root, component): solve_border_island solves
+  // each in place at most once, and then notes its island in
+  // solved_in_place_ for apply_island_result.
+  std::vector<std::pair<BodyId, int>> own_fragments_;
+  std::vector<BodyId> solved_in_place_;
   // Rollback and Propagate (set_replay): the step's replay, the old run's
   // islands by smallest id, and what integrate() writes back.
   StepReplay replay_;
