@@ -182,6 +182,7 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"state_hash", hash_hex(r.state_hash)},
       {"wall_seconds", r.wall_seconds},
       {"cpu_seconds", r.cpu_seconds},
+      {"process_cpu_seconds", r.process_cpu_seconds},
       {"setup_seconds", r.setup_seconds},
       {"setup_cpu_seconds", r.setup_cpu_seconds},
       {"teardown_seconds", r.teardown_seconds},

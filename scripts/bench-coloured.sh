@@ -10,7 +10,7 @@
 #
 # Output, CSV on stdout: one row per run
 #   scene,n,steps,round,config,wall_s,cpu_s,ratio,hash
-# (cpu_s: the process's user + system CPU seconds, all threads; ratio: the round's K1T1
+# (cpu_s: the process's CPU seconds while stepping, every thread; ratio: the round's K1T1
 # wall over this run's wall), then one summary row per scene and configuration
 #   scene,n,steps,summary,config,least_wall_s,median_ratio,rounds_at_target,target
 # (median of the per-round ratios; rounds whose ratio is at least TARGET).
@@ -46,12 +46,10 @@ for scene in $scenes; do
   for ((r = 1; r <= repeat; ++r)); do
     for c in "${configs[@]}"; do
       name="${c%%|*}"
-      # bash's `time`: the process's user + system CPU, every thread (the
-      # JSON's cpu_seconds counts the world threads, not the pool's helpers).
       # shellcheck disable=SC2086
-      cpu=$( { TIMEFORMAT='%U %S'; time "$bin" run --scene "$scene" --n "$n" --steps "$steps" ${c#*|} \
-               --json "$json" >/dev/null 2>&1; } 2>&1 | awk '{printf "%.3f", $1 + $2}')
+      "$bin" run --scene "$scene" --n "$n" --steps "$steps" ${c#*|} --json "$json" >/dev/null 2>&1
       wall[$r,$name]=$(field wall_seconds)
+      cpu=$(field process_cpu_seconds)  # every thread (cpu_seconds: the stepping threads only)
       hash[$r,$name]=$(field state_hash)
       echo "#   round $r $name: ${wall[$r,$name]} s wall, $cpu s CPU (load $(cut -d' ' -f1 /proc/loadavg))" >&2
       rows[$r,$name]="$scene,$n,$steps,$r,$name,${wall[$r,$name]},$cpu"

@@ -14,6 +14,7 @@ std::int64_t read_clock(clockid_t clock) {
 }  // namespace
 
 std::int64_t thread_cpu_ns() { return read_clock(CLOCK_THREAD_CPUTIME_ID); }
+std::int64_t process_cpu_ns() { return read_clock(CLOCK_PROCESS_CPUTIME_ID); }
 std::int64_t wall_ns() { return read_clock(CLOCK_MONOTONIC); }
 
 }  // namespace soda

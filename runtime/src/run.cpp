@@ -55,6 +55,7 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
   if constexpr (std::is_same_v<W, CanonicalWorld>) world.set_parking(config.parking);
   std::vector<std::int64_t> step_ns;
   step_ns.reserve(static_cast<std::size_t>(config.steps));
+  const std::int64_t process_cpu0 = process_cpu_ns();
   const std::int64_t cpu0 = thread_cpu_ns();
   const std::int64_t t0 = wall_ns();
   std::int64_t next_progress = t0 + static_cast<std::int64_t>(config.progress_seconds * 1e9);
@@ -82,6 +83,7 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
   }
   r.wall_seconds = static_cast<double>(wall_ns() - t0) * 1e-9;
   r.cpu_seconds = static_cast<double>(thread_cpu_ns() - cpu0) * 1e-9;
+  r.process_cpu_seconds = static_cast<double>(process_cpu_ns() - process_cpu0) * 1e-9;
   r.step_time = StepTimeStats::from_ns(std::move(step_ns));
   r.state_hash = world.state_hash();
   r.sleeping_bodies = world.sleeping_count();
@@ -250,10 +252,12 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
     r.bodies_at_start = s.bodies.size();
     r.contact_pairs_at_start = s.manifolds.size();
   }
+  const std::int64_t process_cpu0 = process_cpu_ns();
   t0 = wall_ns();
   next_progress = t0 + static_cast<std::int64_t>(config.progress_seconds * 1e9);
   world.step(config.steps);
   r.wall_seconds = static_cast<double>(wall_ns() - t0) * 1e-9;
+  r.process_cpu_seconds = static_cast<double>(process_cpu_ns() - process_cpu0) * 1e-9;
   std::vector<std::int64_t> step_ns;
   for (std::size_t i = 0; i < step_ends.size(); ++i) step_ns.push_back(step_ends[i] - (i ? step_ends[i - 1] : t0));
   r.step_time = StepTimeStats::from_ns(std::move(step_ns));

@@ -282,6 +282,18 @@ TEST_F(CliSpeculation, RunJsonHasSpeculationFields) {
   EXPECT_TRUE(j["worlds"][0].contains("thread_cpu_seconds"));
 }
 
+// The process's CPU (docs/cli.md): every thread, so at least the stepping
+// thread's, which is all cpu_seconds counts in one territory.
+TEST_F(CliTest, RunJsonHasTheProcessCpuBesideTheSteppingThreads) {
+  const std::string out = (dir_ / "cpu.json").string();
+  const Outcome o = run_cli("run --scene cube-pile --n 200 --steps 60 --solver-threads 2 --log-level warn --json " + out);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(out));
+  ASSERT_TRUE(j.contains("process_cpu_seconds")) << j.dump();
+  EXPECT_GT(j["process_cpu_seconds"].get<double>(), 0.0);
+  EXPECT_GE(j["process_cpu_seconds"].get<double>(), j["cpu_seconds"].get<double>());
+}
+
 // Messages by destination and kind (docs/cli.md, "traffic"): with
 // --serialise every flow has its encoded bytes and they add up to the run's
 // message_bytes; each world sends the other one Ghosts per step.

@@ -11,6 +11,10 @@ namespace soda {
 /// in nanoseconds. Thread-safe; meaningful only on the thread that calls it.
 std::int64_t thread_cpu_ns();
 
+/// CPU time consumed so far by the whole process, every thread
+/// (CLOCK_PROCESS_CPUTIME_ID), in nanoseconds. Thread-safe.
+std::int64_t process_cpu_ns();
+
 /// Monotonic wall clock in nanoseconds (CLOCK_MONOTONIC). Thread-safe.
 std::int64_t wall_ns();
 

@@ -153,6 +153,11 @@ struct RunResult {
   int territories = 1;
   double wall_seconds = 0;          // stepping only, not scene set-up
   double cpu_seconds = 0;           // thread CPU time of the stepping thread(s)
+  /// CPU time of the whole process while stepping: every thread (worlds,
+  /// the solver pool's helpers, guests), so what two threads cost where
+  /// cpu_seconds counts only the stepping thread(s). With MPI ranks: this
+  /// rank's process.
+  double process_cpu_seconds = 0;
   // Building the world(s) from the Scene (the memory check included) and
   // destroying them at the end, on the calling thread: wall seconds and that
   // thread's CPU seconds (docs/memory.md, "Setup and teardown").
