@@ -589,7 +589,7 @@ void TerritoryWorld::apply_island_result(const IslandResult& result) {
   const bool in_place = solved_here != solved_in_place_.end();
   if (in_place) solved_in_place_.erase(solved_here);
   for (const BodyResult& r : result.bodies) {
-    if (in_place) break;
+    if (in_place) break;  // the bodies (every owned one of the island) are the result already
     auto it = entries_.find(r.id);
     if (it == entries_.end() || it->second->role != Role::Owned) continue;
     btRigidBody& rb = *it->second->body;

@@ -26,6 +26,17 @@
 #include "territory_world_parts.h"
 
 namespace soda {
+namespace {
+
+// An owned body now parked in `slot`, at the end of the world's parked list.
+void mark_parked(TerritoryWorld::Entry& e, std::size_t slot, std::vector<TerritoryWorld::Entry*>& parked) {
+  e.parked = true;
+  e.parked_slot = slot;
+  e.parked_index = parked.size();
+  parked.push_back(&e);
+}
+
+}  // namespace
 
 void TerritoryWorld::set_parking(bool on) {
   if (on == parking_) return;
@@ -64,11 +75,7 @@ void TerritoryWorld::park_lone_settled() {
   for (Entry* e : owned_) {
     if (!body_settled(*e->body, h) || !within_contract(*e->body) || !inside_own_cells(*e)) continue;
     btCollisionObject* one[] = {e->body.get()};
-    const std::size_t slot = parts_->parking.add_island(one, 1);
-    e->parked = true;
-    e->parked_slot = slot;
-    e->parked_index = parked_.size();
-    parked_.push_back(e);
+    mark_parked(*e, parts_->parking.add_island(one, 1), parked_);
   }
   parts_->parking.finish_parking();
 }
@@ -84,7 +91,7 @@ void TerritoryWorld::park_settled_islands() {
   for (std::size_t i = 0; i < local_islands_.size(); ++i) {
     bodies.clear();
     bool park = true;
-    for (std::uint32_t j = local_islands_.begin[i]; j < local_islands_.begin[i + 1] && park; ++j) {
+    for (std::uint32_t j = local_islands_.begin[i]; j < local_islands_.begin[i + 1]; ++j) {
       const BodyId id = local_islands_.ids[j];
       auto it = entries_.find(id);
       park = it != entries_.end() && it->second->role == Role::Owned;
@@ -92,17 +99,12 @@ void TerritoryWorld::park_settled_islands() {
       const Entry& e = *it->second;
       park = !e.parked && e.sent_to.empty() && !kept_bodies.count(id) && body_settled(*e.body, h) &&
              within_contract(*e.body);
+      if (!park) break;
       bodies.push_back(e.body.get());
     }
     if (!park) continue;
     const std::size_t slot = parts_->parking.add_island(bodies.data(), static_cast<int>(bodies.size()));
-    for (btCollisionObject* o : bodies) {
-      Entry& e = entry_of(o);
-      e.parked = true;
-      e.parked_slot = slot;
-      e.parked_index = parked_.size();
-      parked_.push_back(&e);
-    }
+    for (btCollisionObject* o : bodies) mark_parked(entry_of(o), slot, parked_);
     any = true;
   }
   if (!any) return;
