@@ -14,7 +14,7 @@ nlohmann::json step_time_json(const StepTimeStats& s) {
   return {{"mean", s.mean_ms}, {"median", s.median_ms}, {"p95", s.p95_ms}, {"min", s.min_ms}, {"max", s.max_ms}};
 }
 
-// Honest baselines (issue 13, item 6): the bodies asleep in every run, the
+// Honest baselines: the bodies asleep in every run, the
 // runs with sleeping off, and what each ratio contains.
 nlohmann::json bench_set_json(const BenchSet& s) {
   nlohmann::json j = {{"wall_seconds", s.run.wall_seconds},

@@ -1,7 +1,6 @@
-// `soda bench defaults` (#17 acceptance 3, docs/stress.md "Cost of the new
-// defaults"): one scene in one canonical world with the solver defaults
-// (SolverDefaults::Soda) and with the settings before #17
-// (SolverDefaults::Bullet), interleaved (soda, bullet, then bullet, soda,
+// `soda bench defaults` (docs/stress.md "What the defaults cost"): one scene in one canonical world with the solver defaults
+// (SolverDefaults::Soda) and with Bullet's own solver
+// settings (SolverDefaults::Bullet), interleaved (soda, bullet, then bullet, soda,
 // ...) so that both see the same machine. Per configuration: every
 // repeat's stepping-thread CPU and wall seconds, the least of each, the
 // state hash; the ratios soda / bullet of the least CPU and wall seconds.
@@ -98,8 +97,8 @@ Command add_defaults_command(CLI::App& bench) {
   auto o = std::make_shared<DefaultsOptions>();
   CLI::App* cmd = bench.add_subcommand(
       "defaults",
-      "The cost of the solver defaults (#17): one canonical world with them (soda) and with the settings "
-      "before #17 (bullet), interleaved; CPU and wall ratios; JSON on stdout");
+      "The cost of the solver defaults: one canonical world with them (soda) and with Bullet's own solver "
+      "settings (bullet), interleaved; CPU and wall ratios; JSON on stdout");
   cmd->add_option("--scene", o->scene, "Registry scene name")->capture_default_str();
   cmd->add_option("--n", o->params.n, "Scene size (0: the scene's default)")
       ->check(CLI::Range(0, 1 << 24))

@@ -1,4 +1,4 @@
-// `soda bench idle-territories` (#18, docs/skip.md "Idle territories"): the
+// `soda bench idle-territories` (docs/skip.md "Idle territories"): the
 // idle-territories scene over eight territories (grid:8x1x1, a thread per
 // world), idle skip on and off interleaved; per world, the thread CPU time
 // per step (WorldMetrics::thread_cpu_seconds, the world's own thread), and

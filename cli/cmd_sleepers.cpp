@@ -1,4 +1,4 @@
-// `soda bench sleepers` (#18, docs/skip.md): JSON on stdout (and --out
+// `soda bench sleepers` (docs/skip.md): JSON on stdout (and --out
 // FILE), a readable summary on stderr.
 #include <cstdio>
 #include <memory>

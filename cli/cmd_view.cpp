@@ -11,19 +11,12 @@
 
 #include "commands.h"
 #include "soda/grid/partition.h"
+#include "soda/replay/replay_reader.h"
 #include "soda/runtime/simulation.h"
 #include "soda/viewer/frame_server.h"
 #include "soda/viewer/live_frame_source.h"
 #include "soda/worlds/body_state.h"
 
-// The replay file reader of issue #19 part 1 (branch i19-replay), when this
-// tree has it: `soda view` then serves replay files.
-#if __has_include("soda/replay/replay_reader.h")
-#include "soda/replay/replay_reader.h"
-#define SODA_HAS_REPLAY_READER 1
-#else
-#define SODA_HAS_REPLAY_READER 0
-#endif
 
 namespace soda::cli {
 namespace {
@@ -133,14 +126,7 @@ Command add_view_command(CLI::App& app) {
   view->add_option("--seconds", options->linger_seconds, "Stop serving after this many seconds (< 0: at Ctrl-C)")
       ->capture_default_str();
   return {view, [file, options]() -> int {
-#if SODA_HAS_REPLAY_READER
             return serve_source(std::make_shared<replay::ReplayReader>(*file), *options);
-#else
-            // The ReplayReader (issue #19 part 1, branch i19-replay) is not
-            // in this tree: once merged, the branch above serves it.
-            throw std::invalid_argument("soda view " + *file + ": this build has no ReplayReader (issue #19 part 1) to "
-                                        "read replay files with");
-#endif
           }};
 }
 

@@ -37,14 +37,14 @@ double parse_step_size(const std::string& text);
 Command add_speculation_command(CLI::App& bench);
 
 /// Under `bench`: `sleepers` (the sleepers scene against its active bodies
-/// alone, #18). cmd_sleepers.cpp; docs/skip.md.
+/// alone). cmd_sleepers.cpp; docs/skip.md.
 Command add_sleepers_command(CLI::App& bench);
 
 /// `soda bench idle-territories` (cmd_idle.cpp).
 Command add_idle_command(CLI::App& bench);
 
-/// `soda bench defaults`: the solver defaults against the settings before
-/// #17, interleaved (cmd_defaults.cpp; docs/stress.md).
+/// `soda bench defaults`: the solver defaults against Bullet's own solver
+/// settings, interleaved (cmd_defaults.cpp; docs/stress.md).
 Command add_defaults_command(CLI::App& bench);
 
 /// `stress`: the numerical-stability suite. cmd_stress.cpp; docs/stress.md.

@@ -123,7 +123,7 @@ void add_run_options(CLI::App& cmd, Options& o) {
                  "--watchdog heal: substeps of a re-simulated step")
       ->capture_default_str();
   cmd.add_option("--solver-defaults", o.solver_defaults,
-                 "soda (the defaults) | bullet (the solver settings before #17, one canonical world only: to "
+                 "soda (the defaults) | bullet (Bullet's own solver settings, one canonical world only: to "
                  "measure what the defaults cost); docs/stress.md")
       ->capture_default_str();
   cmd.add_flag("--no-parking{false}", o.config.parking,

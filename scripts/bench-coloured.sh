@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The coloured solve of large islands (docs/coloured-solve.md, issue #16's
+# The coloured solve of large islands (docs/coloured-solve.md, its
 # benchmark), side by side in one session, for each scene of SCENES
 # (cube-pile, then heap): stock Bullet, one territory on 1 and on 2 solver
 # threads, two territories on 2 threads (one world per thread; the waiting

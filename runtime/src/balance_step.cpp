@@ -6,7 +6,7 @@
 //
 // Why a rebuild is exact: a TerritoryWorld built from a whole-scene snapshot
 // steps exactly as the worlds the snapshot was taken from, for any map
-// (tests/worlds/territory_snapshot_test.cpp) — the bodies of a ceded cell
+// (tests/runtime/snapshot_restore_test.cpp) — the bodies of a ceded cell
 // arrive at their new owner with their raw state, and every pair's contact
 // state goes to its key body's new owner. Every world stands at the balance
 // step (step() drains to it), so no rollback can reach below it. A world

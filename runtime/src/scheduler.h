@@ -54,8 +54,8 @@ class RunControl;
 class SolverPool;
 class Transport;
 
-/// One world as the scheduler sees it (world_tasks.h adapts the world
-/// process). Called by one thread at a time (invariant 1).
+/// One world as the scheduler sees it (PartitionedWorld::Internals::ProcessTask,
+/// partitioned_internals.cpp, adapts the world process). Called by one thread at a time (invariant 1).
 class WorldTask {
  public:
   struct Advance {

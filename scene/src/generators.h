@@ -33,11 +33,11 @@ std::vector<UserInput> make_rain_inputs(const SceneParams& params);
 // soak_scenes.cpp: long runs of one mechanism.
 Scene make_border_shuttle(const SceneParams& params);
 
-// sleepers_scene.cpp: most of the scene asleep (#18).
+// sleepers_scene.cpp: most of the scene asleep (docs/skip.md).
 Scene make_sleepers(const SceneParams& params);
 /// Active cubes of a sleepers scene with this many sleepers: ceil(n / 100).
 int sleepers_active_count(int sleepers);
-// idle_territories_scene.cpp: eight regions along x, activity in one (#18).
+// idle_territories_scene.cpp: eight regions along x, activity in one (docs/skip.md).
 Scene make_idle_territories(const SceneParams& params);
 
 // stress_scenes.cpp: numerical stability (stress) and closed-form answers

@@ -1,4 +1,4 @@
-// idle-territories (#18): eight regions along x, cut grid:8x1x1 into eight
+// idle-territories: eight regions along x, cut grid:8x1x1 into eight
 // territories; activity in the first only (docs/scenes.md, `soda bench
 // idle-territories`, docs/skip.md "Idle territories").
 #include <cmath>

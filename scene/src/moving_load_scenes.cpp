@@ -1,5 +1,5 @@
-// Moving-load scenes for load-balance experiments (issue #15,
-// docs/scenes.md, docs/loadbalance.md): the cost of the scene moves or
+// Moving-load scenes for load-balance experiments (docs/scenes.md,
+// docs/loadbalance.md): the cost of the scene moves or
 // grows in one region while the rest stays cheap, so fixed territories
 // fall out of balance.
 //

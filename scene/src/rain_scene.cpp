@@ -1,5 +1,4 @@
-// rain — bodies entering over time into one region (issue #15,
-// docs/scenes.md): the scene holds the floor, a bin at one end of it, resting
+// rain — bodies entering over time into one region (docs/scenes.md): the scene holds the floor, a bin at one end of it, resting
 // floor markers over the rest (they hold the map box over the whole floor,
 // shared-rules 1 of moving_load_scenes.cpp) and the first wave of falling
 // cubes; the other waves are user inputs (add_body at their steps,

@@ -74,7 +74,7 @@ const std::vector<SceneGenerator>& scene_registry() {
        "per 4 spheres, bouncing elastically: with grid:Kx1x1 they cross borders back and forth "
        "(migrations; docs/soak.md)",
        detail::make_border_shuttle},
-      // Skip what a scene does not need (#18).
+      // Skip what a scene does not need (docs/skip.md).
       {"sleepers",
        "N unit cubes (default 100,000) created asleep (Body::asleep) on the ground 1.5 m apart, and "
        "ceil(N / 100) active unit cubes in columns 1.8 m apart, 5 layers from y = 3 m, falling onto the "

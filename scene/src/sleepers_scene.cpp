@@ -1,4 +1,4 @@
-// sleepers (#18): many bodies asleep on the ground, a few active ones falling
+// sleepers: many bodies asleep on the ground, a few active ones falling
 // onto part of them: what a scene costs when most of it sleeps
 // (docs/scenes.md, `soda bench sleepers`).
 #include <cmath>

@@ -1,4 +1,4 @@
-// Stress scenes users meet (#17, docs/stress.md): a house of planks, a heavy
+// Stress scenes users meet (docs/stress.md): a house of planks, a heavy
 // box dropped on a tower, a chain of touching spheres pushed, boxes of
 // 0.05 m and 10 m together. Masses are 1 kg per unit-box volume unless said.
 #include "generators.h"

@@ -65,7 +65,7 @@ constexpr int kMinRunsPerColour = 16;
 /// than kMinRunsPerTask. cube-pile 4000, 300 steps, three alternating runs,
 /// least wall s with a fixed 8 / 16 / 32 runs: K = 2 on 2 threads 11.86 /
 /// 10.92 / 10.28; 32 / 64 / 128: 9.81 / 9.41 / 9.39; one territory on 2
-/// solver threads 16 / 64: 10.42 / 9.35 (session 15). A fixed 64 left small
+/// solver threads 16 / 64: 10.42 / 9.35 (docs/results/coloured-solve.md). A fixed 64 left small
 /// heaps (cube-pile 200) on one thread. Any split gives the same bits.
 constexpr int kMinRunsPerTask = 16;
 constexpr int kMaxRunsPerTask = 64;

@@ -1,5 +1,5 @@
-// Internal: parking of sleeping islands outside a world's Bullet world (#18,
-// docs/skip.md): the canonical world's (canonical_world.cpp) and a territory
+// Internal: parking of sleeping islands outside a world's Bullet world
+// (docs/skip.md): the canonical world's (canonical_world.cpp) and a territory
 // world's (territory_parking.cpp). A parked island costs nothing per step but
 // one query: its bodies are out of the broadphase, the body lists and the
 // dispatcher; its contact state is kept as values; the btRigidBody objects

@@ -1,4 +1,4 @@
-// TerritoryWorld, parking (#18, docs/skip.md; the mechanics and why they are
+// TerritoryWorld, parking (docs/skip.md; the mechanics and why they are
 // exact: parking.h). What a territory world adds to the canonical world's
 // rules:
 //  1. only islands solved in place here are parked, and only if no body of

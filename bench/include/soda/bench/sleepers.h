@@ -1,4 +1,4 @@
-// bench/ — `soda bench sleepers` (#18, docs/skip.md): what a scene costs
+// bench/ — `soda bench sleepers` (docs/skip.md): what a scene costs
 // when most of it sleeps. The sleepers scene (docs/scenes.md) against the
 // same scene without its sleepers (the active bodies alone, same ids), each
 // on SODA (the configuration under test) and on stock Bullet, in one

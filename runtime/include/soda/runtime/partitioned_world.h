@@ -120,7 +120,7 @@ struct PartitionedOptions {
   /// rollbacks eager, 8 not; docs/rollback.md). On: as many bets and
   /// rollbacks as possible (tests of the rollback machinery use it).
   bool eager_bets = false;
-  /// Idle territories (#18, docs/skip.md): a world whose owned bodies are
+  /// Idle territories (docs/skip.md): a world whose owned bodies are
   /// all settled asleep (or that has none), that holds no ghost and sent
   /// none, skips its Bullet stages at a step no neighbour sends it a ghost
   /// for: it sends its (empty) Ghosts and Migrants and advances its clock.
@@ -129,7 +129,7 @@ struct PartitionedOptions {
   /// off (tests/runtime/idle_territories_test.cpp). False: every world runs
   /// every stage of every step (for comparison and measurement).
   bool idle_territories = true;
-  /// Parking (#18, docs/skip.md): each world parks its settled sleeping
+  /// Parking (docs/skip.md): each world parks its settled sleeping
   /// islands that lie inside its own cells outside its Bullet world
   /// (TerritoryWorld::set_parking); a parked island comes back when an
   /// active body or ghost touches it, or an input names one of its bodies.

@@ -54,18 +54,18 @@ struct RunConfig {
   bool sleeping = true;
   /// Park settled sleeping islands outside Bullet's world: the canonical
   /// world's (CanonicalWorld::set_parking) with one territory, every
-  /// territory world's (PartitionedOptions::parking) with more; #18,
+  /// territory world's (PartitionedOptions::parking) with more;
   /// docs/skip.md. Exact: the state hash is the same on and off.
   /// `--no-parking` turns it off. No effect on stock Bullet.
   bool parking = true;
   /// One territory, canonical world: the solver settings it steps with
-  /// (CanonicalWorld::set_solver_defaults). Bullet: the settings before #17,
-  /// to measure what the defaults cost (`soda bench defaults`); refused
+  /// (CanonicalWorld::set_solver_defaults). Bullet: Bullet's own solver
+  /// settings (`--solver-defaults bullet`), to measure what the defaults cost (`soda bench defaults`); refused
   /// with K > 1, the stock world and every path through the partitioned
   /// runtime (--sync-test, --watchdog heal, inputs, --record, ranks).
   SolverDefaults solver_defaults = SolverDefaults::Soda;
   /// K > 1: idle territories skip their Bullet stages
-  /// (PartitionedOptions::idle_territories; #18, docs/skip.md). Exact.
+  /// (PartitionedOptions::idle_territories; docs/skip.md). Exact.
   /// `--no-idle-skip` turns it off.
   bool idle_territories = true;
   double progress_seconds = 1.0;     // progress line period (<= 0: none)

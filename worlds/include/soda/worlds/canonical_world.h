@@ -59,13 +59,12 @@ struct StepStats {
 
 /// The solver settings a CanonicalWorld steps with.
 enum class SolverDefaults {
-  /// The canonical defaults (#17; docs/stress.md "What the defaults are
-  /// now"): two friction directions per contact point fixed by the normal,
+  /// The canonical defaults (docs/stress.md "The solver defaults"): two friction directions per contact point fixed by the normal,
   /// settings per island from its contents (worlds/src/island_solver_settings.h),
   /// speculative contacts for fast bodies (docs/ccd.md). Every world kind
   /// of the runtime (territory worlds too) uses these.
   Soda,
-  /// The settings before #17, for measuring what the defaults cost (`soda
+  /// Bullet's own solver settings (`--solver-defaults bullet`), for measuring what the defaults cost (`soda
   /// bench defaults`): Bullet's solver defaults (one friction row along the
   /// slip velocity; warm starting 0.85 and split-impulse threshold -0.04 m
   /// for every island), the scene's iterations for every island, no
@@ -105,13 +104,13 @@ class CanonicalWorld {
   /// on, settled sleeping islands leave Bullet's world at its end.
   void step();
 
-  /// Parking of sleeping islands (#18, docs/skip.md; worlds/src/parking.h):
+  /// Parking of sleeping islands (docs/skip.md; worlds/src/parking.h):
   /// on, every island that is asleep and settled after a step leaves
   /// Bullet's world (broadphase, body lists, dispatcher) with its contact
   /// state and costs nothing per step but one AABB query; it comes back, in
   /// the step, as soon as an active body's AABB touches one of its bodies'.
   /// Exact: every step's state (hash, snapshot, contact state) is the same
-  /// on and off (tests/worlds/parking_test.cpp). Off (the default for this
+  /// on and off (tests/runtime/parking_test.cpp). Off (the default for this
   /// class; `soda run` and `soda bench` turn it on, --no-parking off) puts
   /// every parked island back. Call between steps. While parked, an
   /// island's manifolds are not in bullet()'s dispatcher (contact_state()

@@ -151,7 +151,7 @@ class TerritoryWorld {
   /// every pair whose key body it owns (kept, seeded into whichever world
   /// holds the pair at the next step). Worlds rebuilt this way from one
   /// snapshot step exactly as the worlds the snapshot was taken from, for
-  /// any map (tests/worlds/territory_snapshot_test.cpp). steps_done() is
+  /// any map (tests/runtime/snapshot_restore_test.cpp). steps_done() is
   /// snapshot.steps_done * settings.substeps, or `internal_steps_done` if
   /// given (>= 0: a boundary between substeps, which the snapshot's scene
   /// step count cannot name). Throws as the scene constructor does.
@@ -258,7 +258,7 @@ class TerritoryWorld {
   /// The islands solved (or replayed) in place in the last step.
   const LocalIslands& local_islands() const { return local_islands_; }
 
-  /// Parking (#18, docs/skip.md, worlds/src/parking.h): at the end of every
+  /// Parking (docs/skip.md, worlds/src/parking.h): at the end of every
   /// step, each island this world solved in place whose bodies are all
   /// settled (settled.h), lie inside this world's cells (sent to no
   /// neighbour) and keep no contact state here for a pair held elsewhere

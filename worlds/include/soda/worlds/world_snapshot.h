@@ -77,7 +77,7 @@ struct ContactPointState {
 /// MANIFOLD_CACHE_SIZE), held inline. A merged island's manifolds are copied
 /// four times a step (fragment, the root's copy, the result, the holder), and
 /// a heap allocation each was 4 % of a partitioned cube-pile's CPU
-/// (docs/coloured-solve.md, session 15). A sequence of at most 4: resize or
+/// (docs/coloured-solve.md). A sequence of at most 4: resize or
 /// push_back beyond that throws std::length_error, never overflows.
 class ContactPoints {
  public:
