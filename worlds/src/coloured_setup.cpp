@@ -1,5 +1,5 @@
 // ColouredSolver's setup and finish on the pool (docs/coloured-solve.md,
-// "Setup and finish on the pool"). convertContacts: Bullet's contact and
+// "The rest of the step on the pool"). convertContacts: Bullet's contact and
 // friction rows of a large island built on the pool's threads. The rows,
 // their indices and the solver bodies' warm-start deltas are the bits
 // Bullet's serial convertContacts gives:

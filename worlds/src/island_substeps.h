@@ -1,4 +1,4 @@
-// Internal: substeps per island (docs/stress.md "Dense-pile-1000"). An
+// Internal: substeps per island (docs/stress.md "The solver defaults"). An
 // island whose touching bodies move fast against their size in one step
 // (IslandProfile::approach_rate, island_substeps) is solved and integrated
 // as `substeps` steps of h / substeps inside the solve stage, its own

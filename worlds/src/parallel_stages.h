@@ -1,7 +1,7 @@
 // Internal: the per-body and per-pair stages of a canonical world's step on
-// the solver pool's threads (docs/coloured-solve.md, "Speed"). Beside the
-// coloured sweeps (coloured_solver.h), the stages of Bullet's step that are
-// loops over independent items:
+// the solver pool's threads (docs/coloured-solve.md, "The rest of the step
+// on the pool"). Beside the coloured sweeps (coloured_solver.h), the stages
+// of Bullet's step that are loops over independent items:
 //
 //   predictUnconstraintMotion   per dynamic body: damping, predicted transform
 //   updateAabbs                 per object: the AABB (computed in parallel;
