@@ -228,7 +228,7 @@ std::vector<SweepRow> run_accuracy_sweep(const SweepOptions& o, const std::funct
     };
     auto emit = [&](SweepRow row) {
       spdlog::info("{} {}={}: wall {:.3f} s (x{:.2f}), traj_rms {:.4g} m, pen_max {:.4g} m, com_err {:.4g} m [{}{}{}]",
-                   row.scene, row.axis, row.value, row.wall_seconds, row.ratio_vs_default, row.errors.traj_rms,
+                   row.scene, row.axis, row.value, row.wall_seconds, row.cost_vs_default, row.errors.traj_rms,
                    row.errors.pen_max, row.errors.com_err, row.status, row.note.empty() ? "" : ": ", row.note);
       if (on_row) on_row(row);
       rows.push_back(std::move(row));
@@ -236,7 +236,7 @@ std::vector<SweepRow> run_accuracy_sweep(const SweepOptions& o, const std::funct
     auto fill = [&](SweepRow& row, const Trace& t) {
       row.steps = t.steps;
       row.wall_seconds = t.wall_seconds;
-      row.ratio_vs_default = def_trace.wall_seconds > 0 ? t.wall_seconds / def_trace.wall_seconds : 0.0;
+      row.cost_vs_default = def_trace.wall_seconds > 0 ? t.wall_seconds / def_trace.wall_seconds : 0.0;
       row.state_hash = hash_hex(t.state_hash);
       row.sleeping = t.sleeping;
       row.errors = compare_traces(sweep.scene(), t, ref, o.metrics);
@@ -312,7 +312,7 @@ std::vector<SweepRow> run_accuracy_sweep(const SweepOptions& o, const std::funct
           const RunResult r = run_scene(scene, rc);
           row.steps = r.steps;
           row.wall_seconds = r.wall_seconds;
-          row.ratio_vs_default = def_trace.wall_seconds > 0 ? r.wall_seconds / def_trace.wall_seconds : 0.0;
+          row.cost_vs_default = def_trace.wall_seconds > 0 ? r.wall_seconds / def_trace.wall_seconds : 0.0;
           row.state_hash = hash_hex(r.state_hash);
           row.sleeping = r.sleeping_bodies;
           const std::uint64_t against = k == 1 ? def_trace.state_hash : hash1;
@@ -347,7 +347,7 @@ std::vector<SweepRow> run_accuracy_sweep(const SweepOptions& o, const std::funct
 
 std::string sweep_csv_header() {
   return "scene,n,seed,axis,value,world,precision,dt,iterations,ccd,territories,steps,wall_seconds,"
-         "ratio_vs_default,state_hash,sleeping,traj_rms_m,traj_max_m,angle_rms_rad,pen_max_m,pen_mean_m,"
+         "cost_vs_default,state_hash,sleeping,traj_rms_m,traj_max_m,angle_rms_rad,pen_max_m,pen_mean_m,"
          "energy_drift,energy_err,energy_gain,com_err_m,height_rms_m,top_err_m,final_rms_m,lost_bodies,ref_lost_bodies,"
          "decomposition_error,horizon_s,"
          "ref_dt,ref_iterations,ref_precision,status,note";
@@ -360,7 +360,7 @@ std::string sweep_csv_row(const SweepRow& r) {
   s << csv_field(r.scene) << ',' << r.n << ',' << r.seed << ',' << csv_field(r.axis) << ',' << csv_field(r.value)
     << ',' << r.world << ',' << r.precision << ',' << num17(r.dt) << ',' << r.iterations << ','
     << (r.ccd ? "on" : "off") << ',' << r.territories << ',' << r.steps << ','
-    << (ran ? num(r.wall_seconds) : "") << ',' << (ran ? num(r.ratio_vs_default) : "") << ',' << r.state_hash
+    << (ran ? num(r.wall_seconds) : "") << ',' << (ran ? num(r.cost_vs_default) : "") << ',' << r.state_hash
     << ',' << (ran ? std::to_string(r.sleeping) : "") << ',' << err(r.errors.traj_rms) << ','
     << err(r.errors.traj_max) << ',' << err(r.errors.angle_rms) << ',' << err(r.errors.pen_max) << ','
     << err(r.errors.pen_mean) << ',' << err(r.errors.energy_drift) << ',' << err(r.errors.energy_err) << ',' << err(r.errors.energy_gain) << ','

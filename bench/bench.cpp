@@ -49,7 +49,7 @@ BenchSet bench_set(const Scene& scene, const RunConfig& run_config, int repeat) 
                                            out.one_territory_walls.back())
                              : std::string());
   }
-  out.ratio_vs_baseline = out.baseline.wall_seconds > 0 ? out.run.wall_seconds / out.baseline.wall_seconds : 0.0;
+  out.ratio_vs_baseline = out.run.wall_seconds > 0 ? out.baseline.wall_seconds / out.run.wall_seconds : 0.0;
   if (partitioned && out.run.wall_seconds > 0)
     out.speedup_vs_one_territory = out.one_territory.wall_seconds / out.run.wall_seconds;
   return out;

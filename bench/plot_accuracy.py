@@ -65,6 +65,10 @@ def main():
     metrics = a.metric or ["traj_rms_m", "pen_max_m", "com_err_m"]
     with open(a.csv, newline="") as f:
         rows = list(csv.DictReader(f))
+    for r in rows:
+        # Sweeps written before the column was renamed call it ratio_vs_default
+        # (the same figure: docs/cli.md, "What the ratios mean").
+        r.setdefault("cost_vs_default", r.get("ratio_vs_default", ""))
     if not rows:
         sys.exit(f"{a.csv}: no rows")
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
@@ -87,7 +91,7 @@ def main():
                     continue  # identical bits to the default row: same point
                 if default and r["axis"] != "default" and all(r[k] == default[k] for k in same):
                     continue  # the default run, listed again on its axis
-                x, y = float(r["ratio_vs_default"]), abs(float(r[metric]))
+                x, y = float(r["cost_vs_default"]), abs(float(r[metric]))
                 if y <= 0:
                     continue
                 if r["axis"] == "floor":
@@ -131,7 +135,7 @@ def main():
 
 def write_table(rows, path):
     """Every row of the sweep as a markdown table (numbers as in the CSV, 3 significant digits)."""
-    cols = [("scene", "scene"), ("axis", "axis"), ("value", "value"), ("ratio_vs_default", "time ratio"),
+    cols = [("scene", "scene"), ("axis", "axis"), ("value", "value"), ("cost_vs_default", "time ratio"),
             ("traj_rms_m", "traj RMS m"), ("angle_rms_rad", "angle RMS rad"), ("pen_max_m", "pen max m"),
             ("pen_mean_m", "pen mean m"), ("energy_gain", "E gain"), ("energy_err", "E err"),
             ("com_err_m", "COM err m"), ("height_rms_m", "height RMS m"), ("lost_bodies", "lost"),

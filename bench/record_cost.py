@@ -57,8 +57,8 @@ def main():
         "zlib_level": a.level, "state_hash_equal": len(hashes) == 1,
         "off": [{"wall_seconds": r["wall_seconds"], "cpu_seconds": cpu(r)} for r in off],
         "on": [{"wall_seconds": r["wall_seconds"], "cpu_seconds": cpu(r), "record": r["record"]} for r in on],
-        "ratio_wall_on_off": med(r["wall_seconds"] for r in on) / med(r["wall_seconds"] for r in off),
-        "ratio_cpu_on_off": med(cpu(r) for r in on) / med(cpu(r) for r in off),
+        "cost_wall_on_off": med(r["wall_seconds"] for r in on) / med(r["wall_seconds"] for r in off),
+        "cost_cpu_on_off": med(cpu(r) for r in on) / med(cpu(r) for r in off),
         "record_cpu_share": med(r["record"]["cpu_seconds"] / cpu(r) for r in on),
         "bytes_per_1000_bodies_per_simulated_second":
             med(r["record"]["bytes_per_1000_bodies_per_simulated_second"] for r in on),

@@ -105,13 +105,13 @@ SleepersBenchResult bench_sleepers(const Scene& scene, const SleepersBenchConfig
   const RunResult& sa = out.run("soda-active-only").best;
   const RunResult& tf = out.run("stock-full").best;
   const RunResult& ta = out.run("stock-active-only").best;
-  out.ratio_vs_active_only = ratio(sf.cpu_seconds, sa.cpu_seconds);
-  out.ratio_vs_active_only_wall = ratio(sf.wall_seconds, sa.wall_seconds);
-  out.stock_ratio_vs_active_only = ratio(tf.cpu_seconds, ta.cpu_seconds);
-  out.stock_ratio_vs_active_only_wall = ratio(tf.wall_seconds, ta.wall_seconds);
+  out.cost_vs_active_only = ratio(sf.cpu_seconds, sa.cpu_seconds);
+  out.cost_vs_active_only_wall = ratio(sf.wall_seconds, sa.wall_seconds);
+  out.stock_cost_vs_active_only = ratio(tf.cpu_seconds, ta.cpu_seconds);
+  out.stock_cost_vs_active_only_wall = ratio(tf.wall_seconds, ta.wall_seconds);
   const RunResult& sn = out.run("soda-near-only").best;
-  out.ratio_vs_near_only = ratio(sf.cpu_seconds, sn.cpu_seconds);
-  out.near_ratio_vs_active_only = ratio(sn.cpu_seconds, sa.cpu_seconds);
+  out.cost_vs_near_only = ratio(sf.cpu_seconds, sn.cpu_seconds);
+  out.near_cost_vs_active_only = ratio(sn.cpu_seconds, sa.cpu_seconds);
   out.near_same_awake = sf.dynamic_bodies - sf.sleeping_bodies == sn.dynamic_bodies - sn.sleeping_bodies;
   if (config.buffer_steps > 0)
     for (bool delta : {true, false})
@@ -146,16 +146,16 @@ nlohmann::json sleepers_bench_json(const RunDescription& d, const SleepersBenchC
           {"parking", config.run.parking},
           {"repeat", config.repeat},
           {"runs", runs},
-          {"ratio_vs_active_only", r.ratio_vs_active_only},
-          {"ratio_vs_active_only_wall", r.ratio_vs_active_only_wall},
-          {"stock_ratio_vs_active_only", r.stock_ratio_vs_active_only},
-          {"stock_ratio_vs_active_only_wall", r.stock_ratio_vs_active_only_wall},
-          {"ratio_vs_near_only", r.ratio_vs_near_only},
-          {"near_ratio_vs_active_only", r.near_ratio_vs_active_only},
+          {"cost_vs_active_only", r.cost_vs_active_only},
+          {"cost_vs_active_only_wall", r.cost_vs_active_only_wall},
+          {"stock_cost_vs_active_only", r.stock_cost_vs_active_only},
+          {"stock_cost_vs_active_only_wall", r.stock_cost_vs_active_only_wall},
+          {"cost_vs_near_only", r.cost_vs_near_only},
+          {"near_cost_vs_active_only", r.near_cost_vs_active_only},
           {"near_margin_m", kNearMargin},
           {"near_same_awake", r.near_same_awake},
           {"buffer_memory", buffer_memory_json(r.buffer_runs)},
-          {"ratio_note",
+          {"cost_note",
            "per-step thread CPU of the scene with its sleepers over the same scene without them (the active bodies "
            "alone, same ids), the least of the repeats of each, measured in one process; _wall: the same with wall "
            "seconds (meaningless on a shared machine); stock_: the same two runs on stock Bullet"}};

@@ -155,7 +155,7 @@ nlohmann::json speculation_bench_json(const RunDescription& d, const Speculation
                         {"rollback", run.config.anticipation > 0 ? rollback_name(run.config.rollback) : "none"},
                         {"wall_seconds", b.wall_seconds},
                         {"wall_seconds_all", run.walls},
-                        {"ratio_vs_baseline", ratio(b.wall_seconds, baseline)},
+                        {"ratio_vs_baseline", ratio(baseline, b.wall_seconds)},
                         {"cpu_seconds", b.cpu_seconds},
                         {"state_hash", hash_hex(b.state_hash)},
                         {"sleeping_bodies", b.sleeping_bodies}};

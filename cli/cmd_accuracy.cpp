@@ -90,7 +90,7 @@ int run_accuracy(AccuracyOptions& o) {
   for (const SweepRow& r : rows) {
     if (r.has_errors)
       std::printf("%-14s %-12s %-22s %10.3f %8.2f %11.4g %11.4g %11.4g %10.4g %5d  %s\n", r.scene.c_str(),
-                  r.axis.c_str(), r.value.c_str(), r.wall_seconds, r.ratio_vs_default, r.errors.traj_rms,
+                  r.axis.c_str(), r.value.c_str(), r.wall_seconds, r.cost_vs_default, r.errors.traj_rms,
                   r.errors.pen_max, r.errors.pen_mean, r.errors.com_err, r.errors.lost_bodies, r.status.c_str());
     else
       std::printf("%-14s %-12s %-22s %s: %s\n", r.scene.c_str(), r.axis.c_str(), r.value.c_str(), r.status.c_str(),

@@ -71,8 +71,8 @@ int run_defaults(DefaultsOptions& o) {
                    res.cpu_seconds, res.wall_seconds, hash_hex(res.state_hash).c_str());
     }
   }
-  const double cpu_ratio = soda_run.least_cpu() / std::max(bullet_run.least_cpu(), 1e-12);
-  const double wall_ratio = soda_run.least_wall() / std::max(bullet_run.least_wall(), 1e-12);
+  const double cpu_cost = soda_run.least_cpu() / std::max(bullet_run.least_cpu(), 1e-12);
+  const double wall_cost = soda_run.least_wall() / std::max(bullet_run.least_wall(), 1e-12);
   nlohmann::json j = {{"bench", "defaults"},
                       {"scene", o.scene},
                       {"n", o.params.n},
@@ -82,10 +82,10 @@ int run_defaults(DefaultsOptions& o) {
                       {"repeat", o.repeat},
                       {"precision", kPrecisionName},
                       {"runs", {run_json(soda_run), run_json(bullet_run)}},
-                      {"cpu_ratio_soda_over_bullet", cpu_ratio},
-                      {"wall_ratio_soda_over_bullet", wall_ratio}};
-  std::fprintf(stderr, "defaults bench, %s n=%d, %d steps, least of %d: soda / bullet CPU %.3f, wall %.3f\n",
-               o.scene.c_str(), o.params.n, o.steps, o.repeat, cpu_ratio, wall_ratio);
+                      {"cpu_cost_vs_bullet", cpu_cost},
+                      {"wall_cost_vs_bullet", wall_cost}};
+  std::fprintf(stderr, "defaults bench, %s n=%d, %d steps, least of %d: cost vs bullet (soda / bullet) CPU %.3f, wall %.3f\n",
+               o.scene.c_str(), o.params.n, o.steps, o.repeat, cpu_cost, wall_cost);
   write_json(j, "-");
   if (!o.out.empty()) write_json(j, o.out);
   return 0;

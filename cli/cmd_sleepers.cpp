@@ -35,13 +35,13 @@ int run_sleepers(SleepersOptions& o) {
     std::fprintf(stderr, "  %-18s %12.3f %12.3f %9zu  %s\n", run["name"].get<std::string>().c_str(),
                  run["cpu_ms_per_step"].get<double>(), run["wall_ms_per_step"].get<double>(),
                  run["sleeping_bodies"].get<std::size_t>(), run["state_hash"].get<std::string>().c_str());
-  std::fprintf(stderr, "  ratio_vs_active_only: soda %.2f (wall %.2f), stock Bullet %.2f (wall %.2f)\n",
-               r.ratio_vs_active_only, r.ratio_vs_active_only_wall, r.stock_ratio_vs_active_only,
-               r.stock_ratio_vs_active_only_wall);
+  std::fprintf(stderr, "  cost_vs_active_only: soda %.2f (wall %.2f), stock Bullet %.2f (wall %.2f)\n",
+               r.cost_vs_active_only, r.cost_vs_active_only_wall, r.stock_cost_vs_active_only,
+               r.stock_cost_vs_active_only_wall);
   std::fprintf(stderr,
-               "  ratio_vs_near_only: %.2f (the far sleepers' cost; same bodies awake: %s); near over active only: "
+               "  cost_vs_near_only: %.2f (the far sleepers' cost; same bodies awake: %s); near over active only: "
                "%.2f (landing on sleepers)\n",
-               r.ratio_vs_near_only, r.near_same_awake ? "yes" : "NO", r.near_ratio_vs_active_only);
+               r.cost_vs_near_only, r.near_same_awake ? "yes" : "NO", r.near_cost_vs_active_only);
   for (const BufferMemoryRun& b : r.buffer_runs)
     std::fprintf(stderr, "  buffer %-22s %zu entries, %zu keys: %zu B per buffered step (%zu B with keys)\n",
                  b.name.c_str(), b.memory.entries, b.memory.key_entries, b.bytes_per_step(),
@@ -57,7 +57,7 @@ Command add_sleepers_command(CLI::App& bench) {
   auto o = std::make_shared<SleepersOptions>();
   CLI::App* cmd = bench.add_subcommand(
       "sleepers",
-      "The sleepers scene against its active bodies alone, on SODA and on stock Bullet: ratio_vs_active_only; JSON "
+      "The sleepers scene against its active bodies alone, on SODA and on stock Bullet: cost_vs_active_only; JSON "
       "on stdout");
   cmd->add_option("--n", o->params.n, "Sleepers (0: 100,000); active bodies: ceil(n / 100)")
       ->check(CLI::Range(0, 1 << 26))

@@ -16,6 +16,14 @@
 
 namespace soda::cli {
 
+/// The one meaning of every speed ratio the benchmarks print, the footer
+/// of `soda --help`, `soda bench --help` and every benchmark's help
+/// (docs/cli.md, "What the ratios mean").
+inline constexpr const char* kRatioMeaning =
+    "Speed ratios (ratio_vs_*, speedup_*, the vs_* columns, every speed-up printed): baseline time / our time, "
+    "> 1 is faster, both measured in the same process. Figures named cost_*: our time / the baseline's, > 1 costs "
+    "more (docs/cli.md, \"What the ratios mean\").";
+
 struct Command {
   CLI::App* app = nullptr;
   std::function<int()> run;

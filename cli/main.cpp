@@ -485,6 +485,11 @@ int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
   more.push_back(soda::cli::add_lb_command(app));
   more.push_back(soda::cli::add_replay_info_command(app));
   more.push_back(soda::cli::add_view_command(app));
+  app.footer(soda::cli::kRatioMeaning);
+  bench->footer(soda::cli::kRatioMeaning);
+  for (CLI::App* sub : bench->get_subcommands({})) sub->footer(soda::cli::kRatioMeaning);
+  for (const soda::cli::Command& c : more)
+    if (c.app->get_name() == "lb") c.app->footer(soda::cli::kRatioMeaning);
 
   try {
     app.parse(argc, argv);

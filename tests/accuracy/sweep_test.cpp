@@ -124,7 +124,7 @@ TEST(Sweep, AxesBehaveAsDocumented) {
         EXPECT_FALSE(r.note.empty());
       }
     }
-    if (r.axis == "dt" && r.value == "1/60") { EXPECT_NEAR(r.ratio_vs_default, 1.0, 1e-12); }  // the same run
+    if (r.axis == "dt" && r.value == "1/60") { EXPECT_NEAR(r.cost_vs_default, 1.0, 1e-12); }  // the same run
   }
 }
 

@@ -85,16 +85,29 @@ TEST_F(CliTest, BenchWritesDocumentedJson) {
   EXPECT_EQ(j["awake"]["sleeping_bodies"], 0);
   EXPECT_EQ(j["awake"]["baseline_sleeping_bodies"], 0);
   EXPECT_EQ(j["exit_code"], 0);
+  // Every speed ratio is baseline time / our time (> 1: faster than stock).
   EXPECT_NEAR(j["ratio_vs_baseline_awake"].get<double>(),
-              j["awake"]["wall_seconds"].get<double>() / j["awake"]["baseline_wall_seconds"].get<double>(), 1e-9);
+              j["awake"]["baseline_wall_seconds"].get<double>() / j["awake"]["wall_seconds"].get<double>(), 1e-9);
   EXPECT_NE(o.output.find("sleeping off"), std::string::npos) << o.output;  // the table
   EXPECT_EQ(j["bodies"], 101);
   EXPECT_EQ(j["steps"], 20);
   EXPECT_EQ(j["state_hash"].get<std::string>().size(), 16u);
   EXPECT_GT(j["baseline_wall_seconds"].get<double>(), 0.0);
   EXPECT_NEAR(j["ratio_vs_baseline"].get<double>(),
-              j["wall_seconds"].get<double>() / j["baseline_wall_seconds"].get<double>(), 1e-9);
+              j["baseline_wall_seconds"].get<double>() / j["wall_seconds"].get<double>(), 1e-9);
   EXPECT_EQ(j["wall_seconds_all"].size(), 2u);
+}
+
+// One meaning of every speed ratio, named in the help of soda, soda bench,
+// the benchmarks under it and soda lb.
+TEST_F(CliTest, HelpNamesTheMeaningOfTheRatios) {
+  for (const char* args : {"--help", "bench --help", "bench speculation --help", "bench sleepers --help",
+                           "lb --help"}) {
+    const Outcome o = run_cli(args);
+    EXPECT_EQ(o.exit_code, 0) << args << ": " << o.output;
+    EXPECT_NE(o.output.find("baseline time / our time, > 1 is faster"), std::string::npos) << args << ": "
+                                                                                              << o.output;
+  }
 }
 
 TEST_F(CliTest, ShuffleSeedDoesNotChangeTheCanonicalHash) {
@@ -356,7 +369,7 @@ TEST_F(CliSpeculationBench, WritesDocumentedJson) {
     EXPECT_EQ(run["name"], names[i]);
     EXPECT_GT(run["wall_seconds"].get<double>(), 0.0);
     EXPECT_NEAR(run["ratio_vs_baseline"].get<double>(),
-                run["wall_seconds"].get<double>() / j["baseline_wall_seconds"].get<double>(), 1e-9);
+                j["baseline_wall_seconds"].get<double>() / run["wall_seconds"].get<double>(), 1e-9);
     if (i >= 1) {
       EXPECT_EQ(run["state_hash"], j["one_territory_state_hash"]) << names[i];
     }

@@ -57,7 +57,7 @@ struct SweepRow {
   int territories = 1;
   int steps = 0;
   double wall_seconds = 0;
-  double ratio_vs_default = 0;
+  double cost_vs_default = 0;
   std::string state_hash;
   std::size_t sleeping = 0;
   bool has_errors = false;  // metrics below are measured

@@ -31,7 +31,7 @@ struct BenchSet {
   std::vector<double> run_walls;         // every repeat, seconds
   std::vector<double> baseline_walls;
   std::vector<double> one_territory_walls;
-  double ratio_vs_baseline = 0;          // run.wall_seconds / baseline.wall_seconds (< 1: faster)
+  double ratio_vs_baseline = 0;          // baseline.wall_seconds / run.wall_seconds (> 1: faster than stock)
   double speedup_vs_one_territory = 0;   // one_territory.wall_seconds / run.wall_seconds (territories > 1)
 };
 

@@ -2,7 +2,7 @@
 // when most of it sleeps. The sleepers scene (docs/scenes.md) against the
 // same scene without its sleepers (the active bodies alone, same ids), each
 // on SODA (the configuration under test) and on stock Bullet, in one
-// process, interleaved; the figure is ratio_vs_active_only, the per-step
+// process, interleaved; the figure is cost_vs_active_only, the per-step
 // time with the sleepers over the per-step time without (1: sleepers cost
 // nothing; stock Bullet: 14–19 at 100,000 sleepers).
 #pragma once
@@ -58,16 +58,16 @@ struct SleepersBenchResult {
                                           "stock-active-only"};
   const SleepersRun& run(const std::string& name) const;
   /// Thread CPU per step of soda-full over soda-active-only (the figure).
-  double ratio_vs_active_only = 0;
-  double ratio_vs_active_only_wall = 0;  // the same with wall seconds
-  double stock_ratio_vs_active_only = 0;  // stock-full over stock-active-only, thread CPU
-  double stock_ratio_vs_active_only_wall = 0;
+  double cost_vs_active_only = 0;
+  double cost_vs_active_only_wall = 0;  // the same with wall seconds
+  double stock_cost_vs_active_only = 0;  // stock-full over stock-active-only, thread CPU
+  double stock_cost_vs_active_only_wall = 0;
   /// soda-full over soda-near-only (the scene without the sleepers far from
   /// the active bodies, near_sleepers): what the far sleepers cost, the
   /// activity being the same; and soda-near-only over soda-active-only:
   /// what landing on sleepers instead of the ground costs (physics).
-  double ratio_vs_near_only = 0;
-  double near_ratio_vs_active_only = 0;
+  double cost_vs_near_only = 0;
+  double near_cost_vs_active_only = 0;
   /// True if soda-near-only ended with as many bodies awake as soda-full
   /// (a check that the far sleepers were never touched).
   bool near_same_awake = false;
