@@ -281,9 +281,12 @@ std::vector<StressCase> stress_suite(bool quick) {
   const std::string far_text =
       "settles as the same pile at the origin does (cube-pile n=50, same precision): every cube still on the "
       "ground asleep within 20 s, mean penetration at most 2x the origin pile's + 1 mm";
+  // far-origin keeps its 20 s in --quick too: its criterion is settling,
+  // which takes 6-11 s (docs/stress.md), and 2 s could only ever fail; the
+  // whole case costs about 0.1 s of CPU.
   for (int d : {1000, 10000, 100000})
     s.push_back({"far-origin-1e" + std::to_string(static_cast<int>(std::lround(std::log10(d)))), "far-origin",
-                 "far-origin", d, quick ? 120 : 1200, WorldKind::Canonical, false, true, far_text});
+                 "far-origin", d, 1200, WorldKind::Canonical, false, true, far_text});
   s.push_back({"dense-pile-" + std::to_string(quick ? 200 : 1000), "dense-pile", "dense-pile", quick ? 200 : 1000,
                quick ? 60 : 600, WorldKind::Canonical, false, false,
                "contained and stable: every cube stays in the bin (|x|, |z| < 2 m, centre above the ground), max "
@@ -529,6 +532,8 @@ StressTally stress_tally(const std::vector<StressResult>& results) {
   }
   return t;
 }
+
+int stress_exit_status(const StressTally& t) { return t.fail + t.other + t.stock_other == 0 ? 0 : 1; }
 
 std::string stress_tally_text(const StressTally& t) {
   return "SODA: " + std::to_string(t.pass) + " pass, " + std::to_string(t.fail) + " FAIL, " +
