@@ -327,7 +327,8 @@ std::vector<SweepRow> run_accuracy_sweep(const SweepOptions& o, const std::funct
             row.has_errors = true;
             row.note = std::string("identical hash to ") + what + ": errors are the default row's";
           } else {
-            row.status = "failed";
+            // The exactness contract broken: the sweep fails (sweep_exit_status).
+            row.status = kSweepHashDiffers;
             row.note = std::string("state hash differs from ") + what + " (" + hash_hex(against) +
                        "): decomposition error not zero; run_scene returns no states to measure it";
           }
@@ -343,6 +344,12 @@ std::vector<SweepRow> run_accuracy_sweep(const SweepOptions& o, const std::funct
     }
   }
   return rows;
+}
+
+int sweep_exit_status(const std::vector<SweepRow>& rows) {
+  for (const SweepRow& r : rows)
+    if (r.status == kSweepHashDiffers) return 1;
+  return 0;
 }
 
 std::string sweep_csv_header() {

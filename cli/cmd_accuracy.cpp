@@ -98,7 +98,11 @@ int run_accuracy(AccuracyOptions& o) {
   }
   std::printf("wrote %s (%zu rows, %d not ok). Plot: /usr/bin/python3 bench/plot_accuracy.py %s OUT.png\n", o.csv.c_str(),
               rows.size(), not_ok, o.csv.c_str());
-  return 0;
+  const int status = sweep_exit_status(rows);
+  if (status != 0)
+    std::fprintf(stderr, "soda: error: bench accuracy: a territories row's state hash differs from the "
+                         "one-territory run's (status '%s')\n", kSweepHashDiffers);
+  return status;
 }
 
 struct TraceOptions {

@@ -65,7 +65,7 @@ TEST(Sweep, TinySweepWritesWellFormedRows) {
   // Per scene: reference, floor, default, 3 dt, 2 iterations, 2 precisions,
   // 3 CCD, 1 combo, 2 territories.
   EXPECT_EQ(rows.size(), 2u * 16u);
-  const std::set<std::string> statuses = {"ok", "not available", "failed"};
+  const std::set<std::string> statuses = {"ok", "not available", "failed", kSweepHashDiffers};
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const SweepRow& r = rows[i];
     const std::vector<std::string> f = split_csv(streamed[i]);
@@ -118,14 +118,26 @@ TEST(Sweep, AxesBehaveAsDocumented) {
       EXPECT_EQ(r.decomposition_error, "0");
     }
     if (r.axis == "territories" && r.territories > 1) {
-      if (r.status == "ok") {
-        EXPECT_EQ(r.decomposition_error, "0");
-      } else {
-        EXPECT_FALSE(r.note.empty());
-      }
+      // The exactness contract: K territories give the one-territory hash.
+      EXPECT_EQ(r.status, "ok") << r.scene << " K=" << r.territories << ": " << r.note;
+      EXPECT_EQ(r.decomposition_error, "0") << r.scene << " K=" << r.territories << ": " << r.note;
     }
     if (r.axis == "dt" && r.value == "1/60") { EXPECT_NEAR(r.cost_vs_default, 1.0, 1e-12); }  // the same run
   }
+}
+
+// A territories row whose hash differs fails the sweep (exit status 1);
+// rows that could not run are reported, not judged.
+TEST(Sweep, AHashMismatchFailsTheSweep) {
+  std::vector<SweepRow> rows(3);
+  rows[0].axis = "default";
+  rows[1].axis = "precision";
+  rows[1].status = "not available";
+  rows[2].axis = "territories";
+  rows[2].territories = 4;
+  EXPECT_EQ(sweep_exit_status(rows), 0);
+  rows[2].status = kSweepHashDiffers;
+  EXPECT_EQ(sweep_exit_status(rows), 1);
 }
 
 TEST(Sweep, RefusesMismatchedSizes) {

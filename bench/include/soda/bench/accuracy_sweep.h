@@ -67,7 +67,7 @@ struct SweepRow {
   double ref_dt = 0;
   int ref_iterations = 0;
   std::string ref_precision;
-  std::string status = "ok";  // ok | not available | failed
+  std::string status = "ok";  // ok | not available | failed | hash differs (kSweepHashDiffers)
   std::string note;
 };
 
@@ -77,6 +77,15 @@ struct SweepRow {
 /// "not available" and the error message as note: never a made-up number.
 std::vector<SweepRow> run_accuracy_sweep(const SweepOptions& options,
                                          const std::function<void(const SweepRow&)>& on_row = {});
+
+/// The status of a territories row whose state hash differs from the
+/// one-territory run's (K > 1), or from the traced default run's (K = 1).
+inline constexpr const char* kSweepHashDiffers = "hash differs";
+
+/// `soda bench accuracy`'s exit status: 1 if any row's hash differs
+/// (kSweepHashDiffers: the exactness contract is broken), else 0. Rows that
+/// are "not available" or "failed" to run are reported, not judged.
+int sweep_exit_status(const std::vector<SweepRow>& rows);
 
 std::string sweep_csv_header();
 std::string sweep_csv_row(const SweepRow& row);
