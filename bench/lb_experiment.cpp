@@ -49,6 +49,20 @@ RunConfig stock_config(const LbExperimentConfig& config) {
   return c;
 }
 
+// The reference every policy must end on: the same scene, steps and inputs
+// on one territory (one canonical world, nothing to balance or bet on).
+RunConfig one_territory_config(const LbExperimentConfig& config) {
+  RunConfig c = config.run;
+  c.world = WorldKind::Canonical;
+  c.territories = 1;
+  c.partition = "kmeans";
+  c.balance = {};
+  c.anticipation = 0;
+  c.sync_test = 0;
+  c.validate = false;
+  return c;
+}
+
 // Keeps the fastest of a run's repeats.
 void keep_best(std::optional<RunResult>& best, RunResult r) {
   if (!best || r.wall_seconds < best->wall_seconds) best = std::move(r);
@@ -118,6 +132,14 @@ LbExperimentResult run_lb_experiment(const Scene& scene, const LbExperimentConfi
   const std::uint64_t h = r.runs.front().hashes.front();
   for (const LbPolicyRun& run : r.runs)
     for (std::uint64_t other : run.hashes) r.hashes_equal = r.hashes_equal && other == h;
+  spdlog::info("soda lb: one territory (the hash every policy must end on)");
+  r.one_territory_hash = run_scene(scene, one_territory_config(config)).state_hash;
+  r.equals_one_territory = true;
+  for (LbPolicyRun& run : r.runs) {
+    run.equals_one_territory = std::all_of(run.hashes.begin(), run.hashes.end(),
+                                           [&](std::uint64_t x) { return x == r.one_territory_hash; });
+    r.equals_one_territory = r.equals_one_territory && run.equals_one_territory;
+  }
   return r;
 }
 
@@ -217,6 +239,8 @@ nlohmann::json lb_summary_json(const RunDescription& d, const LbExperimentConfig
   };
   j["repeat"] = config.repeat;
   j["hashes_equal"] = r.hashes_equal;
+  j["one_territory_state_hash"] = hash_hex(r.one_territory_hash);
+  j["state_hash_equals_one_territory"] = r.equals_one_territory;
   j["state_hash"] = hash_hex(r.runs.front().best.state_hash);
   if (r.stock) {
     j["baseline"] = {{"world", "stock"}, {"wall_seconds", r.stock->wall_seconds}, {"walls", r.stock_walls},
@@ -248,7 +272,8 @@ nlohmann::json lb_summary_json(const RunDescription& d, const LbExperimentConfig
                         {"lb_apply_cpu_seconds", t.apply_cpu_seconds},
                         {"lb_wall_seconds", t.wall_seconds},
                         {"lb_overhead_share", b.wall_seconds > 0 ? t.wall_seconds / b.wall_seconds : 0.0},
-                        {"state_hash", hash_hex(b.state_hash)}};
+                        {"state_hash", hash_hex(b.state_hash)},
+                        {"state_hash_equals_one_territory", run.equals_one_territory}};
     // The cost model's out-of-sample error over the balance steps where it had data.
     double error_sum = 0, error_max = 0;
     int predicted = 0;

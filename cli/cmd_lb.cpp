@@ -12,6 +12,7 @@
 #include "commands.h"
 #include "soda/bench/lb_experiment.h"
 #include "soda/scene/registry.h"
+#include "soda/worlds/body_state.h"
 #include "soda/scene/validate.h"
 
 namespace soda::cli {
@@ -81,8 +82,10 @@ void print_summary(const nlohmann::json& j) {
                  p["state_hash"].get<std::string>().c_str());
   }
   std::fprintf(stderr, "  imbalance: max / mean busy CPU of the worlds per step (thread CPU, so it holds on 2 cores "
-                       "with more worlds than cores); state hashes %s\n",
-               j["hashes_equal"].get<bool>() ? "equal under every policy" : "DIFFER");
+                       "with more worlds than cores); state hashes %s; one territory %s: %s\n",
+               j["hashes_equal"].get<bool>() ? "equal under every policy" : "DIFFER between policies",
+               j["one_territory_state_hash"].get<std::string>().c_str(),
+               j["state_hash_equals_one_territory"].get<bool>() ? "every policy's hash equals it" : "a policy's DIFFERS");
 }
 
 int run_lb(LbOptions& o) {
@@ -121,8 +124,12 @@ int run_lb(LbOptions& o) {
                          "bench/plot_lb.py %s\n",
                  o.out.c_str(), o.out.c_str());
   }
-  if (!r.hashes_equal) {
-    std::fprintf(stderr, "soda: error: lb: the state hashes differ between policies (load balancing changed physics)\n");
+  if (!r.equals_one_territory || !r.hashes_equal) {
+    for (const LbPolicyRun& run : r.runs)
+      if (!run.equals_one_territory)
+        std::fprintf(stderr, "soda: error: lb: policy %s ends on %s, one territory on %s (load balancing changed "
+                             "physics)\n",
+                     run.policy.c_str(), hash_hex(run.best.state_hash).c_str(), hash_hex(r.one_territory_hash).c_str());
     return 1;
   }
   return 0;

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "soda/scene/registry.h"
+#include "soda/worlds/body_state.h"
 
 namespace soda {
 namespace {
@@ -50,6 +51,17 @@ TEST(LbExperiment, EveryPolicyEndsOnOneHashAndTheFilesHoldEveryStep) {
   ASSERT_EQ(r.runs.size(), 2u);
   EXPECT_TRUE(r.hashes_equal);
   EXPECT_EQ(r.runs[0].best.state_hash, r.runs[1].best.state_hash);
+  // Every policy against one territory, run apart from the experiment.
+  RunConfig one = config.run;
+  one.territories = 1;
+  one.balance = {};
+  const std::uint64_t one_hash = run_scene(scene, one).state_hash;
+  EXPECT_EQ(hash_hex(r.one_territory_hash), hash_hex(one_hash));
+  EXPECT_TRUE(r.equals_one_territory);
+  for (const LbPolicyRun& run : r.runs) {
+    EXPECT_TRUE(run.equals_one_territory) << run.policy;
+    EXPECT_EQ(hash_hex(run.best.state_hash), hash_hex(one_hash)) << run.policy;
+  }
   EXPECT_TRUE(r.runs[0].best.balance_log.empty());
   ASSERT_FALSE(r.runs[1].best.balance_log.empty());
   EXPECT_GT(balance_totals(r.runs[1].best.balance_log).cells_moved, 0);
@@ -96,6 +108,9 @@ TEST(LbExperiment, EveryPolicyEndsOnOneHashAndTheFilesHoldEveryStep) {
   EXPECT_GT(j["policies"][1]["cells_moved"].get<long long>(), 0);
   EXPECT_TRUE(j["hashes_equal"].get<bool>());
   EXPECT_EQ(j["policies"][0]["state_hash"], j["policies"][1]["state_hash"]);
+  EXPECT_EQ(j["one_territory_state_hash"], hash_hex(one_hash));
+  EXPECT_TRUE(j["state_hash_equals_one_territory"].get<bool>());
+  for (const nlohmann::json& p : j["policies"]) EXPECT_TRUE(p["state_hash_equals_one_territory"].get<bool>()) << p;
 }
 
 TEST(LbExperiment, RefusesUnknownPoliciesAndOneTerritoryBeforeRunning) {

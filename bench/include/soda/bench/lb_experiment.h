@@ -3,8 +3,9 @@
 // same seed and the same first map, side by side with one stock Bullet world
 // (the baseline of every speed ratio); what every world measured at every
 // step, what every balance step moved and cost, the territory maps at chosen
-// steps, and a summary per policy. Every policy must end on the same state
-// hash (load balancing decides speed, never physics).
+// steps, and a summary per policy. Every policy must end on the state hash
+// of the same scene on one territory (load balancing decides speed, never
+// physics); the experiment runs that one territory too and checks each.
 #pragma once
 
 #include <cstdint>
@@ -43,6 +44,7 @@ struct LbPolicyRun {
   RunResult best;                     // the fastest repeat (its step loads and balance log)
   std::vector<double> walls;          // every repeat, seconds
   std::vector<std::uint64_t> hashes;  // every repeat's state hash
+  bool equals_one_territory = false;  // every repeat ends on LbExperimentResult::one_territory_hash
 };
 
 /// Imbalance of one run: per scene step, max / mean busy CPU over the worlds.
@@ -62,6 +64,10 @@ struct LbExperimentResult {
   std::vector<double> stock_walls;
   std::vector<LbPolicyRun> runs;     // in config.policies order
   bool hashes_equal = false;         // every repeat of every policy has one hash
+  /// The same scene, steps and inputs on one territory: the hash every
+  /// policy must end on (the exactness contract).
+  std::uint64_t one_territory_hash = 0;
+  bool equals_one_territory = false;  // every repeat of every policy ends on it
 };
 
 /// Runs the experiment. Throws what run_scene throws (BalanceError for an
