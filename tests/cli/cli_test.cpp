@@ -239,12 +239,18 @@ TEST_F(CliSpeculation, AnticipationKeepsTheOneTerritoryHash) {
   const std::string expected = hash_of(one);
   ASSERT_EQ(expected.size(), 16u) << one.output;
   std::printf("territories 1: state_hash %s\n", expected.c_str());
-  for (const char* args : {"--territories 4 --anticipation 8", "--territories 4 --anticipation 8 --rollback recompute",
-                           "--territories 1 --anticipation 8"}) {
-    const Outcome o = run_cli(scene + args);
+  // Each run really speculated: its JSON counts the bets it made.
+  for (const char* args : {"--territories 4 --anticipation 8",
+                           "--territories 4 --anticipation 8 --rollback recompute --threads 1"}) {
+    const std::string out = (dir_ / "anticipation.json").string();
+    const Outcome o = run_cli(scene + args + " --json " + out);
     ASSERT_EQ(o.exit_code, 0) << args << "\n" << o.output;
-    std::printf("%s: state_hash %s\n", args, hash_of(o).c_str());
+    const nlohmann::json j = nlohmann::json::parse(std::ifstream(out));
+    const std::uint64_t bets = j["speculation"]["bets"].get<std::uint64_t>();
+    std::printf("%s: state_hash %s, %llu bets\n", args, hash_of(o).c_str(), static_cast<unsigned long long>(bets));
     EXPECT_EQ(hash_of(o), expected) << args << "\n" << o.output;
+    EXPECT_EQ(j["anticipation"], 8) << args;
+    EXPECT_GT(bets, 0u) << args << ": no bet made, so nothing speculative was compared";
   }
 }
 
