@@ -471,7 +471,7 @@ int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
   part->add_option("--territories", part_o.config.territories, "Number of territories")->capture_default_str();
   part->add_option("--partition", part_o.config.partition, "kmeans | rcb | grid:AxBxC | territory-map file")
       ->capture_default_str();
-  part->add_option("--cell-size", cell_size, "Cell edge in metres (default: the largest body's extent)");
+  part->add_option("--cell-size", cell_size, "Cell edge in metres (default: the extent 90 % of the dynamic bodies fit in; larger bodies span several cells)");
   part->add_option("--json", part_o.json_path, "Write the partition summary as JSON ('-': stdout)");
   part->add_option("--png", partition_png,
                    "Write a picture of the map seen from above (the layer of cells holding most bodies; "

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 #include <sstream>
 
 namespace soda {
@@ -68,18 +69,24 @@ Vec3 UniformGrid::cell_center(const CellCoord& c) const {
   return {lo.x() + h, lo.y() + h, lo.z() + h};
 }
 
+double default_cell_size(const Scene& scene) {
+  std::vector<double> extents;
+  for (const Body& b : scene.bodies)
+    if (!b.is_static) extents.push_back(2.0 * b.shape.bounding_radius());
+  if (extents.empty()) return kDefaultCellSize;
+  // The smallest extent at least 90 % of the bodies do not exceed: rank
+  // ceil(0.9 n) of n, counted from 1.
+  const std::size_t rank = (9 * extents.size() + 9) / 10;
+  std::nth_element(extents.begin(), extents.begin() + static_cast<std::ptrdiff_t>(rank - 1), extents.end());
+  const double e = extents[rank - 1];
+  return e > 0.0 ? e : kDefaultCellSize;
+}
+
 UniformGrid make_grid(const Scene& scene, const GridOptions& options) {
-  const double extent = scene.largest_dynamic_extent();
-  if (!options.cell_size)
-    return UniformGrid(options.origin, extent > 0.0 ? extent : kDefaultCellSize);
+  if (!options.cell_size) return UniformGrid(options.origin, default_cell_size(scene));
   const double size = *options.cell_size;
   if (!std::isfinite(size) || !(size > 0.0))
     throw GridError("cell size override " + fmt(size) + " m must be finite and > 0");
-  if (size < extent)
-    throw GridError("cell size override " + fmt(size) +
-                    " m is smaller than the largest dynamic body's extent " + fmt(extent) +
-                    " m (its bounding-sphere diameter); cells must be at least that large "
-                    "so that bodies only touch bodies in adjacent cells");
   return UniformGrid(options.origin, size);
 }
 

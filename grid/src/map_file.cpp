@@ -7,22 +7,13 @@
 
 namespace soda {
 
-TerritoryMap load_territory_map(const std::string& path, const Scene& scene, int k) {
+TerritoryMap load_territory_map(const std::string& path, int k) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw GridError("cannot open territory map '" + path + "'");
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw GridError("cannot read territory map '" + path + "'");
   TerritoryMap map = parse_territory_map(text.str(), path);
-  const double extent = scene.largest_dynamic_extent();
-  if (map.grid().cell_size() < extent) {
-    std::ostringstream msg;
-    msg.precision(17);
-    msg << "territory map '" << path << "' field cell_size: " << map.grid().cell_size()
-        << " m is smaller than the largest dynamic body's extent " << extent
-        << " m (its bounding-sphere diameter)";
-    throw GridError(msg.str());
-  }
   if (map.world_count() != k)
     throw GridError("territory map '" + path + "' field worlds: the file has " +
                     std::to_string(map.world_count()) + " worlds but " + std::to_string(k) +

@@ -46,10 +46,10 @@ TerritoryMap make_partition(const std::string& spec, const Scene& scene, int k,
   if (spec == "kmeans") return partition_kmeans(scene, k, options);
   if (spec == "rcb") return partition_rcb(scene, k, options);
   if (spec.starts_with("grid:")) return partition_blocks(parse_block_spec(spec), scene, k, options);
-  if (spec.starts_with("file:")) return load_territory_map(spec.substr(5), scene, k);
+  if (spec.starts_with("file:")) return load_territory_map(spec.substr(5), k);
   std::error_code ec;
   if (!spec.empty() && std::filesystem::is_regular_file(spec, ec))
-    return load_territory_map(spec, scene, k);
+    return load_territory_map(spec, k);
   throw GridError("unknown partition spec '" + spec +
                   "': expected one of kmeans, rcb, grid:AxBxC (e.g. grid:2x1x1), "
                   "file:PATH, or the path of an existing territory-map file");

@@ -114,6 +114,26 @@ void TransformBuffer<Real>::set_commit_step(std::int64_t step) {
 }
 
 template <class Real>
+void TransformBuffer<Real>::raise_commit_step(std::int64_t step) {
+  Garbage garbage;
+  {
+    std::lock_guard lock(mutex_);
+    if (!next_step_) return;  // nothing published yet
+    step = std::min(step, *next_step_ - 2);
+    if (step <= commit_step_) return;
+    commit_step_ = step;
+    if (!free_entries(garbage)) return;
+  }
+  room_cv_.notify_all();
+}
+
+template <class Real>
+std::int64_t TransformBuffer<Real>::newest_step() const {
+  std::lock_guard lock(mutex_);
+  return next_step_ ? *next_step_ - 1 : kNoStep;
+}
+
+template <class Real>
 void TransformBuffer<Real>::stop() {
   {
     std::lock_guard lock(mutex_);

@@ -33,6 +33,8 @@ void InputLedger::check(const UserInput& in) const {
   if (it == lives_.end()) throw std::invalid_argument(what + ": no body has that id");
   const Life& life = it->second;
   if (life.is_static) throw std::invalid_argument(what + ": the body is static");
+  if (life.retired)
+    throw std::invalid_argument(what + ": the body was removed before the snapshot this run was restored from");
   if (in.step < life.added || in.step >= life.removed)
     throw std::invalid_argument(what + ": the body is not in the scene then (added at step " +
                                 std::to_string(life.added) +
@@ -50,6 +52,19 @@ void InputLedger::record(const UserInput& in) {
   if (in.kind == UserInput::Kind::AddBody) life.added = in.step;
   if (in.kind == UserInput::Kind::RemoveBody) life.removed = in.step;
   life.last_input = std::max(life.last_input, in.step);
+}
+
+void InputLedger::retire(BodyId id) {
+  Life& life = lives_[id];
+  life.retired = true;
+  life.removed = 0;
+}
+
+std::vector<BodyId> InputLedger::removed_before(std::int64_t step) const {
+  std::vector<BodyId> out;
+  for (const auto& [id, life] : lives_)
+    if (life.retired || life.removed < step) out.push_back(id);
+  return out;
 }
 
 }  // namespace soda

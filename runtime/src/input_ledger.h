@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <map>
+#include <vector>
 
 #include "soda/runtime/user_input.h"
 #include "soda/scene/scene.h"
@@ -25,6 +26,12 @@ class InputLedger {
   void check(const UserInput& input) const;
   /// Takes a checked input into account.
   void record(const UserInput& input);
+  /// Marks `id` as used by a body removed before a snapshot this run was
+  /// restored from: never used again, named by no input.
+  void retire(BodyId id);
+  /// Ids of every body removed at a boundary before `step` (retired ones
+  /// included), ascending: what a snapshot at `step` must keep from reuse.
+  std::vector<BodyId> removed_before(std::int64_t step) const;
 
  private:
   struct Life {
@@ -32,6 +39,7 @@ class InputLedger {
     std::int64_t added = 0;                // present from this boundary on
     std::int64_t removed = INT64_MAX;      // gone from this boundary on
     std::int64_t last_input = -1;          // newest step of an input naming it
+    bool retired = false;                  // removed before the snapshot this run was restored from
   };
   std::map<BodyId, Life> lives_;
   SceneSettings settings_;

@@ -31,7 +31,7 @@ struct PartitionedWorld::Internals {
   std::unique_ptr<Validator> validator;                 // null unless PartitionedOptions::validate
   std::shared_ptr<SolverPool> solver_pool;              // null unless PartitionedOptions::solver_threads > 1
   std::vector<std::unique_ptr<TerritoryWorld>> worlds;  // by id; a rewind or rollback may replace one
-  std::unique_ptr<CommitHorizon> horizon;
+  std::shared_ptr<CommitHorizon> horizon;  // shared with a Simulation's readers
   std::unique_ptr<RollbackBoard> board;                 // speculation: rollbacks of every world
   std::vector<std::unique_ptr<Process>> processes;      // by id
   std::vector<std::unique_ptr<WorldTask>> tasks;        // the processes as the scheduler sees them

@@ -106,7 +106,7 @@ PartitionedWorld::PartitionedWorld(const Scene& scene, TerritoryMap map, Partiti
     : options_(std::move(options)), substeps_(scene.settings.substeps), base_substeps_(substeps_) {
   init_balance();
   init_inputs(scene);
-  map = map_with_reach(scene, map, options_.reach_speed);
+  map = map_for_run(scene, map);
   build(&scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(scene, w, map); });
 }
 
@@ -119,8 +119,22 @@ PartitionedWorld::PartitionedWorld(const WorldSnapshot& state, TerritoryMap map,
   init_balance();
   const Scene scene = scene_of(state);
   init_inputs(scene);
-  map = map_with_reach(scene, map, options_.reach_speed);
+  map = map_for_run(scene, map);
   build(&scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
+}
+
+// The reach covers the scene, the bodies its inputs add and added_extent.
+TerritoryMap PartitionedWorld::map_for_run(const Scene& scene, const TerritoryMap& map) {
+  double added = options_.added_extent;
+  for (const UserInput& in : options_.inputs)
+    if (in.kind == UserInput::Kind::AddBody) added = std::max(added, 2.0 * in.body.shape.bounding_radius());
+  reach_speed_ = run_reach_speed(scene, options_.reach_speed);
+  settings_ = scene.settings;
+  return map_with_reach(scene, map, options_.reach_speed, added);
+}
+
+std::string PartitionedWorld::add_refusal(const Body& body) const {
+  return reach_refusal(body, settings_, map(), reach_speed_);
 }
 
 // PartitionedOptions::inputs: checked in order of step, then of the list,

@@ -5,17 +5,20 @@
 
 namespace soda {
 
-RunControl::RunControl(int worlds, int substeps)
+RunControl::RunControl(int worlds, int substeps, std::int64_t start)
     : substeps_(substeps),
-      started_(static_cast<std::size_t>(worlds), 0),
+      limit_(start * substeps),
+      final_(start),
+      started_(static_cast<std::size_t>(worlds), start * substeps),
       parked_at_(static_cast<std::size_t>(worlds), -1),
-      published_(static_cast<std::size_t>(worlds), 0),
+      published_(static_cast<std::size_t>(worlds), start),
       rewind_to_(static_cast<std::size_t>(worlds)) {}
 
 bool RunControl::may_start(WorldId world, std::int64_t steps_done) {
   std::lock_guard lock(mutex_);
   const auto w = static_cast<std::size_t>(world);
-  if (shut_down_ || steps_done >= limit_ || (hold_ >= 0 && steps_done >= hold_)) {
+  if (shut_down_ || steps_done >= limit_ || (hold_ >= 0 && steps_done >= hold_) ||
+      held_by_readers_locked(steps_done)) {
     if (parked_at_[w] != steps_done) {
       parked_at_[w] = steps_done;
       watch_cv_.notify_all();
@@ -27,12 +30,17 @@ bool RunControl::may_start(WorldId world, std::int64_t steps_done) {
   return true;
 }
 
-bool RunControl::wait_limit_above(std::int64_t steps_done) const {
+bool RunControl::wait_limit_above(WorldId world, std::int64_t steps_done) const {
   std::unique_lock lock(mutex_);
   const std::uint64_t rewinds = rewinds_;
-  auto may_go = [&] { return limit_ > steps_done && !(hold_ >= 0 && steps_done >= hold_); };
-  world_cv_.wait(lock, [&] { return shut_down_ || frozen_ || rewinds_ != rewinds || may_go(); });
-  return !shut_down_ && (rewinds_ != rewinds || may_go());
+  // A rewind pending for it (rewind() may have come between its may_start
+  // and this wait): it must go and take it, whatever steps_done says.
+  const std::shared_ptr<const WorldSnapshot>& pending = rewind_to_[static_cast<std::size_t>(world)];
+  auto may_go = [&] {
+    return limit_ > steps_done && !(hold_ >= 0 && steps_done >= hold_) && !held_by_readers_locked(steps_done);
+  };
+  world_cv_.wait(lock, [&] { return shut_down_ || frozen_ || pending || rewinds_ != rewinds || may_go(); });
+  return !shut_down_ && (pending || rewinds_ != rewinds || may_go());
 }
 
 bool RunControl::run_if_future(std::int64_t internal_step, const std::function<void()>& add) {
@@ -83,6 +91,16 @@ void RunControl::rewind(std::int64_t internal_step, std::shared_ptr<const WorldS
 std::shared_ptr<const WorldSnapshot> RunControl::take_rewind(WorldId world) {
   std::lock_guard lock(mutex_);
   return std::exchange(rewind_to_[static_cast<std::size_t>(world)], nullptr);
+}
+
+void RunControl::rolled_back(std::int64_t internal_step) {
+  std::lock_guard lock(mutex_);
+  for (std::size_t w = 0; w < published_.size(); ++w) {
+    published_[w] = std::min(published_[w], internal_step / substeps_);
+    if (parked_at_[w] > internal_step) parked_at_[w] = -1;
+  }
+  ++watch_epoch_;
+  watch_cv_.notify_all();
 }
 
 void RunControl::release_hold() {
@@ -198,6 +216,38 @@ void RunControl::published(WorldId world, std::int64_t step) {
   p = std::max(p, step);
   ++watch_epoch_;
   watch_cv_.notify_all();
+}
+
+void RunControl::hold_for_readers(std::int64_t room) {
+  std::lock_guard lock(mutex_);
+  room_ = room;
+}
+
+void RunControl::set_final(std::int64_t scene_step) {
+  {
+    std::lock_guard lock(mutex_);
+    if (scene_step <= final_) return;
+    final_ = scene_step;
+    ++watch_epoch_;
+    watch_cv_.notify_all();
+    bump_wake_locked();
+  }
+  call_hook();
+}
+
+bool RunControl::readers_hold_horizon() const {
+  std::lock_guard lock(mutex_);
+  return room_ > 0;
+}
+
+std::optional<std::int64_t> RunControl::held_until(std::int64_t steps_done) const {
+  std::lock_guard lock(mutex_);
+  if (!held_by_readers_locked(steps_done)) return std::nullopt;
+  return steps_done / substeps_ + 2 - room_;
+}
+
+bool RunControl::held_by_readers_locked(std::int64_t steps_done) const {
+  return room_ > 0 && steps_done % substeps_ == 0 && steps_done / substeps_ + 1 - final_ >= room_;
 }
 
 std::int64_t RunControl::published_step() const {

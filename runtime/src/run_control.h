@@ -37,7 +37,9 @@ class RunControl {
   /// "No limit": far beyond any step count a run can reach.
   static constexpr std::int64_t kUnlimited = std::int64_t{1} << 60;
 
-  RunControl(int worlds, int substeps);
+  /// Every world starts at scene step `start` (a Simulation restored from
+  /// a snapshot starts at its step; 0 otherwise), parked there.
+  RunControl(int worlds, int substeps, std::int64_t start = 0);
 
   // --- step limit (internal steps) -----------------------------------------
 
@@ -48,7 +50,7 @@ class RunControl {
   /// World thread with a thread of its own, parked at the limit: waits until
   /// the limit exceeds steps_done (true) or never will (frozen, shut down:
   /// false).
-  bool wait_limit_above(std::int64_t steps_done) const;
+  bool wait_limit_above(WorldId world, std::int64_t steps_done) const;
   /// True once the world at steps_done will never step again (frozen at or
   /// below it, or shut down).
   bool finished(std::int64_t steps_done) const;
@@ -83,6 +85,12 @@ class RunControl {
   /// World thread, at a step boundary: the state to rebuild from if a
   /// rollback is pending for this world (once), else null.
   std::shared_ptr<const WorldSnapshot> take_rewind(WorldId world);
+  /// Speculating, an input at boundary `internal_step` was posted as a
+  /// rollback of every world (each takes it on its own thread): the
+  /// published frontier of every world goes back to it, and a world parked
+  /// past it counts as running until it parks again (it is woken and re-runs
+  /// the steps), so that advance_to() and the readouts wait for the re-run.
+  void rolled_back(std::int64_t internal_step);
   /// Releases the hold without rewinding (the rollback was abandoned).
   void release_hold();
 
@@ -109,6 +117,21 @@ class RunControl {
   /// Waits until the watch epoch (bumped by published, request_stop, fail)
   /// differs from `seen`.
   void wait_watch(std::uint64_t seen) const;
+  // --- readers holding the commit horizon (past inputs) ----------------------
+
+  /// From now on a world at a scene step boundary s does not begin the next
+  /// step while s + 1 - final_step() >= `room` (its buffer's capacity): it
+  /// parks as at the limit. Before any world runs.
+  void hold_for_readers(std::int64_t room);
+  /// The newest scene step no rollback can change any more (the commit
+  /// horizon's), raised by the engine as the horizon rises: wakes parked
+  /// worlds and watchers. Never lowered. Any thread.
+  void set_final(std::int64_t scene_step);
+  /// If readers hold a world at `steps_done`: the final scene step that lets
+  /// it go on; nullopt if they do not hold it.
+  std::optional<std::int64_t> held_until(std::int64_t steps_done) const;
+  /// Readers hold the commit horizon (hold_for_readers was called).
+  bool readers_hold_horizon() const;
   /// Waits until every world published `step` (true), or the run is stopping
   /// (false); throws the SimulationError if a world failed first.
   bool wait_published(std::int64_t step) const;
@@ -131,6 +154,7 @@ class RunControl {
  private:
   void bump_wake_locked();
   bool all_parked_locked() const;
+  bool held_by_readers_locked(std::int64_t steps_done) const;
   std::int64_t highest_boundary_begun_locked() const;
   [[noreturn]] void throw_error_locked() const;
   void call_hook();
@@ -141,6 +165,8 @@ class RunControl {
   mutable std::condition_variable watch_cv_;  // published, parked, stop, error
   std::int64_t limit_ = 0;
   std::int64_t hold_ = -1;       // >= 0: no world begins a step at or past it
+  std::int64_t room_ = 0;        // > 0: readers hold the horizon (hold_for_readers)
+  std::int64_t final_ = 0;       // set_final: the newest final scene step
   std::uint64_t rewinds_ = 0;    // bumped by rewind(): wakes wait_limit_above
   bool frozen_ = false;
   std::vector<std::int64_t> started_;   // per world: steps begun

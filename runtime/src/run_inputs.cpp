@@ -118,6 +118,11 @@ bool inputs_through_simulation(const RunConfig& config) {
 RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   check_supported(config);
   SimulationConfig sc = simulation_config(config);
+  // The worlds' reach has room for the largest body the inputs add.
+  if (config.inputs)
+    for (const UserInput& in : *config.inputs)
+      if (in.kind == UserInput::Kind::AddBody)
+        sc.added_extent = std::max(sc.added_extent, 2.0 * in.body.shape.bounding_radius());
   sc.buffer_capacity = std::max<std::size_t>(sc.buffer_capacity, static_cast<std::size_t>(config.anticipation) + 3);
   // Progress and step times from world 0's thread (re-runs after a rollback
   // included).

@@ -51,11 +51,13 @@ const ScenePose* SceneFrame::find(BodyId id) const {
 
 SceneReader::SceneReader(std::shared_ptr<SimulationCore> core) : core_(std::move(core)) {
   for (auto& b : core_->buffers) ids_.push_back(b->add_reader());
+  if (core_->reader_pins) pinned_ = core_->pin_first();
 }
 
 SceneReader::SceneReader(SceneReader&& other) noexcept
-    : core_(std::move(other.core_)), ids_(std::move(other.ids_)), last_step_(other.last_step_) {
+    : core_(std::move(other.core_)), ids_(std::move(other.ids_)), last_step_(other.last_step_), pinned_(other.pinned_) {
   other.ids_.clear();
+  other.pinned_ = -1;
 }
 
 SceneReader& SceneReader::operator=(SceneReader&& other) noexcept {
@@ -65,6 +67,8 @@ SceneReader& SceneReader::operator=(SceneReader&& other) noexcept {
     ids_ = std::move(other.ids_);
     other.ids_.clear();
     last_step_ = other.last_step_;
+    pinned_ = other.pinned_;
+    other.pinned_ = -1;
   }
   return *this;
 }
@@ -75,10 +79,21 @@ void SceneReader::release() noexcept {
   if (!core_ || ids_.empty()) return;
   try {
     for (std::size_t w = 0; w < ids_.size(); ++w) core_->buffers[w]->remove_reader(ids_[w]);
+    if (pinned_ >= 0) core_->unpin(pinned_);
     core_->control.wake();  // entries it pinned may be free now
   } catch (...) {
   }
+  pinned_ = -1;
   ids_.clear();
+}
+
+// Reader pins: this reader now uses frames up to `step` (docs/embedding.md,
+// "The game loop"); the horizon may pass the frames before it.
+void SceneReader::use_up_to(std::int64_t step) {
+  if (pinned_ < 0 || step <= pinned_) return;
+  core_->move_pin(pinned_, step);
+  pinned_ = step;
+  core_->control.wake();  // worlds held by the horizon may go on
 }
 
 // One pass over every world (never stopping early: every cursor must move,
@@ -109,7 +124,8 @@ SceneReader::Got SceneReader::gather(std::int64_t step, bool move_cursors,
     else out[w] = std::move(e);
   }
   if (moved) core_->control.wake();
-  return gone ? Got::Gone : not_yet ? Got::NotYet : Got::Frame;
+  // A frame a rollback may still rewrite is not served (simulation_core.h).
+  return gone ? Got::Gone : (not_yet || !core_->is_final(step)) ? Got::NotYet : Got::Frame;
 }
 
 SceneFrame SceneReader::assemble(std::int64_t step,
@@ -149,14 +165,16 @@ SceneFrame SceneReader::assemble(std::int64_t step,
     what.append(std::to_string(step)).append(" (worlds").append(worlds).append(")");
     throw std::logic_error(what);
   }
-  if (f.poses.size() != core_->dynamic_bodies)
-    throw std::logic_error("SceneReader: step " + std::to_string(step) + " holds " + std::to_string(f.poses.size()) +
-                           " bodies, the scene has " + std::to_string(core_->dynamic_bodies) + " dynamic bodies");
+  std::vector<BodyId> ids;
+  ids.reserve(f.poses.size());
+  for (const ScenePose& p : f.poses) ids.push_back(p.id);
+  core_->census.check(step, ids);
   return f;
 }
 
 std::optional<SceneFrame> SceneReader::read(double time, bool wait) {
   const std::int64_t step = core_ ? core_->step_at(time) : 0;
+  use_up_to(step);
   std::vector<std::shared_ptr<const TransformEntry<btScalar>>> entries;
   for (;;) {
     const std::uint64_t seen = core_ ? core_->control.watch_epoch() : 0;
@@ -177,6 +195,11 @@ std::optional<SceneFrame> SceneReader::read_at(double time) { return read(time, 
 std::optional<SceneFrame> SceneReader::try_read_at(double time) { return read(time, false); }
 
 std::optional<SceneSample> SceneReader::interpolate(double time) {
+  // Both frames must be final: between two steps the later one is in use too.
+  if (core_) {
+    const std::int64_t step = core_->step_at(time);
+    use_up_to(core_->time_of(step) == time ? step : step + 1);
+  }
   std::optional<SceneFrame> before = read(time, true);
   if (!before) return std::nullopt;
   auto entry_of = [](SceneFrame&& f) {

@@ -186,7 +186,9 @@ void Scheduler::run_sequential() {
       current = kNoWorld;
       if (all_done && (!control_ || control_->finished(tasks_.front()->steps_done()))) return;
       if (progressed) continue;
-      if (control_ && (all_done || room)) {
+      // Readers holding the commit horizon: worlds wait for them to read on
+      // (their moving on wakes the control), not for each other.
+      if (control_ && (all_done || room || control_->readers_hold_horizon())) {
         control_->wait_wake(seen);
         continue;
       }
@@ -208,7 +210,7 @@ void Scheduler::run_world(WorldId w) {
     for (;;) {
       const WorldTask::Advance a = task.advance();
       if (a.done) {
-        if (!control_ || !control_->wait_limit_above(task.steps_done())) return;
+        if (!control_ || !control_->wait_limit_above(w, task.steps_done())) return;
         continue;
       }
       if (a.progressed) continue;

@@ -29,6 +29,27 @@ Simulation::Simulation(const Scene& scene, SimulationConfig config)
 Simulation::Simulation(const Scene& scene, TerritoryMap map, SimulationConfig config)
     : engine_(std::make_unique<SimulationEngine>(scene, std::move(map), std::move(config))) {}
 
+namespace {
+
+// The scene of a snapshot with every body where it is now: what the
+// partition cuts and the home cells are taken from.
+Scene scene_now(const WorldSnapshot& state) {
+  Scene scene = scene_of(state);
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    const BodyDynamicState& d = state.bodies[i].state;
+    scene.bodies[i].position = Vec3(d.origin[0], d.origin[1], d.origin[2]);
+  }
+  return scene;
+}
+
+}  // namespace
+
+Simulation::Simulation(const SimulationSnapshot& snapshot, SimulationConfig config)
+    : Simulation(snapshot, partition_for(scene_now(snapshot.state), config), config) {}
+
+Simulation::Simulation(const SimulationSnapshot& snapshot, TerritoryMap map, SimulationConfig config)
+    : engine_(std::make_unique<SimulationEngine>(snapshot, std::move(map), std::move(config))) {}
+
 Simulation::~Simulation() = default;
 
 namespace {
@@ -129,6 +150,11 @@ std::vector<BodyState> Simulation::body_states() const {
 std::uint64_t Simulation::state_hash() const {
   engine_->wait_idle("state_hash");
   return engine_->world->state_hash();
+}
+
+SimulationSnapshot Simulation::snapshot() const {
+  engine_->wait_idle("snapshot");
+  return engine_->snapshot();
 }
 
 std::size_t Simulation::sleeping_count() const {

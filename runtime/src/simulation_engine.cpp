@@ -37,6 +37,7 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
   if (c.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument("SimulationConfig: watchdog heal is not supported by a Simulation (off or stop)");
   o.reach_speed = c.reach_speed;
+  o.added_extent = c.added_extent;
   if (c.balance.policy != "none")
     throw std::invalid_argument(
         "SimulationConfig: load balancing (policy '" + c.balance.policy +
@@ -60,25 +61,92 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
 
 SimulationEngine::SimulationEngine(const Scene& scene, TerritoryMap map, SimulationConfig config)
     : config_(std::move(config)), substeps_(scene.settings.substeps), ledger_(scene) {
-  const int k = map.world_count();
-  const PartitionedOptions options = partitioned_options(config_, k);
+  const PartitionedOptions options = partitioned_options(config_, map.world_count());
+  set_up(scene, options, std::make_unique<PartitionedWorld>(scene, std::move(map), options), 0);
+}
+
+// A snapshot's scene: its bodies and settings (their states are the
+// snapshot's; the census and the ledger need only who is there).
+SimulationEngine::SimulationEngine(const SimulationSnapshot& snapshot, TerritoryMap map, SimulationConfig config)
+    : config_(std::move(config)), substeps_(snapshot.state.settings.substeps), ledger_(scene_of(snapshot.state)) {
+  const PartitionedOptions options = partitioned_options(config_, map.world_count());
+  for (BodyId id : snapshot.retired_ids) ledger_.retire(id);
+  set_up(scene_of(snapshot.state), options,
+         std::make_unique<PartitionedWorld>(snapshot.state, std::move(map), options), snapshot.state.steps_done);
+  for (const UserInput& given : snapshot.inputs) {
+    if (given.step < snapshot.state.steps_done)
+      throw std::invalid_argument("SimulationSnapshot: " + describe(given) + " is older than the snapshot's step " +
+                                  std::to_string(snapshot.state.steps_done));
+    UserInput in = given;
+    ledger_.check(in);
+    in.sequence = next_sequence_++;
+    ledger_.record(in);
+    core->census.record(in);
+    inputs_.add(in);
+  }
+}
+
+// The partitioned world `w` of `scene` (built with `options`), at scene step `start`:
+// buffers, readers' gate and pins, each world's process attached, the entry
+// of step `start` published before any thread runs.
+void SimulationEngine::set_up(const Scene& scene, const PartitionedOptions& options,
+                              std::unique_ptr<PartitionedWorld> w, std::int64_t start) {
+  world = std::move(w);
+  const int k = world->world_count();
   schedule = options.schedule;
   threads = schedule == Schedule::ThreadPerWorld ? k : schedule == Schedule::Pool ? options.threads : 1;
-  world = std::make_unique<PartitionedWorld>(scene, std::move(map), options);
-  core = std::make_shared<SimulationCore>(k, substeps_, scene.settings.dt, scene.dynamic_count(),
-                                          config_.buffer_capacity, config_.delta_entries);
+  core = std::make_shared<SimulationCore>(scene, k, substeps_, start, config_.buffer_capacity, config_.delta_entries);
+  // Frames a rollback may still rewrite are not served; with past inputs
+  // readers hold the horizon at the frame they show (simulation_core.h).
+  core->horizon = parts().horizon;
+  core->gate = config_.anticipation > 0 || config_.past_inputs;
+  core->reader_pins = config_.past_inputs;
+  // As the horizon rises, so do the buffers' commit steps (a world blocked
+  // for room cannot raise its own), and readers waiting for a final frame
+  // look again.
+  // The committed frontier follows it too: a world waiting for its
+  // neighbours or for the readers does not report it again itself.
+  if (core->gate)
+    parts().horizon->set_advance_hook([c = core.get()] {
+      const std::int64_t final_step = c->horizon->gvt() / c->substeps;
+      const std::int64_t committed = c->horizon->gvt_without_readers() / c->substeps;
+      for (std::size_t w = 0; w < c->buffers.size(); ++w) {
+        c->buffers[w]->raise_commit_step(final_step - 1);
+        const std::int64_t newest = c->buffers[w]->newest_step();
+        if (newest >= 0) c->control.published(static_cast<WorldId>(w), std::min(committed, newest));
+      }
+      c->control.set_final(final_step);
+    });
+  // Readers hold the horizon: a world begins no step whose entry would not
+  // fit in its buffer beside the entries from the final step on (those
+  // cannot be freed), so that it never blocks for room on entries a
+  // rollback may still rewrite, and always takes that rollback in.
+  if (core->reader_pins) core->control.hold_for_readers(static_cast<std::int64_t>(config_.buffer_capacity));
   for (WorldId w = 0; w < k; ++w) {
     TransformBuffer<btScalar>& buffer = *core->buffers[static_cast<std::size_t>(w)];
     parts().process(w).attach({&core->control, &buffer, scene.settings.dt, config_.after_step, &inputs_,
-                       [this, w](const WorldSnapshot& state) { rewind_world(w, state); }});
-    // Step 0: the scene as given, published before any thread runs.
+                               [this, w](const WorldSnapshot& state) { rewind_world(w, state); }});
+    // The first frame: the scene as given (or restored).
     TransformEntry<btScalar> entry;
-    entry.step = 0;
-    entry.time = core->time_of(0);
+    entry.step = start;
+    entry.time = core->time_of(start);
     for (const BodyState& b : world->world(w).owned_states()) entry.poses.push_back(body_pose(b));
     buffer.publish(std::move(entry));
-    buffer.set_commit_step(-1);
+    buffer.set_commit_step(start - 1);
   }
+}
+
+SimulationSnapshot SimulationEngine::snapshot() const {
+  std::lock_guard lock(lifecycle_);
+  PartitionedWorld::Internals& in = world->internals();
+  const std::int64_t step = world->world(0).steps_done() / substeps_;
+  std::vector<WorldSnapshot> parts;
+  for (WorldId w = 0; w < world->world_count(); ++w) parts.push_back(world->world(w).part_snapshot());
+  SimulationSnapshot out;
+  out.state = in.assemble(step, std::move(parts));
+  out.inputs = inputs_.from(step);
+  out.retired_ids = ledger_.removed_before(step);
+  return out;
 }
 
 SimulationEngine::~SimulationEngine() {
@@ -183,12 +251,21 @@ void SimulationEngine::input(UserInput in) {
   core->control.rethrow_if_failed();
   if (stopped_) throw std::logic_error("Simulation: input after stop()");
   ledger_.check(in);
+  if (in.kind == UserInput::Kind::AddBody)
+    if (const std::string why = world->add_refusal(in.body); !why.empty())
+      throw std::invalid_argument(describe(in) + ": " + why);
   in.sequence = next_sequence_++;
   auto record = [&] { ledger_.record(in); };
   // The validator learns of the input before any world can begin its step.
+  // The census hears of an added or removed body before any world can
+  // apply it (and publish a frame with or without it).
+  auto queue = [&] {
+    core->census.record(in);
+    inputs_.add(in);
+  };
   if (core->control.run_if_future(in.step * substeps_, [&] {
         if (parts().validator) parts().validator->expect(in, substeps_);
-        inputs_.add(in);
+        queue();
       })) {
     record();
     return;
@@ -212,23 +289,26 @@ void SimulationEngine::input(UserInput in) {
     // rollback board (docs/rollback.md): each world that has passed it
     // restores it on its own thread and re-runs with the input; nobody is
     // held. Queued first, so that every run of that step sees it.
-    inputs_.add(in);
+    queue();
     record();
+    // The frontier goes back first: until every world has taken the
+    // rollback in, the board's pins keep it from being reported again.
+    core->control.rolled_back(in.step * substeps_);
     parts().board->post(in.step * substeps_, in.step * substeps_, kNoWorld);
+    core->control.wake();  // one thread for every world may sleep on the control, not on a mailbox
     ++rollbacks_;
     return;
   }
-  const std::int64_t hold = core->control.hold() / substeps_;
-  if (hold - in.step >= static_cast<std::int64_t>(config_.buffer_capacity) - 1) {
+  core->control.hold();
+  try {
+    core->control.wait_all_held();
+    queue();
+    record();
+    rollback_locked(in.step);
+  } catch (...) {
     core->control.release_hold();
-    throw std::invalid_argument(what + ": " + std::to_string(hold - in.step) +
-                                " steps behind the newest world, more than its transform buffer holds (" +
-                                std::to_string(config_.buffer_capacity) + ")");
+    throw;
   }
-  core->control.wait_all_held();
-  inputs_.add(in);
-  record();
-  rollback_locked(in.step);
   ++rollbacks_;
 }
 
@@ -246,6 +326,10 @@ void SimulationEngine::rollback_locked(std::int64_t scene_step) {
   for (WorldId w = 0; w < k; ++w)
     while (parts().transport->try_receive(w)) {
     }
+  // Every world's mark goes back to the step now, under the input's pin,
+  // not when its thread takes the rewind: until then its later entries are
+  // still in its buffer, and no reader may take them for final.
+  for (WorldId w = 0; w < k; ++w) parts().horizon->report(w, scene_step * substeps_);
   core->control.rewind(scene_step * substeps_, std::move(state));
 }
 

@@ -25,6 +25,7 @@ namespace soda {
 class SimulationEngine {
  public:
   SimulationEngine(const Scene& scene, TerritoryMap map, SimulationConfig config);
+  SimulationEngine(const SimulationSnapshot& snapshot, TerritoryMap map, SimulationConfig config);
   ~SimulationEngine();
 
   void start(std::int64_t internal_limit);
@@ -37,6 +38,8 @@ class SimulationEngine {
   /// Simulation's input calls (validated here; see simulation.h).
   void input(UserInput input);
   std::int64_t commit_horizon_step() const;
+  /// Simulation::snapshot, once wait_idle returned.
+  SimulationSnapshot snapshot() const;
   std::uint64_t rollbacks() const;
 
   std::shared_ptr<SimulationCore> core;
@@ -45,6 +48,8 @@ class SimulationEngine {
   int threads = 1;
 
  private:
+  void set_up(const Scene& scene, const PartitionedOptions& options, std::unique_ptr<PartitionedWorld> world,
+              std::int64_t start);
   void launch_locked();
   void fail(WorldId world, std::exception_ptr error);
   PartitionedWorld::Internals& parts() { return world->internals(); }

@@ -134,6 +134,10 @@ void Speculation::step_ended(const TerritoryCounters& c) {
 
 bool Speculation::done() { return !c_.safety.horizon->wake_at(me(), s_.step); }
 
+bool Speculation::wake_when_final(std::int64_t scene_step) {
+  return c_.safety.horizon->wake_at(me(), scene_step * c_.substeps);
+}
+
 void Speculation::published(std::int64_t scene_step) {
   last_published_ = scene_step;
   report_committed();
@@ -147,8 +151,11 @@ void Speculation::report_committed() {
   if (!c_.output.control) return;
   const std::int64_t horizon = c_.safety.horizon->gvt() / c_.substeps;
   const std::int64_t commit = std::min(last_published_ - 1, horizon - 1);
-  if (commit > c_.output.buffer->commit_step()) c_.output.buffer->set_commit_step(commit);
-  const std::int64_t committed = std::min(last_published_, horizon);
+  c_.output.buffer->raise_commit_step(commit);
+  // Readers' holds keep entries and states for inputs at their frames, not
+  // the worlds' own speculation: what is committed leaves them out.
+  const std::int64_t committed =
+      std::min(last_published_, c_.safety.horizon->gvt_without_readers() / c_.substeps);
   if (committed > committed_reported_) {
     committed_reported_ = committed;
     c_.output.control->published(me(), committed);
@@ -346,8 +353,12 @@ void Speculation::catch_up() {
   for (const RollbackBoard::Entry& e : c_.safety.board->since(seen_epoch_)) {
     // Rollback and Propagate: the world keeps its old run, which its re-run
     // rejoins if its own state and messages turn out unchanged.
-    if (s_.step > e.step || (s_.step == e.step && s_.phase != StepPhase::Predict))
+    if (s_.step > e.step || (s_.step == e.step && s_.phase != StepPhase::Predict)) {
       restore(e.step, e.pinned, !c_.safety.recompute);
+      // An input at a step readers hold may reach below what was committed:
+      // the re-run reports its steps again (RunControl::rolled_back).
+      committed_reported_ = std::min(committed_reported_, e.step / c_.substeps);
+    }
     seen_epoch_ = e.epoch;
     auto void_message = [&](const Message& m) { return m.epoch < e.epoch && m.step >= e.step; };
     for (auto it = s_.inbox.begin(); it != s_.inbox.end();) {

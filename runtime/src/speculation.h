@@ -96,6 +96,9 @@ class Speculation {
   void step_ended(const TerritoryCounters& counters);
   /// The world reached its target: done unless a step may still change
   /// (the world is then woken when GVT reaches its clock).
+  /// Asks the horizon to wake this world once scene step `scene_step` is
+  /// final; false (and no wake) if it is already.
+  bool wake_when_final(std::int64_t scene_step);
   bool done();
   /// An entry of scene step `scene_step` is in the transform buffer.
   void published(std::int64_t scene_step);

@@ -4,8 +4,11 @@
 
 #include <algorithm>
 #include <deque>
+#include <sstream>
 #include <stdexcept>
 #include <string>
+
+#include <BulletCollision/NarrowPhaseCollision/btPersistentManifold.h>  // gContactBreakingThreshold
 
 #include "soda/worlds/reach.h"
 
@@ -79,12 +82,58 @@ int WorldGraph::diameter() const {
   return d;
 }
 
-TerritoryMap map_with_reach(const Scene& scene, const TerritoryMap& map, double reach_speed) {
+namespace {
+
+// A scene of one body: what reach_cells needs to size the halo of `body`.
+Scene scene_of_one(const Body& body, const SceneSettings& settings) {
+  Scene one;
+  one.settings = settings;
+  one.bodies.push_back(body);
+  one.bodies.back().is_static = false;
+  return one;
+}
+
+// A ball `extent` metres across, standing for the largest body inputs add.
+Body ball(double extent) {
+  Body b;
+  b.shape = Shape::sphere(extent / 2);
+  return b;
+}
+
+}  // namespace
+
+double run_reach_speed(const Scene& scene, double reach_speed) {
   if (!(reach_speed >= 0) || !std::isfinite(reach_speed))
     throw std::invalid_argument("reach speed must be finite and >= 0 m/s (0: from the scene), got " +
                                 std::to_string(reach_speed));
-  const double speed = reach_speed > 0 ? reach_speed : scene_reach_speed(scene);
-  return map.with_reach(std::max(map.reach(), reach_cells(scene, map.grid().cell_size(), speed)));
+  return reach_speed > 0 ? reach_speed : scene_reach_speed(scene);
+}
+
+TerritoryMap map_with_reach(const Scene& scene, const TerritoryMap& map, double reach_speed, double added_extent) {
+  if (!(added_extent >= 0) || !std::isfinite(added_extent))
+    throw std::invalid_argument("the extent of added bodies must be finite and >= 0 m, got " +
+                                std::to_string(added_extent));
+  const double speed = run_reach_speed(scene, reach_speed);
+  const double cell = map.grid().cell_size();
+  int cells = std::max(map.reach(), reach_cells(scene, cell, speed));
+  if (added_extent > 0) cells = std::max(cells, reach_cells(scene_of_one(ball(added_extent), scene.settings), cell, speed));
+  return map.with_reach(cells);
+}
+
+std::string reach_refusal(const Body& body, const SceneSettings& settings, const TerritoryMap& map, double speed) {
+  const double cell = map.grid().cell_size();
+  if (reach_cells(scene_of_one(body, settings), cell, speed) <= map.reach()) return "";
+  // The largest bounding radius r with reach_cells <= reach: r + speed h +
+  // gContactBreakingThreshold < reach * cell (worlds/reach.h).
+  const double h = settings.dt / std::max(1, settings.substeps);
+  const double largest = std::max(0.0, 2.0 * (map.reach() * cell - speed * h - double(gContactBreakingThreshold)));
+  std::ostringstream msg;
+  msg.precision(3);
+  msg << "the body is " << 2.0 * body.shape.bounding_radius() << " m across (bounding-sphere diameter) and this run's "
+      << "worlds reach bodies up to about " << largest << " m across (the largest of the scene it started with, "
+      << "at a reach speed of " << speed << " m/s); give the run room for it from the start "
+      << "(SimulationConfig::added_extent, soda run sizes it from --inputs) or a higher reach speed";
+  return msg.str();
 }
 
 }  // namespace soda

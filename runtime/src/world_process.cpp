@@ -132,6 +132,14 @@ PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
   }
   for (;;) {
     if (s_.phase == StepPhase::Predict && !may_start()) {
+      // Held by readers (RunControl::hold_for_readers) while speculating: it
+      // waits for the horizon, reading its mailbox (a rollback may come).
+      if (spec_ && output_.control) {
+        if (const std::optional<std::int64_t> until = output_.control->held_until(s_.step)) {
+          result.progressed = result.progressed || !spec_->wake_when_final(*until);
+          break;
+        }
+      }
       // Speculating, the world is done only once no step of it can change:
       // once the commit horizon reaches its clock.
       result.done = !spec_ || spec_->done();
@@ -294,7 +302,7 @@ void PartitionedWorld::Process::send_ghosts() {
 
 void PartitionedWorld::Process::exchange_ghosts() {
   StageClock::Scope stage(clock_, Stage::ExchangeGhosts);
-  s_.world->apply_ghosts(take_all<GhostBatch>(MessageKind::Ghosts, neighbours_));
+  s_.world->apply_ghosts(take_all<GhostBatch>(MessageKind::Ghosts, neighbours_), spec_ != nullptr);
 }
 
 void PartitionedWorld::Process::collide() {

@@ -104,7 +104,7 @@ void PartitionedWorld::Process::entry_published(std::int64_t scene_step, bool ke
   // rewritten, so only steps below it are committed.
   std::int64_t commit = scene_step - 1;
   if (safety_.keep_states) commit = std::min(commit, safety_.horizon->gvt() / substeps_ - 1);
-  if (commit > output_.buffer->commit_step()) output_.buffer->set_commit_step(commit);
+  output_.buffer->raise_commit_step(commit);
   output_.control->published(s_.world->id(), scene_step);
 }
 

@@ -119,6 +119,10 @@ const std::vector<SceneGenerator>& scene_registry() {
        "a 10 m box of 1000 kg with N x N boxes of 0.05 m and 0.1 kg resting on it and N x N on the "
        "ground beside it (default N 5, N <= 20)",
        detail::make_mixed_sizes},
+      {"big-bodies",
+       "N unit cubes (default 300) in a loose block, and bodies of 2 m, 5 m and 20 m across (boxes, "
+       "capsules, convex hulls; 500 kg per m^3 of bounding box) falling into it across territory borders",
+       detail::make_big_bodies},
       // Analytic scenes (closed-form answers; N ignored).
       {"free-fall", "one sphere falling from y = 100 m; 180 steps of free flight",
        detail::make_free_fall},

@@ -168,6 +168,18 @@ TEST(UniformGrid, CellsOverlappingAnAabb) {
   expect_grid_error([&] { g.cells_overlapping(Vec3(1, 0, 0), Vec3(0, 1, 1)); }, {"exceeds"});
 }
 
+// A few large bodies among many small ones do not size the cells: 90 % of
+// the bodies fit the default cell.
+TEST(MakeGrid, DefaultCellSizeFitsNinetyPercentOfTheBodies) {
+  Scene s;
+  for (BodyId id = 1; id <= 90; ++id) s.bodies.push_back(cube(id, Vec3(2.0 * id, 0, 0), 0.5));
+  for (BodyId id = 91; id <= 100; ++id) s.bodies.push_back(cube(id, Vec3(0, 25.0 * id, 0), 10.0));  // 20 m boxes
+  EXPECT_DOUBLE_EQ(default_cell_size(s), std::sqrt(3.0));  // 10 of 100 are large
+  EXPECT_DOUBLE_EQ(make_grid(s, GridOptions{}).cell_size(), std::sqrt(3.0));
+  s.bodies.push_back(cube(101, Vec3(0, -50, 0), 10.0));  // 11 of 101 (10.9 %)
+  EXPECT_DOUBLE_EQ(default_cell_size(s), 20.0 * std::sqrt(3.0));
+}
+
 TEST(MakeGrid, CellSizeIsTheLargestDynamicExtentByDefault) {
   Scene s;
   s.bodies.push_back(cube(1, Vec3::Zero(), 0.5));
@@ -182,16 +194,12 @@ TEST(MakeGrid, CellSizeIsTheLargestDynamicExtentByDefault) {
   EXPECT_DOUBLE_EQ(make_grid(Scene{}, GridOptions{}).cell_size(), kDefaultCellSize);
 }
 
-TEST(MakeGrid, OverrideSmallerThanTheLargestBodyIsRefused) {
+TEST(MakeGrid, AnyPositiveOverrideIsAccepted) {
   Scene s;
   s.bodies.push_back(cube(1, Vec3::Zero(), 0.5));  // extent sqrt(3) = 1.732...
   GridOptions o;
-  o.cell_size = 1.0;
-  expect_grid_error([&] { make_grid(s, o); },
-                    {"cell size override 1 m", "smaller than the largest dynamic body",
-                     "1.732"});
-  o.cell_size = s.largest_dynamic_extent();  // equal is allowed
-  EXPECT_DOUBLE_EQ(make_grid(s, o).cell_size(), s.largest_dynamic_extent());
+  o.cell_size = 1.0;  // smaller than the body: it spans several cells
+  EXPECT_DOUBLE_EQ(make_grid(s, o).cell_size(), 1.0);
   o.cell_size = 5.0;
   EXPECT_DOUBLE_EQ(make_grid(s, o).cell_size(), 5.0);
   o.cell_size = -2.0;

@@ -214,14 +214,14 @@ TEST(Partition, BadSpecsAndCountsAreClearErrors) {
                     {"cannot open territory map '/no/such/map.txt'"});
 }
 
-TEST(Partition, CellSizeOverrideSmallerThanTheLargestBodyIsRefused) {
+// A body larger than a cell spans several: any cell size is accepted.
+TEST(Partition, CellsSmallerThanTheLargestBodyAreAccepted) {
   Scene s = small_scene();
   s.bodies.push_back(test::cube(3, Vec3(2, 0, 0), 1.0));  // extent 2*sqrt(3)
   GridOptions o;
   o.cell_size = 3.0;
   for (const std::string spec : {"kmeans", "rcb", "grid:1x1x1"})
-    expect_grid_error([&] { make_partition(spec, s, 1, o); },
-                      {"smaller than the largest dynamic body", "3.46"});
+    EXPECT_DOUBLE_EQ(make_partition(spec, s, 1, o).grid().cell_size(), 3.0) << spec;
 }
 
 }  // namespace

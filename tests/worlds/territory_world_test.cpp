@@ -5,8 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <memory>
+
+#include <btBulletDynamicsCommon.h>
 
 #include "soda/worlds/canonical_world.h"
 #include "soda/worlds/territory_world.h"
@@ -191,16 +194,28 @@ TEST(TerritoryWorld, MidStepReplayGivesWhatSolvingGives) {
   EXPECT_EQ(serialize(replayed->part_snapshot()), serialize(old.states[1]));
 }
 
-TEST(TerritoryWorld, RefusesBodiesOutsideTheExactnessContract) {
+// Bodies of any size (docs/determinism.md): a 4 m cube is taken, and its
+// manifolds break at sqrt(2) * gContactBreakingThreshold, while a unit
+// cube's keep Bullet's own threshold (its bounding radius * 0.02) bit for bit.
+TEST(TerritoryWorld, TakesLargeBodiesWithTheCappedBreakingThreshold) {
   Scene s = test::scene("falling-cubes", 3);
-  s.bodies.back().shape = Shape::box(Vec3(2.0, 2.0, 2.0));  // 4 m cube: its breaking threshold is too large
-  try {
-    TerritoryWorld w(s, 0, TerritoryMap());
-    ADD_FAILURE() << "no exception";
-  } catch (const PartitionError& e) {
-    std::printf("[ contract ] %s\n", e.what());
-    EXPECT_NE(std::string(e.what()).find("body 3"), std::string::npos);
+  s.bodies.back().shape = Shape::box(Vec3(2.0, 2.0, 2.0));  // a 4 m cube: radius 3.46 m
+  EXPECT_NO_THROW(TerritoryWorld(s, 0, TerritoryMap()));
+  CanonicalWorld w(s);
+  for (int i = 0; i < 200; ++i) w.step();
+  btDispatcher& d = *w.bullet().getDispatcher();
+  const btScalar capped = btScalar(std::sqrt(2.0)) * gContactBreakingThreshold;
+  int large = 0;
+  for (int i = 0; i < d.getNumManifolds(); ++i) {
+    const btPersistentManifold* m = d.getManifoldByIndexInternal(i);
+    const btScalar bullet =
+        btMin(m->getBody0()->getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold),
+              m->getBody1()->getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold));
+    EXPECT_EQ(m->getContactBreakingThreshold(), btMin(bullet, capped));  // unit cubes: Bullet's own
+    if (bullet > capped) ++large;
   }
+  std::printf("[ thresholds ] %d of %d manifolds capped (the 4 m cube's)\n", large, d.getNumManifolds());
+  EXPECT_GT(large, 0);
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "coloured_solver.h"
 #include "parking.h"
 #include "soda/worlds/canonical_world.h"
+#include "contact_threshold.h"
 #include "world_teardown.h"
 
 namespace soda {
@@ -27,7 +28,7 @@ struct CanonicalWorldParts {
   CanonicalWorldParts& operator=(const CanonicalWorldParts&) = delete;
 
   btDefaultCollisionConfiguration config;
-  btCollisionDispatcher dispatcher{&config};
+  CappedDispatcher dispatcher{&config};  // contact_threshold.h
   PairCache pairs;  // before the broadphase, which uses it (pair_cache.h)
   btDbvtBroadphase broadphase{&pairs};
   ColouredSolver solver;  // docs/coloured-solve.md

@@ -20,9 +20,8 @@
 //     state at every later step boundary is its state when parked;
 //  2. it can only change through a contact point with an awake body, and a
 //     point can only appear while the two bodies' Bullet AABBs overlap
-//     (every shape's contact breaking threshold at most
-//     sqrt(2) * gContactBreakingThreshold, the territory worlds' contract;
-//     an island with a body beyond it is never parked). **Wake rule**: in
+//     (every manifold's contact breaking threshold is at most
+//     sqrt(2) * gContactBreakingThreshold: contact_threshold.h). **Wake rule**: in
 //     every step, after the AABBs are updated and before the broadphase
 //     pass, every island holding a body whose AABB (as updateSingleAabb
 //     computes it: bullet_aabb) overlaps (closed boxes) the broadphase AABB
@@ -93,8 +92,8 @@ class Parking {
   Parking(const Parking&) = delete;
   Parking& operator=(const Parking&) = delete;
 
-  // --- parking, at a step's end (the host checked every body settled and
-  // within_contract, settled.h) -------------------------------------------
+  // --- parking, at a step's end (the host checked every body settled,
+  // settled.h) ------------------------------------------------------------
   /// A parked island of these bodies (in the world now; they leave it at
   /// finish_parking). Returns its slot (an index, reused once it is woken).
   std::size_t add_island(btCollisionObject* const* bodies, int n);

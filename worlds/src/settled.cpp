@@ -29,9 +29,4 @@ bool body_settled(const btRigidBody& b, btScalar h) {
   return same_bits(predicted, b.getInterpolationWorldTransform());
 }
 
-bool within_contract(const btRigidBody& b) {
-  const btScalar limit = btScalar(std::sqrt(2.0)) * gContactBreakingThreshold;
-  return b.getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold) <= limit;
-}
-
 }  // namespace soda

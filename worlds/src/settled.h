@@ -18,9 +18,4 @@ bool zero_bits(const btVector3& v);
 /// integration; damping and prediction rewrite the same bits.
 bool body_settled(const btRigidBody& b, btScalar h);
 
-/// Rule 2 of parking.h: a contact point of `b` can only exist while the two
-/// bodies' Bullet AABBs overlap (its shape's contact breaking threshold is at
-/// most sqrt(2) * gContactBreakingThreshold, the territory worlds' contract).
-bool within_contract(const btRigidBody& b);
-
 }  // namespace soda

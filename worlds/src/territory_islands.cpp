@@ -488,8 +488,8 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
   const int manifold_count = static_cast<int>(manifolds.size());
   if (decide_island_sleeping(bodies.data(), static_cast<int>(bodies.size()))) {
     // The other worlds' manifolds: copies, each reset to what
-    // btCollisionDispatcher::getNewManifold makes (thresholds as it gives
-    // them), then the points. A manifold held here is solved in place; one
+    // CappedDispatcher::getNewManifold makes (thresholds as it gives them),
+    // then the points. A manifold held here is solved in place; one
     // with a ghost at an end points at the copy of that body meanwhile (the
     // ghost is this world's view of another world's body, not the island's).
     std::vector<std::unique_ptr<btPersistentManifold>>& copies = parts_->manifold_copies;
@@ -531,9 +531,7 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
       for (int i = begin; i < end; ++i) {
         if (manifolds[static_cast<std::size_t>(i)].original) continue;
         const auto [b0, b1] = ends[static_cast<std::size_t>(i)];
-        const btScalar breaking =
-            btMin(b0->getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold),
-                  b1->getCollisionShape()->getContactBreakingThreshold(gContactBreakingThreshold));
+        const btScalar breaking = manifold_breaking_threshold(*b0, *b1);
         const btScalar processing = btMin(b0->getContactProcessingThreshold(), b1->getContactProcessingThreshold());
         btPersistentManifold& m = *ptrs[static_cast<std::size_t>(i)];
         m = btPersistentManifold(b0, b1, 0, breaking, processing);

@@ -73,7 +73,7 @@ void TerritoryWorld::park_lone_settled() {
     if (d.getManifoldByIndexInternal(i)->getNumContacts() > 0) return;
   const btScalar h = btScalar(settings_.dt / settings_.substeps);
   for (Entry* e : owned_) {
-    if (!body_settled(*e->body, h) || !within_contract(*e->body) || !inside_own_cells(*e)) continue;
+    if (!body_settled(*e->body, h) || !inside_own_cells(*e)) continue;
     btCollisionObject* one[] = {e->body.get()};
     mark_parked(*e, parts_->parking.add_island(one, 1), parked_);
   }
@@ -97,8 +97,7 @@ void TerritoryWorld::park_settled_islands() {
       park = it != entries_.end() && it->second->role == Role::Owned;
       if (!park) break;
       const Entry& e = *it->second;
-      park = !e.parked && e.sent_to.empty() && !kept_bodies.count(id) && body_settled(*e.body, h) &&
-             within_contract(*e.body);
+      park = !e.parked && e.sent_to.empty() && !kept_bodies.count(id) && body_settled(*e.body, h);
       if (!park) break;
       bodies.push_back(e.body.get());
     }

@@ -18,14 +18,6 @@ namespace {
 
 Vec3 to_vec3(const btVector3& v) { return Vec3(double(v.x()), double(v.y()), double(v.z())); }
 
-// Largest contact breaking threshold for which a manifold point can only
-// exist while the two bodies' Bullet AABBs (each grown by
-// gContactBreakingThreshold) overlap: a kept point is within the threshold
-// along the normal and across it, so its two ends are at most sqrt(2) * t
-// apart, which must stay below the 2 * gContactBreakingThreshold the AABBs
-// were grown by together.
-btScalar max_exact_breaking_threshold() { return btScalar(std::sqrt(2.0)) * gContactBreakingThreshold; }
-
 // Bit of cell c in a bitset over the map box's cells (false outside the
 // box), as in interior_. Forced inline: predict asks it for every owned body.
 [[gnu::always_inline]] inline bool interior_bit(const std::vector<std::uint64_t>& bits, const CellBox& box,
@@ -60,7 +52,7 @@ TerritoryWorld::TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map)
     }
     // Home cell from the position as Bullet holds it (rounded to btScalar).
     if (owner_of_origin(to_bt(b.position)) != id_) continue;
-    check_contract(insert_dynamic(b, nullptr, true, id_));
+    insert_dynamic(b, nullptr, true, id_);
   }
   init_interior();
 }
@@ -74,15 +66,6 @@ void TerritoryWorld::init_world(const TerritoryWorld* share_pools_of) {
   if (share_pools_of) parts_->solver.set_pool(share_pools_of->parts_->solver.pool());
   parts_->world.setGravity(to_bt(settings_.gravity));
   configure_canonical_solver(parts_->world.getSolverInfo(), settings_);
-}
-
-void TerritoryWorld::check_contract(const Entry& e) const {
-  const btScalar t = e.shape->getContactBreakingThreshold(gContactBreakingThreshold);
-  if (t > max_exact_breaking_threshold())
-    throw PartitionError("body " + std::to_string(e.id()) + " is outside the partitioned exactness contract: "
-                         "its contact breaking threshold " + std::to_string(double(t)) +
-                         " m exceeds sqrt(2) * gContactBreakingThreshold (bounding radius too large; "
-                         "docs/partitioned-step.md)");
 }
 
 // Interior cells: owned here, and so are their 26 neighbours. A body whose
@@ -335,7 +318,7 @@ GhostBatch TerritoryWorld::ghost_batch_for(WorldId neighbour) const {
   return batch;
 }
 
-void TerritoryWorld::apply_ghosts(const std::vector<std::pair<WorldId, GhostBatch>>& batches) {
+void TerritoryWorld::apply_ghosts(const std::vector<std::pair<WorldId, GhostBatch>>& batches, bool speculative) {
   for (Entry* e : ghosts_) e->refreshed = false;
   seeds_ = kept_;
   ghost_senders_.clear();
@@ -350,12 +333,15 @@ void TerritoryWorld::apply_ghosts(const std::vector<std::pair<WorldId, GhostBatc
         e = &insert_dynamic(d, &g.record.body.state, false, from);
       } else if (it->second->role == Role::Ghost) {
         e = it->second.get();
+        if (e->refreshed && speculative) continue;
         if (e->refreshed)
           throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) +
                                ": ghost of body " + std::to_string(d.id) + " received from worlds " +
                                std::to_string(e->owner) + " and " + std::to_string(from));
         write_dynamic_state(*e->body, g.record.body.state);
         e->owner = from;
+      } else if (speculative) {
+        continue;
       } else {
         throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) +
                              ": world " + std::to_string(from) + " sent a ghost of body " + std::to_string(d.id) +

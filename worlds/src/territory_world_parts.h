@@ -13,6 +13,7 @@
 #include <btBulletDynamicsCommon.h>
 
 #include "body_factory.h"
+#include "contact_threshold.h"
 #include "pair_cache.h"
 #include "parking.h"
 #include "coloured_solver.h"
@@ -49,11 +50,12 @@ struct TerritoryWorld::Entry {
   BodyId id() const { return description.id; }
 };
 
-/// The dispatcher runs the near callback of the world it belongs to.
-class TerritoryWorld::Dispatcher final : public btCollisionDispatcher {
+/// The dispatcher runs the near callback of the world it belongs to; its
+/// manifolds break at manifold_breaking_threshold (contact_threshold.h).
+class TerritoryWorld::Dispatcher final : public CappedDispatcher {
  public:
   Dispatcher(btCollisionConfiguration* config, TerritoryWorld* world)
-      : btCollisionDispatcher(config), world_(world) {
+      : CappedDispatcher(config), world_(world) {
     setNearCallback(&Dispatcher::near);
   }
 

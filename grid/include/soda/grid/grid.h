@@ -21,8 +21,10 @@
 //     machine; a point exactly on a cell boundary belongs to the upper cell;
 //  3. cell coordinates saturate at +-kMaxCellIndex, so every finite position
 //     has a cell; a non-finite position is an error, never a cell;
-//  4. a grid built by make_grid has cell_size >= Scene::largest_dynamic_extent(),
-//     so bodies can only touch bodies in their own or adjacent cells.
+//  4. a body may be larger than a cell: it then spans several cells, and
+//     its halo (the AABB the partitioned step ghosts by) reaches every cell
+//     it overlaps; the neighbours of a territory reach as far as the largest
+//     body does (reach.h).
 #pragma once
 
 #include <cmath>
@@ -109,9 +111,8 @@ class UniformGrid {
 
 /// How to lay the grid over a scene and how to partition it. Plain value.
 struct GridOptions {
-  /// Cell size override, metres. Must be >= Scene::largest_dynamic_extent()
-  /// (else GridError). Unset: the largest dynamic extent (kDefaultCellSize if
-  /// the scene has no dynamic body).
+  /// Cell size override, metres, finite and > 0 (else GridError). Unset:
+  /// default_cell_size(scene).
   std::optional<double> cell_size;
   /// Grid origin, metres: cell boundaries lie at origin + i * cell_size. Put a
   /// border at an exact coordinate by choosing origin and box together.
@@ -131,6 +132,14 @@ struct GridOptions {
 /// Throws GridError if the override is smaller than the largest dynamic body
 /// (the message gives both numbers) or not finite and positive.
 UniformGrid make_grid(const Scene& scene, const GridOptions& options);
+
+/// The cell size a scene gets by default: the extent (bounding-sphere
+/// diameter, so that rotation never makes it larger) that 90 % of its dynamic
+/// bodies do not exceed — the largest body's when all are alike, a unit
+/// cube's when a few large bodies (a plank, a vehicle, a ship) stand among
+/// many cubes, which then span several cells each instead of making every
+/// cell as large as they are. kDefaultCellSize when nothing moves.
+double default_cell_size(const Scene& scene);
 
 /// The territory map's box: options.box if set, else the cells overlapped by
 /// the dynamic bodies' initial AABBs (the static bodies' positions if there is

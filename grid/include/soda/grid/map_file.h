@@ -25,11 +25,11 @@ namespace soda {
 /// no cell or a disconnected territory. Pure function; thread-safe.
 TerritoryMap parse_territory_map(std::string_view text, const std::string& source);
 
-/// Reads and parses a file, then checks it against a scene and a territory
-/// count: cell_size >= scene.largest_dynamic_extent() and worlds == k. Throws
-/// GridError naming the file (and the line or field) on any failure,
-/// including a file that cannot be read.
-TerritoryMap load_territory_map(const std::string& path, const Scene& scene, int k);
+/// Reads and parses a file, then checks it against a territory count:
+/// worlds == k. Any cell size is accepted (bodies larger than a cell span
+/// several). Throws GridError naming the file (and the line or field) on
+/// any failure, including a file that cannot be read.
+TerritoryMap load_territory_map(const std::string& path, int k);
 
 /// The map in the file format, owners written per box cell with run-length
 /// "N*W" tokens; parse_territory_map(format_territory_map(m)) == m.

@@ -60,6 +60,21 @@ class CommitHorizon {
   /// Called (outside any lock of the horizon) with each world whose wake_at
   /// step gvt() reached; set before any world runs.
   virtual void set_wake_hook(std::function<void(WorldId)> hook) = 0;
+  /// A reader's hold (a Simulation's SceneReader with past inputs): as pin
+  /// and unpin, but gvt_without_readers() leaves it out. Any thread.
+  virtual void pin_reader(std::int64_t step) = 0;
+  virtual void unpin_reader(std::int64_t step) = 0;
+  /// gvt() without the readers' holds: the step below which no world's own
+  /// speculation can change anything any more (what the worlds report as
+  /// committed; an input at a step a reader holds can still change later
+  /// steps, as an input at a past step always can). Any thread.
+  virtual std::int64_t gvt_without_readers() const = 0;
+  /// Called (outside any lock of the horizon, on the thread that moved it)
+  /// each time gvt() or gvt_without_readers() rises above every value it had
+  /// before: a report, an unpin, a global value. Readers that wait for a
+  /// step to become final, and the committed frontier, follow it. Set before
+  /// any world runs; none by default.
+  virtual void set_advance_hook(std::function<void()> hook) = 0;
 };
 
 /// One machine: the marks under one mutex (each world reports once a step).
@@ -88,7 +103,7 @@ class SharedMemoryHorizon final : public CommitHorizon {
       global_ = step;
       woken = due_locked();
     }
-    for (WorldId w : woken) hook_(w);
+    notify(woken);
   }
   /// This rank's part of a cut: the minimum of its worlds' marks and its
   /// pins (not bounded by set_global's value). Any thread.
@@ -105,7 +120,7 @@ class SharedMemoryHorizon final : public CommitHorizon {
       marks_[static_cast<std::size_t>(world)] = step;
       woken = due_locked();
     }
-    for (WorldId w : woken) hook_(w);
+    notify(woken);
   }
   std::int64_t gvt() const override {
     std::lock_guard lock(mutex_);
@@ -131,6 +146,24 @@ class SharedMemoryHorizon final : public CommitHorizon {
     std::lock_guard lock(mutex_);
     pins_.insert(step);
   }
+  void pin_reader(std::int64_t step) override {
+    std::lock_guard lock(mutex_);
+    reader_pins_.insert(step);
+  }
+  void unpin_reader(std::int64_t step) override {
+    std::vector<WorldId> woken;
+    {
+      std::lock_guard lock(mutex_);
+      auto it = reader_pins_.find(step);
+      if (it != reader_pins_.end()) reader_pins_.erase(it);
+      woken = due_locked();
+    }
+    notify(woken);
+  }
+  std::int64_t gvt_without_readers() const override {
+    std::lock_guard lock(mutex_);
+    return gvt_without_readers_locked();
+  }
   void unpin(std::int64_t step) override {
     std::vector<WorldId> woken;
     {
@@ -139,7 +172,7 @@ class SharedMemoryHorizon final : public CommitHorizon {
       if (it != pins_.end()) pins_.erase(it);
       woken = due_locked();
     }
-    for (WorldId w : woken) hook_(w);
+    notify(woken);
   }
   bool wake_at(WorldId world, std::int64_t step) override {
     std::lock_guard lock(mutex_);
@@ -148,8 +181,24 @@ class SharedMemoryHorizon final : public CommitHorizon {
     return true;
   }
   void set_wake_hook(std::function<void(WorldId)> hook) override { hook_ = std::move(hook); }
+  void set_advance_hook(std::function<void()> hook) override { advance_hook_ = std::move(hook); }
 
  private:
+  // Outside the lock: the worlds whose wake_at step gvt() reached, then the
+  // advance hook if gvt() rose above every earlier value.
+  void notify(const std::vector<WorldId>& woken) {
+    for (WorldId w : woken) hook_(w);
+    if (!advance_hook_) return;
+    bool rose = false;
+    {
+      std::lock_guard lock(mutex_);
+      const std::int64_t g = gvt_locked(), w = gvt_without_readers_locked();
+      rose = g > notified_ || w > notified_without_readers_;
+      notified_ = std::max(notified_, g);
+      notified_without_readers_ = std::max(notified_without_readers_, w);
+    }
+    if (rose) advance_hook_();
+  }
   static constexpr std::int64_t kNever = INT64_MAX;
   std::vector<WorldId> due_locked() {
     std::vector<WorldId> out;
@@ -161,19 +210,28 @@ class SharedMemoryHorizon final : public CommitHorizon {
       }
     return out;
   }
-  std::int64_t gvt_locked() const {
+  std::int64_t gvt_without_readers_locked() const {
     std::int64_t low = std::min(global_, *std::min_element(marks_.begin(), marks_.end()));
     if (!pins_.empty()) low = std::min(low, *pins_.begin());
+    return low;
+  }
+  std::int64_t gvt_locked() const {
+    std::int64_t low = gvt_without_readers_locked();
+    if (!reader_pins_.empty()) low = std::min(low, *reader_pins_.begin());
     highest_ = std::max(highest_, low);
     return low;
   }
   mutable std::mutex mutex_;
   std::vector<std::int64_t> marks_;
   std::multiset<std::int64_t> pins_;
+  std::multiset<std::int64_t> reader_pins_;  // pin_reader: readers' holds
   mutable std::int64_t highest_ = INT64_MIN;  // highest gvt_locked() result (highest_gvt())
   std::int64_t global_ = kNever;    // over ranks: the ranks' last GVT (set_global); one machine: no bound
   std::vector<std::int64_t> wake_;  // per world: the gvt it waits for
   std::function<void(WorldId)> hook_ = [](WorldId) {};
+  std::function<void()> advance_hook_;  // none: no reader waits for gvt()
+  std::int64_t notified_ = INT64_MIN;   // the highest gvt() advance_hook_ was called for
+  std::int64_t notified_without_readers_ = INT64_MIN;  // and gvt_without_readers()
 };
 
 }  // namespace soda

@@ -145,6 +145,18 @@ class TransformBuffer {
   /// entries and release a waiting writer. Any thread.
   void set_commit_step(std::int64_t step);
 
+  /// Raises the commit step to `step`, but never to the newest published
+  /// step or above (the newest entry stays readable); a no-op if that is
+  /// not higher than the commit step now. Unlike set_commit_step, several
+  /// threads may raise it at once (a writer and the runtime following the
+  /// commit horizon). May free entries and release a waiting writer. Any
+  /// thread.
+  void raise_commit_step(std::int64_t step);
+
+  /// The step of the newest entry published (held or freed), kNoStep before
+  /// the first publish; after invalidate_from(t), t - 1. Any thread.
+  std::int64_t newest_step() const;
+
   /// Releases every waiter and makes all later waits return at once
   /// (publish -> false when full, wait_next -> null when nothing is next,
   /// wait_for_time -> false when not reached). Irreversible. Any thread.

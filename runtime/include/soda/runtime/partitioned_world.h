@@ -150,6 +150,11 @@ struct PartitionedOptions {
   /// PartitionError naming the body, its speed and the speed to set here.
   /// Results never depend on it. >= 0.
   double reach_speed = 0;
+  /// Metres: the bounding-sphere diameter of the largest body an input may
+  /// add (the reach is sized for it too: reach.h). 0: the largest of the
+  /// scene and of `inputs`. A larger added body is refused, naming its size
+  /// and the largest the run takes. Results never depend on it. >= 0.
+  double added_extent = 0;
   /// Load balancing (docs/loadbalance.md): every balance.period scene steps
   /// step() stops every world at that step (the *balance step*: nothing is
   /// speculated beyond it), shows the policy what the worlds measured over
@@ -344,6 +349,9 @@ class PartitionedWorld {
 
   /// The territory map in force now (reach included: map_with_reach).
   const TerritoryMap& map() const;
+  /// Why `body` cannot be added by input (its halo could reach worlds that
+  /// are not neighbours: reach_refusal); "" if it can.
+  std::string add_refusal(const Body& body) const;
   /// One record per balance step so far, in order (PartitionedOptions::
   /// balance; empty under policy "none"). Valid until the next step().
   const std::vector<BalanceRecord>& balance_log() const { return balance_log_; }
@@ -368,6 +376,7 @@ class PartitionedWorld {
              const std::function<std::unique_ptr<TerritoryWorld>(WorldId)>& make_world);
   void restore(WorldSnapshot state);
   void init_inputs(const Scene& scene);
+  TerritoryMap map_for_run(const Scene& scene, const TerritoryMap& map);
   void run_to(std::int64_t scene_step);
   // Over the ranks of options_.group (partitioned_ranks.cpp).
   bool steps_world(WorldId w) const;
@@ -394,6 +403,8 @@ class PartitionedWorld {
   int substeps_ = 1;       // of the worlds now (a heal re-simulates a step with more)
   int base_substeps_ = 1;  // the scene's
   std::int64_t steps_done_ = 0;
+  double reach_speed_ = 0;  // the run's (map_for_run)
+  SceneSettings settings_;  // the scene's
   std::unique_ptr<Internals> in_;  // worlds, processes, transport, horizon, board
   std::shared_ptr<std::atomic<bool>> fault_fired_;
   std::shared_ptr<class FuzzRandom> fuzz_;

@@ -5,8 +5,14 @@
 // Every world publishes, after each scene step t, an entry (t, t * dt) with
 // the poses of the bodies it owns at that step boundary. A SceneReader joins
 // the K entries of one step into a SceneFrame; since migrants are absorbed
-// within the step that sends them, every dynamic body is in exactly one
-// world's entry (checked on every read: a body twice or missing throws).
+// within the step that sends them, every body alive at that step is in
+// exactly one world's entry (checked on every read against the bodies the
+// scene and the inputs give that step: a body twice, missing or not alive
+// throws). A reader serves final frames only: frames no rollback can change
+// (with speculation or past inputs, once the commit horizon has reached
+// them); with past inputs it holds the horizon at the frame it uses, so an
+// input at the frame on screen is accepted (docs/embedding.md, "The game
+// loop").
 //
 //   soda::SceneReader reader = sim.add_reader();       // any thread
 //   std::thread render([&] {
@@ -43,13 +49,14 @@ ScenePose body_pose(const BodyState& state);
 struct SceneFrame {
   std::int64_t step = 0;         // scene step
   double time = 0.0;             // step * dt, seconds
-  std::vector<ScenePose> poses;  // every dynamic body exactly once, ascending id
+  std::vector<ScenePose> poses;  // every dynamic body alive at `step` exactly once, ascending id
   /// owners[i]: the world whose entry held poses[i] (its owner at `step`).
   std::vector<WorldId> owners;
   /// Per world: thread CPU time it spent since its previous entry
   /// (TransformEntry::busy_seconds), seconds; 0 for step 0.
   std::vector<double> busy_seconds;
-  /// The pose of `id`, or null if it is not a dynamic body of the scene.
+  /// The pose of `id`, or null if it is not a dynamic body of the scene at
+  /// this step.
   const ScenePose* find(BodyId id) const;
 };
 
@@ -81,12 +88,15 @@ class SceneReader {
   ~SceneReader();
 
   /// The scene at the closest step at or before `time` (s >= 0): waits until
-  /// every world has published that step. nullopt if the step is no longer
+  /// every world has published that step and it is final. With past inputs
+  /// the reader holds the commit horizon there from now on (an input at this
+  /// frame's time is still accepted) and releases what it held before.
+  /// nullopt if the step is no longer
   /// held (the reader moved past it), or the Simulation was stopped before
   /// every world published it. Throws SimulationError if a world failed
   /// while it waited, std::invalid_argument for a negative or NaN time,
-  /// std::logic_error if the worlds' entries do not hold every body exactly
-  /// once. Reader's thread.
+  /// std::logic_error if the worlds' entries do not hold every body alive at
+  /// that step exactly once. Reader's thread.
   std::optional<SceneFrame> read_at(double time);
 
   /// As read_at, but never waits: nullopt also when some world has not
@@ -97,8 +107,9 @@ class SceneReader {
   /// next one (interpolate_entries: positions and velocities linear,
   /// orientations slerped); waits for both. At a step's own time the poses
   /// are that frame's, bit for bit. If the run stops before the next frame
-  /// exists, the earlier frame's poses (no extrapolation). nullopt and
-  /// errors as read_at. Reader's thread.
+  /// exists, the earlier frame's poses (no extrapolation). With past inputs
+  /// it holds the horizon at the later frame (give inputs at its time).
+  /// nullopt and errors as read_at. Reader's thread.
   std::optional<SceneSample> interpolate(double time);
 
   /// Step of the last frame this reader returned; -1 before its first read.
@@ -112,11 +123,13 @@ class SceneReader {
   Got gather(std::int64_t step, bool move_cursors, std::vector<std::shared_ptr<const TransformEntry<btScalar>>>& out);
   SceneFrame assemble(std::int64_t step, const std::vector<std::shared_ptr<const TransformEntry<btScalar>>>& entries) const;
   std::optional<SceneFrame> read(double time, bool wait);
+  void use_up_to(std::int64_t step);
   void release() noexcept;
 
   std::shared_ptr<SimulationCore> core_;
   std::vector<BufferReaderId> ids_;  // one per world
   std::int64_t last_step_ = -1;
+  std::int64_t pinned_ = -1;  // the step this reader holds the commit horizon at; -1: none
 };
 
 }  // namespace soda

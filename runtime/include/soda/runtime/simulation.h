@@ -50,6 +50,7 @@
 #include "soda/scene/registry.h"
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
+#include "soda/worlds/world_snapshot.h"
 
 namespace soda {
 
@@ -76,8 +77,10 @@ struct SimulationConfig {
   /// Accept input at steps some world has already passed (but not older
   /// than the commit horizon): every world keeps its state at each step
   /// boundary from the horizon to its clock (a snapshot per step) and such
-  /// an input rolls every world back to its step. Off: input only at steps
-  /// no world has begun. Not with `validate`.
+  /// an input rolls every world back to its step. Every SceneReader holds
+  /// the horizon at the frame it last used, so an input at the frame on
+  /// screen is always accepted (docs/embedding.md, "The game loop"). Off:
+  /// input only at steps no world has begun. Not with `validate`.
   bool past_inputs = false;
   /// Speculation (PartitionedOptions::anticipation, docs/rollback.md): a
   /// world may run up to this many scene steps past the commit horizon,
@@ -107,6 +110,10 @@ struct SimulationConfig {
   /// Speed (m/s) the worlds' neighbourhoods are sized for
   /// (PartitionedOptions::reach_speed; 0: from the scene).
   double reach_speed = 0;
+  /// Metres: the bounding-sphere diameter of the largest body add_body may
+  /// add (PartitionedOptions::added_extent; 0: the scene's largest). A larger
+  /// one is refused, naming its size and the largest the run takes.
+  double added_extent = 0;
   /// Load balancing: only policy "none" (the default) for now. A
   /// Simulation's worlds run freely and are never all stopped at one step,
   /// and the cession (PartitionedOptions::balance) is applied at such a
@@ -135,6 +142,24 @@ class SimulationError : public std::runtime_error {
   std::exception_ptr cause_;
 };
 
+/// A Simulation's whole state at one scene step boundary
+/// (Simulation::snapshot()), from which a Simulation goes on exactly as the
+/// one it was taken from — with any territories, partition, threads or
+/// speculation (docs/embedding.md, "Snapshots"). Plain values, copyable;
+/// the bodies' states and contacts in btScalar bits (a snapshot of the float
+/// build is not one of the double build).
+struct SimulationSnapshot {
+  /// Every body, statics included, and every contact, at scene step
+  /// state.steps_done.
+  WorldSnapshot state;
+  /// The inputs given for steps at or after that step (not applied yet), in
+  /// the order they apply.
+  std::vector<UserInput> inputs;
+  /// Ids of bodies removed before that step: a restored run never reuses
+  /// them.
+  std::vector<BodyId> retired_ids;
+};
+
 class SimulationEngine;  // internal
 
 /// One scene on K worlds in the background, read through SceneReaders; see
@@ -152,6 +177,16 @@ class Simulation {
   /// As above with a ready territory map (config.territories, partition and
   /// grid are ignored).
   Simulation(const Scene& scene, TerritoryMap map, SimulationConfig config = {});
+  /// Restores a snapshot (Simulation::snapshot()): a Simulation at scene step
+  /// snapshot.state.steps_done, published as its first frame, steps numbered
+  /// on from it, that goes on exactly as the run the snapshot was taken from
+  /// (the same frames and state_hash at every later step), cut into
+  /// config.territories territories of the bodies where they are now. The
+  /// snapshot's inputs are queued. Throws as the scene constructor, and
+  /// std::invalid_argument for a snapshot whose inputs do not hold.
+  explicit Simulation(const SimulationSnapshot& snapshot, SimulationConfig config = {});
+  /// As above with a ready territory map.
+  Simulation(const SimulationSnapshot& snapshot, TerritoryMap map, SimulationConfig config = {});
   /// stop(); a SimulationError is swallowed here (logged).
   ~Simulation();
   Simulation(const Simulation&) = delete;
@@ -236,8 +271,10 @@ class Simulation {
   std::int64_t step_at(double time) const;
   /// step * dt: the time an entry of `step` carries.
   double time_of(std::int64_t step) const;
-  /// The newest scene step every world has published (0 at construction);
-  /// with speculation, published and committed.
+  /// The newest scene step every world has published (0 at construction, a
+  /// snapshot's step when restored); with speculation, published and
+  /// committed by the worlds' own speculation (readers' holds left out). An
+  /// input at a past step takes it back to that step.
   std::int64_t published_step() const;
   double published_time() const { return time_of(published_step()); }
   /// Per world, the newest scene step it has published: how far each runs
@@ -266,6 +303,11 @@ class Simulation {
   /// soda::state_hash(body_states()): equal to CanonicalWorld::state_hash()
   /// after steps_done() steps.
   std::uint64_t state_hash() const;
+  /// The whole state at steps_done(): bodies, contacts and the inputs still
+  /// to apply. A Simulation constructed from it goes on exactly as this one
+  /// (docs/embedding.md, "Snapshots"). Cost: O(bodies + contacts), copied
+  /// while the worlds are parked.
+  SimulationSnapshot snapshot() const;
   std::size_t sleeping_count() const;
   std::size_t body_count() const;
   std::vector<WorldMetrics> metrics() const;

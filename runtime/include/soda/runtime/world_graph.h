@@ -43,9 +43,19 @@ class WorldGraph {
 
 /// The map a partitioned run uses: `map` with its neighbours reaching
 /// max(map.reach(), reach_cells(scene, cell size, speed)) cells
-/// (worlds/reach.h), speed = `reach_speed` m/s or, if 0,
-/// scene_reach_speed(scene). Throws std::invalid_argument for a negative or
-/// non-finite reach_speed.
-TerritoryMap map_with_reach(const Scene& scene, const TerritoryMap& map, double reach_speed);
+/// (worlds/reach.h), speed = run_reach_speed(scene, reach_speed), and far
+/// enough for a body of `added_extent` metres across (bounding-sphere
+/// diameter) that an input may add. Throws std::invalid_argument for a
+/// negative or non-finite reach_speed or added_extent.
+TerritoryMap map_with_reach(const Scene& scene, const TerritoryMap& map, double reach_speed,
+                            double added_extent = 0);
+
+/// A run's reach speed: `reach_speed` m/s or, if 0, scene_reach_speed(scene).
+double run_reach_speed(const Scene& scene, double reach_speed);
+
+/// Why a run on `map` (reach included) at reach speed `speed` cannot take
+/// `body` by input: its halo could reach worlds that are not neighbours. ""
+/// if it can. The reason names its size and the largest the run takes.
+std::string reach_refusal(const Body& body, const SceneSettings& settings, const TerritoryMap& map, double speed);
 
 }  // namespace soda

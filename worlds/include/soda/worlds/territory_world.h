@@ -64,9 +64,9 @@ namespace soda {
 /// A scene or a trajectory outside what the partitioned step supports (a halo
 /// reaching a world that is not a neighbour, a body moving to a non-neighbour
 /// — beyond the map's reach, see reach.h: the message names the body, its
-/// speed and the reach speed that would cover it —,
-/// a body outside the exactness contract) or a broken protocol invariant (two
-/// owners for one body). The message names the body, the step and the worlds.
+/// speed and the reach speed that would cover it —) or a broken protocol
+/// invariant (two owners for one body). The message names the body, the
+/// step and the worlds.
 class PartitionError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
@@ -139,10 +139,7 @@ bool border_culling();
 class TerritoryWorld {
  public:
   /// Builds world `id` of `map` for a scene: every static body, and the
-  /// dynamic bodies whose home cell the map gives to `id`. Throws
-  /// PartitionError for a dynamic body outside the exactness contract (its
-  /// contact breaking threshold lets points outlive overlapping AABBs; see
-  /// docs/partitioned-step.md).
+  /// dynamic bodies whose home cell the map gives to `id`.
   TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map);
   /// Builds world `id` of `map` from the whole scene's state at a step
   /// boundary (PartitionedWorld::snapshot, CanonicalWorld::snapshot): every
@@ -185,8 +182,13 @@ class TerritoryWorld {
   GhostBatch ghost_batch_for(WorldId neighbour) const;
   /// True if the batch for `neighbour` holds at least one ghost.
   bool sends_ghosts_to(WorldId neighbour) const;
-  /// exchange_ghosts, receiving half: one batch from every neighbour.
-  void apply_ghosts(const std::vector<std::pair<WorldId, GhostBatch>>& batches);
+  /// exchange_ghosts, receiving half: one batch from every neighbour. A
+  /// ghost of a body this world owns, or of one body from two worlds, is a
+  /// PartitionError — unless `speculative`: then a neighbour may have sent
+  /// it from a run it will take back (a re-run that rejoined its old run
+  /// before a changed message reached it re-sends that run's messages), and
+  /// the ghost is left out; the neighbour's Notice rolls this step back.
+  void apply_ghosts(const std::vector<std::pair<WorldId, GhostBatch>>& batches, bool speculative = false);
   /// True if `neighbour`'s batch of this step held at least one ghost.
   bool received_ghosts_from(WorldId neighbour) const;
   /// collide.
@@ -343,8 +345,7 @@ class TerritoryWorld {
   bool apply_impulse(BodyId id, const Vec3& impulse);
   /// Input at a step boundary: adds a dynamic body (as the scene constructor
   /// would) if the map gives its home cell to this world; true if it did.
-  /// Throws PartitionError if the id is present here or the body is outside
-  /// the exactness contract.
+  /// Throws PartitionError if the id is present here.
   bool add_body(const Body& body);
   /// Input at a step boundary: removes an owned body with its contact state
   /// (live manifolds and kept values of pairs it is the key of). False if
@@ -364,7 +365,6 @@ class TerritoryWorld {
 
   void init_world(const TerritoryWorld* share_pools_of = nullptr);
   void init_interior();
-  void check_contract(const Entry& e) const;
   void insert_static(const Body& body);
   Entry& insert_dynamic(const Body& description, const BodyDynamicState* state, bool owned, WorldId owner);
   void remove_entry(BodyId id);

@@ -1,0 +1,56 @@
+// Internal: which dynamic bodies the frame of each scene step holds while
+// inputs add and remove bodies — what a SceneReader checks every frame
+// against (every body alive at that step, exactly once).
+//
+// An input at boundary s applies after the entry of step s is published and
+// before step s + 1 begins (world_process.cpp, predict), so:
+//  1. a body of the scene is in every frame from step 0 until it is removed;
+//  2. a body added at boundary s is in frames s + 1 onwards;
+//  3. a body removed at boundary s is in frames up to s, and in none after.
+// The engine records an input here before any world can see it (before it
+// is queued), so no frame can hold a body the census does not know yet.
+// Inputs are never taken back, so the census only grows.
+//
+// Thread safety: every member, any thread (one mutex; readers check frames
+// while the API thread records inputs).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <vector>
+
+#include "soda/scene/input_file.h"
+#include "soda/scene/scene.h"
+
+namespace soda {
+
+class Census {
+ public:
+  /// The scene's dynamic bodies are in every frame from step 0.
+  explicit Census(const Scene& scene);
+  /// Takes an accepted AddBody or RemoveBody input into account (other
+  /// kinds change nobody's presence and are ignored).
+  void record(const UserInput& input);
+  /// Number of dynamic bodies in the frame of `step`.
+  std::size_t count_at(std::int64_t step) const;
+  /// Throws std::logic_error naming the step and a body, unless `ids`
+  /// (ascending, no duplicates) are exactly the bodies of the frame of
+  /// `step`.
+  void check(std::int64_t step, const std::vector<BodyId>& ids) const;
+
+ private:
+  struct Span {
+    std::int64_t first = 0;          // first frame holding the body
+    std::int64_t end = INT64_MAX;    // first frame without it
+    bool holds(std::int64_t step) const { return first <= step && step < end; }
+  };
+  bool holds_locked(BodyId id, std::int64_t step) const;
+  std::size_t count_at_locked(std::int64_t step) const;
+
+  mutable std::mutex mutex_;
+  std::vector<BodyId> scene_;            // the scene's dynamic bodies, ascending
+  std::map<BodyId, Span> changed_;       // bodies an input added or removed
+};
+
+}  // namespace soda

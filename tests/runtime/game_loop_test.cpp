@@ -1,0 +1,225 @@
+// The game loop (docs/embedding.md, "The game loop"): a render thread reads
+// every frame while the worlds run ahead of it, and gives inputs at the
+// frame on screen (steps the worlds have already passed: each one a
+// rollback) and at steps ahead of every world; bodies come and go. Every
+// frame the reader returns equals the one-territory run's at that step, bit
+// for bit, with every body alive at that step exactly once, for K = 1, 4
+// and 8, lockstep and speculating. Label "concurrency" (ThreadSanitizer in
+// CI).
+#include <gtest/gtest.h>
+
+#include <condition_variable>
+#include <cstdio>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <tuple>
+#include <vector>
+
+#include "runtime/simulation_test_util.h"
+
+namespace soda {
+namespace {
+
+constexpr int kSteps = 120;
+
+using test::new_cube;
+using test::unused_id;
+
+// The inputs of the run: `at_frame` ones are given by the render thread once
+// it has read the frame of their step and some world has finished the step
+// after it (so each is at a step a world has passed: a rollback); the others
+// are given ahead of every world (before the run, or far ahead of the frame
+// on screen).
+struct Plan {
+  struct Input {
+    UserInput input;
+    bool at_frame = false;  // given at the frame on screen
+    int given_at = -1;      // ahead: the frame after which the render thread gives it (-1: before the run)
+  };
+  std::vector<Input> inputs;
+};
+
+Plan make_plan(const Scene& s) {
+  std::vector<BodyId> dynamic;
+  for (const Body& b : s.bodies)
+    if (!b.is_static) dynamic.push_back(b.id);
+  const BodyId a = unused_id(s), b = a + 1, c = a + 2;
+  auto add = [](std::int64_t step, const Body& body) {
+    UserInput in;
+    in.kind = UserInput::Kind::AddBody;
+    in.step = step;
+    in.body = body;
+    return in;
+  };
+  auto on = [](UserInput::Kind kind, std::int64_t step, BodyId id, Vec3 v = Vec3::Zero()) {
+    UserInput in;
+    in.kind = kind;
+    in.step = step;
+    in.id = id;
+    in.linear = v;
+    return in;
+  };
+  using K = UserInput::Kind;
+  Plan p;
+  p.inputs = {
+      {add(20, new_cube(a, Vec3(0.3, 9, 0.2))), true},
+      {on(K::ApplyImpulse, 30, dynamic[3], Vec3(2, 3, 0)), true},
+      {add(60, new_cube(b, Vec3(-0.4, 11, 0.1))), false, 35},  // ahead of the worlds, during the run
+      {on(K::RemoveBody, 45, dynamic[7]), true},
+      {on(K::SetVelocity, 55, a, Vec3(1, 4, -1)), true},
+      {on(K::RemoveBody, 75, a), true},
+      {add(90, new_cube(c, Vec3(0.1, 8, -0.3))), false},  // before the run
+      {on(K::RemoveBody, 100, dynamic[11]), false},
+      {on(K::ApplyImpulse, 105, b, Vec3(0, 5, 0)), true},
+  };
+  return p;
+}
+
+void give(Simulation& sim, const UserInput& in) {
+  const double t = sim.time_of(in.step);
+  switch (in.kind) {
+    case UserInput::Kind::AddBody: sim.add_body(t, in.body); break;
+    case UserInput::Kind::RemoveBody: sim.remove_body(t, in.id); break;
+    case UserInput::Kind::SetVelocity: sim.set_velocity(t, in.id, in.linear, in.angular); break;
+    case UserInput::Kind::ApplyImpulse: sim.apply_impulse(t, in.id, in.linear); break;
+  }
+}
+
+// The one-territory run with every input queued before it, frame by frame.
+std::vector<std::vector<ScenePose>> reference_frames(const Scene& s, const Plan& plan) {
+  Simulation one(s, SimulationConfig{.threads = 1});
+  for (const Plan::Input& i : plan.inputs) give(one, i.input);
+  SceneReader reader = one.add_reader();
+  std::vector<std::vector<ScenePose>> frames;
+  for (int k = 0; k <= kSteps; ++k) {
+    EXPECT_TRUE(one.advance_to(one.time_of(k)));
+    std::optional<SceneFrame> f = reader.read_at(one.time_of(k));
+    frames.push_back(f ? f->poses : std::vector<ScenePose>{});
+  }
+  return frames;
+}
+
+// The newest scene step any world has finished (re-runs included), with a
+// condition variable: the render thread waits on it, never on a clock.
+struct Progress {
+  std::mutex mutex;
+  std::condition_variable cv;
+  std::int64_t newest = 0;
+  std::function<void(WorldId, std::int64_t)> hook() {
+    return [this](WorldId, std::int64_t step) {
+      std::lock_guard lock(mutex);
+      if (step > newest) newest = step;
+      cv.notify_all();
+    };
+  }
+  void wait_past(std::int64_t step) {
+    std::unique_lock lock(mutex);
+    cv.wait(lock, [&] { return newest > step; });
+  }
+  // After an input at `step` every world goes back to it: count from there.
+  void rolled_back_to(std::int64_t step) {
+    std::lock_guard lock(mutex);
+    newest = step;
+  }
+};
+
+// territories, anticipation, threads (0: one per world, 1: one for all, else a pool)
+class GameLoop : public ::testing::TestWithParam<std::tuple<int, int, int>> {};
+
+TEST_P(GameLoop, EveryFrameWhileBodiesComeAndGoEqualsOneTerritory) {
+  const auto [territories, anticipation, threads] = GetParam();
+  const Scene s = test::scene("falling-cubes", 100);
+  const Plan plan = make_plan(s);
+  static const std::vector<std::vector<ScenePose>> ref = reference_frames(s, plan);
+
+  Progress progress;
+  SimulationConfig config{.territories = territories, .threads = threads, .buffer_capacity = 16, .past_inputs = true};
+  config.anticipation = anticipation;
+  config.after_step = progress.hook();
+  Simulation sim(s, config);
+  SceneReader reader = sim.add_reader();
+  std::size_t at_frame = 0;
+  for (const Plan::Input& i : plan.inputs) {
+    if (i.at_frame) ++at_frame;
+    if (!i.at_frame && i.given_at < 0) give(sim, i.input);
+  }
+  sim.start(sim.time_of(kSteps));
+
+  std::vector<std::string> bad;
+  std::vector<std::size_t> bodies;
+  std::thread render([&] {
+    try {
+      for (int k = 0; k <= kSteps; ++k) {
+        std::optional<SceneFrame> f = reader.read_at(sim.time_of(k));
+        if (!f) {
+          bad.push_back("frame " + std::to_string(k) + ": none");
+          continue;
+        }
+        const std::string diff = test::frame_difference(f->poses, ref[static_cast<std::size_t>(k)]);
+        if (f->step != k || !diff.empty()) bad.push_back("frame " + std::to_string(k) + ": " + diff);
+        bodies.push_back(f->poses.size());
+        for (const Plan::Input& i : plan.inputs) {
+          if (i.at_frame && i.input.step == k) {
+            progress.wait_past(k + 1);  // some world has passed the frame on screen
+            give(sim, i.input);
+            progress.rolled_back_to(k);
+          }
+          if (!i.at_frame && i.given_at == k) give(sim, i.input);
+        }
+      }
+    } catch (const std::exception& e) {
+      bad.push_back(std::string("render thread: ") + e.what());
+    }
+  });
+  render.join();
+  EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
+  const std::uint64_t hash = sim.state_hash();
+  sim.stop();
+  std::printf("[ falling-cubes 100, K %d, anticipation %d, threads %d ] %zu rollbacks for %zu inputs at the frame on "
+              "screen; bodies at frames 0/21/46/76/101: %zu/%zu/%zu/%zu/%zu; hash %s\n",
+              territories, anticipation, threads, static_cast<std::size_t>(sim.rollbacks()), at_frame, bodies.at(0),
+              bodies.at(21), bodies.at(46), bodies.at(76), bodies.at(101), hash_hex(hash).c_str());
+  EXPECT_TRUE(bad.empty()) << bad.size() << " bad frames, the first: " << (bad.empty() ? "" : bad.front());
+  EXPECT_EQ(sim.rollbacks(), at_frame);  // every input at the frame on screen was at a past step
+  EXPECT_EQ(bodies.at(0), 100u);
+  EXPECT_EQ(bodies.at(21), 101u);  // a added at 20
+  EXPECT_EQ(bodies.at(101), 100u);  // +a +b +c -7 -a -11
+}
+
+INSTANTIATE_TEST_SUITE_P(Simulation, GameLoop,
+                         ::testing::Values(std::tuple{1, 0, 0}, std::tuple{1, 8, 0}, std::tuple{4, 0, 0},
+                                           std::tuple{4, 8, 0}, std::tuple{4, 0, 1}, std::tuple{4, 8, 1},
+                                           std::tuple{4, 0, 2}, std::tuple{4, 8, 2}, std::tuple{8, 0, 0},
+                                           std::tuple{8, 8, 0}, std::tuple{8, 8, 3}),
+                         [](const auto& info) {
+                           return "K" + std::to_string(std::get<0>(info.param)) + "_anticipation" +
+                                  std::to_string(std::get<1>(info.param)) + "_threads" +
+                                  std::to_string(std::get<2>(info.param));
+                         });
+
+// Without past_inputs an input at the frame on screen is refused, and the
+// message says what to set.
+TEST(GameLoopInput, AtAPassedStepWithoutPastInputsSaysWhatToSet) {
+  const Scene s = test::scene("falling-cubes", 60);
+  Progress progress;
+  SimulationConfig config{.territories = 2, .buffer_capacity = 8};
+  config.after_step = progress.hook();
+  Simulation sim(s, config);
+  SceneReader reader = sim.add_reader();
+  sim.start(sim.time_of(40));
+  std::optional<SceneFrame> f = reader.read_at(sim.time_of(10));
+  ASSERT_TRUE(f.has_value());
+  progress.wait_past(11);
+  try {
+    sim.apply_impulse(f->time, test::first_dynamic(s), Vec3(0, 1, 0));
+    ADD_FAILURE() << "accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("past_inputs"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(reader.read_at(sim.time_of(40)).has_value());  // the reader moves on: the worlds may finish
+  EXPECT_TRUE(sim.advance_to(sim.time_of(40)));
+}
+
+}  // namespace
+}  // namespace soda
