@@ -22,6 +22,11 @@ cmake -S examples/consumer -B build/consumer -G Ninja -DCMAKE_BUILD_TYPE=Release
 cmake --build build/consumer -j "$(nproc)"
 build/consumer/consumer
 build/consumer/consumer_double
+# The embedding examples, built against the installed package: each ends on
+# the one-world hash (exit 1 if it differs).
+build/consumer/game_loop
+build/consumer/game_loop --stepping
+build/consumer/snapshot_restore
 # ThreadSanitizer cannot see inside Debian's (uninstrumented) Bullet; see
 # docs/bullet-globals.md for how its shared state is handled.
 cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSODA_SANITIZE=thread -DSODA_BUILD_DOUBLE=OFF
