@@ -26,6 +26,7 @@ build/consumer/consumer_double
 # the one-world hash (exit 1 if it differs).
 build/consumer/game_loop
 build/consumer/game_loop --stepping
+build/consumer/picking
 build/consumer/snapshot_restore
 # ThreadSanitizer cannot see inside Debian's (uninstrumented) Bullet; see
 # docs/bullet-globals.md for how its shared state is handled.

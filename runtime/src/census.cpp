@@ -8,14 +8,30 @@
 namespace soda {
 
 Census::Census(const Scene& scene) {
-  for (const Body& b : scene.bodies)
-    if (!b.is_static) scene_.push_back(b.id);
+  for (const Body& b : scene.bodies) {
+    if (b.is_static) {
+      statics_.push_back(b);
+      continue;
+    }
+    scene_.push_back(b.id);
+    dynamics_.emplace(b.id, b);
+  }
   std::sort(scene_.begin(), scene_.end());
+  std::sort(statics_.begin(), statics_.end(), [](const Body& a, const Body& b) { return a.id < b.id; });
+}
+
+const Body* Census::description(BodyId id) const {
+  std::lock_guard lock(mutex_);
+  auto it = dynamics_.find(id);
+  if (it != dynamics_.end()) return &it->second;
+  auto s = std::lower_bound(statics_.begin(), statics_.end(), id, [](const Body& b, BodyId i) { return b.id < i; });
+  return s != statics_.end() && s->id == id ? &*s : nullptr;
 }
 
 void Census::record(const UserInput& in) {
   std::lock_guard lock(mutex_);
   if (in.kind == UserInput::Kind::AddBody) {
+    dynamics_.emplace(in.body.id, in.body);
     changed_[in.body.id].first = in.step + 1;
   } else if (in.kind == UserInput::Kind::RemoveBody) {
     // A scene body has first = 0 (default); an added one keeps its first.

@@ -9,7 +9,8 @@
 //  3. a body removed at boundary s is in frames up to s, and in none after.
 // The engine records an input here before any world can see it (before it
 // is queued), so no frame can hold a body the census does not know yet.
-// Inputs are never taken back, so the census only grows.
+// Inputs are never taken back, so the census only grows. It also keeps
+// what each body is (its description), for the queries.
 //
 // Thread safety: every member, any thread (one mutex; readers check frames
 // while the API thread records inputs).
@@ -38,6 +39,12 @@ class Census {
   /// (ascending, no duplicates) are exactly the bodies of the frame of
   /// `step`.
   void check(std::int64_t step, const std::vector<BodyId>& ids) const;
+  /// What each body is: its description as the scene or the input that
+  /// added it gave it (shape, mass, ...; not its state). Null for an
+  /// unknown id. The pointer stays valid for the census' life.
+  const Body* description(BodyId id) const;
+  /// The scene's static bodies (they never change), ascending id.
+  const std::vector<Body>& statics() const { return statics_; }
 
  private:
   struct Span {
@@ -51,6 +58,8 @@ class Census {
   mutable std::mutex mutex_;
   std::vector<BodyId> scene_;            // the scene's dynamic bodies, ascending
   std::map<BodyId, Span> changed_;       // bodies an input added or removed
+  std::vector<Body> statics_;
+  std::map<BodyId, Body> dynamics_;      // every dynamic body ever, by id (node-stable)
 };
 
 }  // namespace soda

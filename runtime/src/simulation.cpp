@@ -127,6 +127,8 @@ std::uint64_t Simulation::rollbacks() const { return engine_->rollbacks(); }
 
 SceneReader Simulation::add_reader() { return SceneReader(engine_->core); }
 
+SceneQuery Simulation::add_query() { return SceneQuery(engine_->core, add_reader()); }
+
 double Simulation::dt() const { return engine_->core->dt; }
 std::int64_t Simulation::step_at(double time) const { return engine_->core->step_at(time); }
 double Simulation::time_of(std::int64_t step) const { return engine_->core->time_of(step); }

@@ -45,6 +45,7 @@
 #include "soda/grid/partition.h"
 #include "soda/grid/territory_map.h"
 #include "soda/runtime/partitioned_world.h"
+#include "soda/runtime/scene_query.h"
 #include "soda/runtime/scene_reader.h"
 #include "soda/runtime/user_input.h"
 #include "soda/scene/registry.h"
@@ -261,6 +262,10 @@ class Simulation {
   /// A new reader with a cursor in every world's buffer; it pins every held
   /// entry until its first read. Any thread.
   SceneReader add_reader();
+  /// Queries at a time — ray casts, sweeps, overlaps — answered from the
+  /// committed frame of its step (scene_query.h); a reader of its own inside.
+  /// Any thread.
+  SceneQuery add_query();
 
   // --- observers (any thread, never wait; a snapshot) ----------------------
 
