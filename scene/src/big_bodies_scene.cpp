@@ -1,6 +1,8 @@
-// big-bodies: bodies of 2 m, 5 m and 20 m across (boxes, capsules, convex
-// hulls) falling among unit cubes onto a static ground, crossing territory
-// borders: the scene of docs/determinism.md, "Bodies of any size".
+// Bodies larger than a cell (docs/determinism.md, "Bodies of any size"):
+// big-bodies (2 m, 5 m and 20 m boxes, capsules and hulls falling among unit
+// cubes), and the two stress scenes of docs/stress.md, plank-pile (a long
+// plank dropped on a pile of cubes) and heavy-slide (a heavy 5 m box sliding
+// across territory borders).
 #include <cmath>
 
 #include "generators.h"
@@ -41,15 +43,17 @@ Scene make_big_bodies(const SceneParams& params) {
     scene.bodies.push_back(dynamic_box(id++, Vec3::Constant(0.5), 1.0, at, rng.rotation()));
   }
   // Above the block, each over a different part of it (so across borders),
-  // in three tiers by size: 2 m, 5 m, then 20 m across. Masses: 500 kg per
-  // cubic metre of bounding box, so heavy bodies on light cubes.
+  // in three tiers by size: 2 m, 5 m, then 20 m across. Masses: 5 kg per
+  // cubic metre of bounding box (the beam 100 kg on 1 kg cubes: a mass ratio
+  // the solver holds in both precisions; 500 kg/m³ pushed a cube 1.2 m into
+  // the ground under the 20 m prism in double precision).
   const double top = 1.0 + 1.6 * ((n - 1) / (side * side)) + 3.0;
   auto add = [&](Shape shape, const Vec3& at, const Quat& q) {
     Body b;
     b.id = id++;
     b.shape = std::move(shape);
     const Vec3 e = 2.0 * b.shape.local_half_extents();
-    b.mass = 500.0 * e.x() * e.y() * e.z();
+    b.mass = 5.0 * e.x() * e.y() * e.z();
     b.position = at;
     b.orientation = q;
     scene.bodies.push_back(std::move(b));
@@ -66,4 +70,46 @@ Scene make_big_bodies(const SceneParams& params) {
   return scene;
 }
 
+Scene make_plank_pile(const SceneParams& params) {
+  Scene scene = start_scene("plank-pile", params);
+  const int length = count_or_default(params, 8, 40);  // the plank, m
+  // A pile of 4 x 4 unit cubes, 3 layers, faces touching (1 kg each); a
+  // plank `length` x 0.2 x 0.6 m of 40 kg across its top, 0.5 m above it,
+  // turned 30 degrees about y and tilted 0.05 rad so that it lands end
+  // first.
+  scene.bodies.push_back(flat_ground(0.5 * length + 10.0, 0.5));
+  BodyId id = 1;
+  for (int layer = 0; layer < 3; ++layer)
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j)
+        scene.bodies.push_back(
+            dynamic_box(id++, Vec3::Constant(0.5), 1.0, Vec3(-1.5 + i, 0.5 + layer, -1.5 + j)));
+  const Quat turn = Quat(Eigen::AngleAxisd(0.52, Vec3::UnitY())) * Quat(Eigen::AngleAxisd(0.05, Vec3::UnitZ()));
+  scene.bodies.push_back(dynamic_box(id++, Vec3(0.5 * length, 0.1, 0.3), 40.0, Vec3(0.0, 3.6, 0.0), turn));
+  return scene;
+}
+
+Scene make_heavy_slide(const SceneParams& params) {
+  Scene scene = start_scene("heavy-slide", params);
+  const int speed = magnitude_or_default(params, 6);  // m/s along +x
+  // A 5 m box of 10 t on a long ground (friction 0.4 between them: 0.4 and
+  // 0.4 combined), starting at x = -12 m at `speed` m/s: it slides across
+  // x = -8, 0, 8 ... (the borders of grid:Kx1x1 over its path) and stops by
+  // friction (v^2 / (2 mu g) = 4.6 m at 6 m/s). Two rows of unit cubes stand
+  // in its path near the end, to be pushed.
+  Body ground = flat_ground(60.0, 0.4);
+  scene.bodies.push_back(ground);
+  Body box = dynamic_box(1, Vec3::Constant(2.5), 10000.0, Vec3(-12.0, 2.5, 0.0));
+  box.friction = 0.4;
+  box.linear_velocity = Vec3(speed, 0, 0);
+  scene.bodies.push_back(box);
+  BodyId id = 2;
+  const double stop = -12.0 + double(speed) * speed / (2 * 0.4 * 9.81);
+  for (int row = 0; row < 2; ++row)
+    for (int k = -2; k <= 2; ++k)
+      scene.bodies.push_back(dynamic_box(id++, Vec3::Constant(0.5), 1.0, Vec3(stop + 1.0 + 1.2 * row, 0.5, 1.2 * k)));
+  return scene;
+}
+
 }  // namespace soda::detail
+

@@ -52,8 +52,11 @@ Scene make_card_house(const SceneParams& params);
 Scene make_heavy_drop(const SceneParams& params);
 Scene make_sphere_chain(const SceneParams& params);
 Scene make_mixed_sizes(const SceneParams& params);
-// big_bodies_scene.cpp: bodies of 2, 5 and 20 m across among unit cubes.
+// big_bodies_scene.cpp: bodies of 2, 5 and 20 m across among unit cubes; a
+// long plank dropped on a pile; a heavy 5 m box sliding across borders.
 Scene make_big_bodies(const SceneParams& params);
+Scene make_plank_pile(const SceneParams& params);
+Scene make_heavy_slide(const SceneParams& params);
 Scene make_free_fall(const SceneParams& params);
 Scene make_incline(const SceneParams& params);
 Scene make_resting_stack(const SceneParams& params);

@@ -121,8 +121,16 @@ const std::vector<SceneGenerator>& scene_registry() {
        detail::make_mixed_sizes},
       {"big-bodies",
        "N unit cubes (default 300) in a loose block, and bodies of 2 m, 5 m and 20 m across (boxes, "
-       "capsules, convex hulls; 500 kg per m^3 of bounding box) falling into it across territory borders",
+       "capsules, convex hulls; 5 kg per m^3 of bounding box) falling into it across territory borders",
        detail::make_big_bodies},
+      {"plank-pile",
+       "a plank N m long (default 8, N <= 40; 0.2 x 0.6 m, 40 kg) dropped end first from 0.5 m onto a pile of "
+       "4 x 4 x 3 unit cubes",
+       detail::make_plank_pile},
+      {"heavy-slide",
+       "a 5 m box of 10 t sliding at N m/s (default 6) along +x on a ground (friction 0.4) until friction stops "
+       "it, across the borders of grid:Kx1x1, into two rows of unit cubes",
+       detail::make_heavy_slide},
       // Analytic scenes (closed-form answers; N ignored).
       {"free-fall", "one sphere falling from y = 100 m; 180 steps of free flight",
        detail::make_free_fall},
