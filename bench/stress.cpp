@@ -265,6 +265,16 @@ std::vector<StressCase> stress_suite(bool quick) {
   s.push_back({"mixed-sizes-5", "mixed-sizes", "mixed-sizes", 5, stand_steps, WorldKind::Canonical, false, false,
                "a 10 m box with 25 boxes of 0.05 m on it and 25 beside it: no body moves more than 0.025 m (half "
                "the small edge) from its start"});
+  s.push_back({"plank-pile-8", "plank-pile", "plank-pile", 8, 600, WorldKind::Canonical, false, false,
+               "an 8 m plank of 40 kg dropped end first from 0.5 m onto a 4 x 4 x 3 pile of 1 kg cubes, 10 s: it "
+               "comes to rest on the pile (centre above the pile's top face, y >= 3 m; speed < 0.01 m/s at the "
+               "end), no body below the ground, max penetration < 0.05 m (a quarter of the plank's thickness), no "
+               "energy gain (E never above E_0)"});
+  s.push_back({"heavy-slide-6", "heavy-slide", "heavy-slide", 6, 300, WorldKind::Canonical, false, false,
+               "a 5 m box of 10 t sliding at 6 m/s across the borders of grid:Kx1x1, K = 1, 2, 4, 8, into two rows "
+               "of unit cubes, 5 s: the same state hash for every K; friction stops it (speed < 0.01 m/s at the "
+               "end, never faster than its start), it never sinks into the ground by 0.05 m (centre y >= 2.45 m) "
+               "and no cube goes below the ground (centre y >= 0.45 m)"});
   const std::string wall_text = "the sphere is stopped by the wall: its centre never passes x = 0 (the wall's mid-plane)";
   for (int v : {50, 200, 500}) {
     const std::string base = "bullet-" + std::to_string(v);
@@ -332,6 +342,59 @@ void run_bullet_border(StressResult& r, const Scene& scene, const StressCase& c)
               "; state hashes " + (same ? "equal" : "DIFFER") + " (" + hashes + ")");
 }
 
+// heavy-slide: the scene on grid:Kx1x1 maps over its default grid, K = 1,
+// 2, 4, 8 (the box's path crosses the borders of every K > 1).
+void run_heavy_slide(StressResult& r, const Scene& scene, const StressCase& c) {
+  const BodyId box = 1;  // the 5 m box; every other dynamic body is a unit cube
+  const double start_speed = scene.bodies[1].linear_velocity.norm();
+  std::set<BodyId> statics;
+  for (const Body& b : scene.bodies)
+    if (b.is_static) statics.insert(b.id);
+  double box_min_y = std::numeric_limits<double>::infinity(), cube_min_y = box_min_y, box_max_speed = 0;
+  double end_speed = 0, end_x = 0;
+  std::string hashes;
+  std::uint64_t first = 0;
+  bool same = true;
+  for (int k : {1, 2, 4, 8}) {
+    PartitionedOptions options;
+    options.solver_threads = c.solver_threads;
+    PartitionedWorld w(scene, make_partition("grid:" + std::to_string(k) + "x1x1", scene, k, GridOptions{}), options);
+    const std::int64_t a = wall_ns();
+    for (int t = 0; t < c.steps; ++t) {
+      w.step(1);
+      for (const BodyState& b : w.body_states()) {
+        const double y = b.origin[1];
+        if (b.id == box) {
+          box_min_y = std::min(box_min_y, y);
+          const double v = Vec3(b.linear_velocity[0], b.linear_velocity[1], b.linear_velocity[2]).norm();
+          box_max_speed = std::max(box_max_speed, v);
+          if (t + 1 == c.steps && k == 1) {
+            end_speed = v;
+            end_x = b.origin[0];
+          }
+        } else if (!statics.count(b.id)) {
+          cube_min_y = std::min(cube_min_y, y);
+        }
+      }
+    }
+    r.wall_seconds += static_cast<double>(wall_ns() - a) * 1e-9;
+    const std::uint64_t h = w.state_hash();
+    if (k == 1) first = h;
+    same = same && h == first;
+    hashes += (hashes.empty() ? "" : ", ") + std::string("K=") + std::to_string(k) + " " + hash_hex(h);
+  }
+  r.steps_run = c.steps;
+  r.state_hash = hash_hex(first);
+  const double sink = 2.5 - box_min_y;
+  const bool pass = same && end_speed < 0.01 && box_max_speed <= start_speed + 1e-6 && box_min_y >= 2.45 &&
+                    cube_min_y >= 0.45;
+  verdict(r, pass, sink, 0.05,
+          "box stops at x " + fmt("%.4g", end_x) + " m (speed at the end " + fmt("%.3g", end_speed) +
+              " m/s, fastest " + fmt("%.4g", box_max_speed) + " m/s); sank at most " + fmt("%.3g", sink) +
+              " m; lowest cube centre " + fmt("%.4g", cube_min_y) + " m; state hashes " + (same ? "equal" : "DIFFER") +
+              " (" + hashes + ")");
+}
+
 StressResult run_stress_case(const StressCase& c) {
   StressResult r;
   r.c = c;
@@ -342,6 +405,10 @@ StressResult run_stress_case(const StressCase& c) {
     r.c.iterations = scene.settings.iterations;
     if (c.group == "bullet-border") {
       run_bullet_border(r, scene, c);
+      return r;
+    }
+    if (c.group == "heavy-slide") {
+      run_heavy_slide(r, scene, c);
       return r;
     }
     const Observed o = run_case_world(scene, c);
@@ -375,6 +442,16 @@ StressResult run_stress_case(const StressCase& c) {
                   fmt("%.4g", top) + " m (on top: " + fmt("%.4g", want) + "); max penetration " +
                   fmt("%.3g", o.penetration.max) + " m; " + std::to_string(o.sleeping) + "/" +
                   std::to_string(o.dynamic) + " asleep");
+    } else if (c.group == "plank-pile") {
+      const BodySample& plank = o.final.back();  // the plank is the last body
+      const double speed = vel(plank).norm();
+      const bool pass = plank.position[1] >= 3.0 && speed < 0.01 && o.min_y > 0.0 && o.penetration.max < 0.05 &&
+                        o.energy_max <= o.energy0;
+      verdict(r, pass, o.penetration.max, 0.05,
+              "plank ends at y " + fmt("%.4g", plank.position[1]) + " m (pile top 3 m), speed " +
+                  fmt("%.3g", speed) + " m/s; lowest centre " + fmt("%.4g", o.min_y) + " m; max penetration " +
+                  fmt("%.3g", o.penetration.max) + " m; " + energy_text(o) + "; " + std::to_string(o.sleeping) +
+                  "/" + std::to_string(o.dynamic) + " asleep");
     } else if (c.group == "sphere-chain") {
       double off_line = 0;
       for (const BodySample& b : o.final) off_line = std::max(off_line, std::abs(b.position[2]));

@@ -92,11 +92,12 @@ Scene make_plank_pile(const SceneParams& params) {
 Scene make_heavy_slide(const SceneParams& params) {
   Scene scene = start_scene("heavy-slide", params);
   const int speed = magnitude_or_default(params, 6);  // m/s along +x
-  // A 5 m box of 10 t on a long ground (friction 0.4 between them: 0.4 and
-  // 0.4 combined), starting at x = -12 m at `speed` m/s: it slides across
-  // x = -8, 0, 8 ... (the borders of grid:Kx1x1 over its path) and stops by
-  // friction (v^2 / (2 mu g) = 4.6 m at 6 m/s). Two rows of unit cubes stand
-  // in its path near the end, to be pushed.
+  // A 5 m box of 10 t on a long ground, both of friction 0.4 (Bullet
+  // combines them as their product, 0.16), starting at x = -12 m at `speed`
+  // m/s: it slides across the borders of grid:Kx1x1 over its path. Two rows
+  // of unit cubes stand in its path from x = -12 + v^2 / (2 * 0.4 * g) + 1
+  // (-6.4 m at 6 m/s); it pushes them ahead until friction stops it (near
+  // x = -0.7 m at 6 m/s).
   Body ground = flat_ground(60.0, 0.4);
   scene.bodies.push_back(ground);
   Body box = dynamic_box(1, Vec3::Constant(2.5), 10000.0, Vec3(-12.0, 2.5, 0.0));

@@ -19,7 +19,7 @@ namespace soda {
 
 struct StressCase {
   std::string name;       // e.g. "tower-20", "bullet-200-stock-ccd"
-  std::string group;      // tower | pyramid | mass-ratio | bullet-vs-wall | far-origin | dense-pile | long-run
+  std::string group;      // tower | pyramid | mass-ratio | ... | heavy-slide | far-origin | dense-pile | long-run
   std::string scene;      // registry scene
   int n = 0;              // the scene's --n
   int steps = 600;
