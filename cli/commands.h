@@ -51,6 +51,10 @@ Command add_sleepers_command(CLI::App& bench);
 /// `soda bench idle-territories` (cmd_idle.cpp).
 Command add_idle_command(CLI::App& bench);
 
+/// `soda bench queries`: ray casts against a running Simulation, and the
+/// slowdown they cause (cmd_queries.cpp; docs/embedding.md, "Queries").
+Command add_queries_command(CLI::App& bench);
+
 /// `soda bench defaults`: the solver defaults against Bullet's own solver
 /// settings, interleaved (cmd_defaults.cpp; docs/stress.md).
 Command add_defaults_command(CLI::App& bench);
