@@ -308,17 +308,16 @@ std::vector<StressCase> stress_suite(bool quick) {
   return s;
 }
 
-// bullet-border: the same scene on grid:Kx1x1 maps, K = 1, 2, 4, 8.
-void run_bullet_border(StressResult& r, const Scene& scene, const StressCase& c) {
-  GridOptions grid;
-  grid.cell_size = 2.0;  // the wall's mid-plane x = 0 is a border for every K
-  grid.origin = Vec3::Zero();
-  grid.box = CellBox{{-8, 0, -1}, {7, 1, 0}};  // x in [-16, 16]: slabs of 16 / K cells
-  double max_x = -std::numeric_limits<double>::infinity();
+// Runs `scene` on grid:Kx1x1 maps for K = 1, 2, 4, 8, calling `observe(k,
+// t, world)` after every step t (0-based); adds the wall time to r and
+// returns whether every K gave the one-territory hash, with the hashes in
+// words.
+template <class Observe>
+std::pair<bool, std::string> run_on_slabs(StressResult& r, const Scene& scene, const StressCase& c,
+                                          const GridOptions& grid, Observe observe) {
   std::string hashes;
   std::uint64_t first = 0;
   bool same = true;
-  const BodyId sphere = scene.bodies.back().id;
   for (int k : {1, 2, 4, 8}) {
     PartitionedOptions options;
     options.solver_threads = c.solver_threads;
@@ -326,8 +325,7 @@ void run_bullet_border(StressResult& r, const Scene& scene, const StressCase& c)
     const std::int64_t a = wall_ns();
     for (int t = 0; t < c.steps; ++t) {
       w.step(1);
-      for (const BodyState& b : w.body_states())
-        if (b.id == sphere) max_x = std::max(max_x, double(b.origin[0]));
+      observe(k, t, w);
     }
     r.wall_seconds += static_cast<double>(wall_ns() - a) * 1e-9;
     const std::uint64_t h = w.state_hash();
@@ -337,6 +335,21 @@ void run_bullet_border(StressResult& r, const Scene& scene, const StressCase& c)
   }
   r.steps_run = c.steps;
   r.state_hash = hash_hex(first);
+  return {same, hashes};
+}
+
+// bullet-border: the same scene on grid:Kx1x1 maps, K = 1, 2, 4, 8.
+void run_bullet_border(StressResult& r, const Scene& scene, const StressCase& c) {
+  GridOptions grid;
+  grid.cell_size = 2.0;  // the wall's mid-plane x = 0 is a border for every K
+  grid.origin = Vec3::Zero();
+  grid.box = CellBox{{-8, 0, -1}, {7, 1, 0}};  // x in [-16, 16]: slabs of 16 / K cells
+  double max_x = -std::numeric_limits<double>::infinity();
+  const BodyId sphere = scene.bodies.back().id;
+  const auto [same, hashes] = run_on_slabs(r, scene, c, grid, [&](int, int, const PartitionedWorld& w) {
+    for (const BodyState& b : w.body_states())
+      if (b.id == sphere) max_x = std::max(max_x, double(b.origin[0]));
+  });
   verdict(r, max_x < 0.0 && same, max_x, 0.0,
           "sphere max x " + fmt("%.4g", max_x) + " m" + (max_x < 0.0 ? " (stopped)" : " (passed through)") +
               "; state hashes " + (same ? "equal" : "DIFFER") + " (" + hashes + ")");
@@ -352,39 +365,22 @@ void run_heavy_slide(StressResult& r, const Scene& scene, const StressCase& c) {
     if (b.is_static) statics.insert(b.id);
   double box_min_y = std::numeric_limits<double>::infinity(), cube_min_y = box_min_y, box_max_speed = 0;
   double end_speed = 0, end_x = 0;
-  std::string hashes;
-  std::uint64_t first = 0;
-  bool same = true;
-  for (int k : {1, 2, 4, 8}) {
-    PartitionedOptions options;
-    options.solver_threads = c.solver_threads;
-    PartitionedWorld w(scene, make_partition("grid:" + std::to_string(k) + "x1x1", scene, k, GridOptions{}), options);
-    const std::int64_t a = wall_ns();
-    for (int t = 0; t < c.steps; ++t) {
-      w.step(1);
-      for (const BodyState& b : w.body_states()) {
-        const double y = b.origin[1];
-        if (b.id == box) {
-          box_min_y = std::min(box_min_y, y);
-          const double v = Vec3(b.linear_velocity[0], b.linear_velocity[1], b.linear_velocity[2]).norm();
-          box_max_speed = std::max(box_max_speed, v);
-          if (t + 1 == c.steps && k == 1) {
-            end_speed = v;
-            end_x = b.origin[0];
-          }
-        } else if (!statics.count(b.id)) {
-          cube_min_y = std::min(cube_min_y, y);
+  const auto [same, hashes] = run_on_slabs(r, scene, c, GridOptions{}, [&](int k, int t, const PartitionedWorld& w) {
+    for (const BodyState& b : w.body_states()) {
+      const double y = b.origin[1];
+      if (b.id == box) {
+        box_min_y = std::min(box_min_y, y);
+        const double v = Vec3(b.linear_velocity[0], b.linear_velocity[1], b.linear_velocity[2]).norm();
+        box_max_speed = std::max(box_max_speed, v);
+        if (t + 1 == c.steps && k == 1) {
+          end_speed = v;
+          end_x = b.origin[0];
         }
+      } else if (!statics.count(b.id)) {
+        cube_min_y = std::min(cube_min_y, y);
       }
     }
-    r.wall_seconds += static_cast<double>(wall_ns() - a) * 1e-9;
-    const std::uint64_t h = w.state_hash();
-    if (k == 1) first = h;
-    same = same && h == first;
-    hashes += (hashes.empty() ? "" : ", ") + std::string("K=") + std::to_string(k) + " " + hash_hex(h);
-  }
-  r.steps_run = c.steps;
-  r.state_hash = hash_hex(first);
+  });
   const double sink = 2.5 - box_min_y;
   const bool pass = same && end_speed < 0.01 && box_max_speed <= start_speed + 1e-6 && box_min_y >= 2.45 &&
                     cube_min_y >= 0.45;
