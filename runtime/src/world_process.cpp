@@ -429,8 +429,10 @@ void PartitionedWorld::Process::end_step() {
     StageClock::Scope checkpoint(clock_, Stage::Checkpoint);
     if (safety_.keep_states) kept_.states().emplace(s_.step, s_.world->part_snapshot());
     if (safety_.horizon) safety_.horizon->report(s_.world->id(), s_.step);
+    // One scene step below GVT stays too: the watchdog's heal of a
+    // penetration restores the step before the one that found it.
     if (safety_.keep_states)
-      kept_.states().erase(kept_.states().begin(), kept_.states().lower_bound(safety_.horizon->gvt()));
+      kept_.states().erase(kept_.states().begin(), kept_.states().lower_bound(safety_.horizon->gvt() - substeps_));
   }
   if (progress_) progress_(s_.step / substeps_);
   if (output_.after_step) output_.after_step(s_.world->id(), s_.step / substeps_);

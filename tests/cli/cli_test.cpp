@@ -198,6 +198,24 @@ TEST_F(CliWatchdog, HealThatCannotHelpGivesUpClearly) {
   EXPECT_NE(o.output.find("self-heal gave up"), std::string::npos) << o.output;
 }
 
+// A real blow-up (the README's example): a 1000 kg box on a 1 kg box
+// stepped at 0.33 s sinks 1.1 m into it in step 2. Stop names step 3,
+// whose contacts find it; heal re-simulates step 2 in substeps and the run
+// ends normally, every later step within the watchdog's limits.
+TEST_F(CliWatchdog, HealSavesARealBlowUp) {
+  const std::string run = "run --scene mass-ratio --n 1000 --dt 0.33 --steps 60 --log-level warn ";
+  const Outcome stop = run_cli(run);
+  EXPECT_EQ(stop.exit_code, 1) << stop.output;
+  EXPECT_NE(stop.output.find("watchdog: step 3"), std::string::npos) << stop.output;
+  EXPECT_NE(stop.output.find("penetrates"), std::string::npos) << stop.output;
+  const std::string out = (dir_ / "healed.json").string();
+  const Outcome heal = run_cli(run + "--watchdog heal --json " + out);
+  ASSERT_EQ(heal.exit_code, 0) << heal.output;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(out));
+  EXPECT_EQ(j["healed_steps"], nlohmann::json::array({2})) << j.dump();
+  EXPECT_EQ(j["steps"], 60);
+}
+
 TEST_F(CliWatchdog, BadResponseIsBadInput) {
   const Outcome o = run_cli("run --scene cube-pile --n 20 --steps 1 --watchdog fix");
   EXPECT_EQ(o.exit_code, 2) << o.output;

@@ -1,5 +1,6 @@
-// The watchdog: a blow-up injected into one body (its velocity becomes NaN at
-// the end of a step) is caught by the world that owns it before anything of
+// The watchdog: a real blow-up (a step too long for a heavy box on a light
+// one) is caught, stopped on or healed, and so is a blow-up injected into
+// one body (its velocity becomes NaN at the end of a step): it is caught by the world that owns it before anything of
 // that step leaves the world. Stop: the run ends with a WatchdogError naming
 // the step, the world and the body. Heal: the worlds roll back to a step they
 // all keep, re-simulate the bad step with substeps and go on — and the result
@@ -124,6 +125,100 @@ INSTANTIATE_TEST_SUITE_P(Runtime, WatchdogHeal,
                                        ? "sequential"
                                        : info.param.schedule == Schedule::Pool ? "pool" : "threads");
                          });
+
+// A real blow-up, no hook: a 1000 kg box resting on a 1 kg box, stepped at
+// a third of a second. In step 2 the heavy box sinks 1.1 m into the light
+// one; the contact points of step 3 find it (a step's contacts come from
+// the positions the step before left), so stop names step 3, and heal
+// re-simulates step 2 — the step that made the penetration — in 8
+// substeps, and every later step passes the watchdog's check to the end
+// (the stack still falls: at 0.33 s no step keeps a 1000:1 stack up; the
+// heal keeps the run within bounds). One heal, the same for 1 and 2
+// territories, and the hash of one CanonicalWorld that takes step 2 in
+// substeps.
+Scene heavy_on_light() {
+  Scene s = test::scene("mass-ratio", 1000);
+  s.settings.dt = 0.33;
+  return s;
+}
+
+constexpr int kRealSteps = 60;
+
+TEST(Watchdog, StopFindsTheRealBlowUpAtTheStepAfterIt) {
+  const Scene s = heavy_on_light();
+  PartitionedOptions o;
+  o.watchdog.response = WatchdogResponse::Stop;
+  PartitionedWorld world(s, make_partition("kmeans", s, 1, GridOptions{}), o);
+  try {
+    world.step(kRealSteps);
+    FAIL() << "the blow-up went unnoticed";
+  } catch (const WatchdogError& e) {
+    std::printf("stop: %s\n", e.what());
+    EXPECT_EQ(e.step(), 3);
+    ASSERT_FALSE(e.findings().empty());
+    EXPECT_EQ(e.findings().front().kind, WatchdogFinding::Kind::Penetration);
+    EXPECT_GT(e.findings().front().value, 1.0);
+  }
+}
+
+TEST(Watchdog, HealsARealBlowUpAndStaysWithinBounds) {
+  const Scene s = heavy_on_light();
+  // The reference: one CanonicalWorld, step 2 in 8 substeps.
+  CanonicalWorld w(s);
+  w.step();
+  WorldSnapshot at = w.snapshot();
+  at.settings.substeps *= PartitionedOptions{}.watchdog.heal_substeps;
+  auto fine = std::make_unique<CanonicalWorld>(at);
+  fine->step();
+  WorldSnapshot after = fine->snapshot();
+  after.settings.substeps = s.settings.substeps;
+  CanonicalWorld rest(after);
+  for (int i = 2; i < kRealSteps; ++i) {
+    rest.step();
+    EXPECT_TRUE(rest.watchdog_findings(WatchdogLimits{}).empty()) << "step " << i + 1;
+  }
+  for (int territories : {1, 2}) {
+    PartitionedOptions o;
+    o.watchdog.response = WatchdogResponse::Heal;
+    o.validate = true;
+    PartitionedWorld world(s, make_partition("grid:" + std::to_string(territories) + "x1x1", s, territories,
+                                             GridOptions{}),
+                           o);
+    world.step(kRealSteps);  // every step checked; a finding the heal left would throw
+    EXPECT_EQ(world.steps_done(), kRealSteps);
+    ASSERT_EQ(world.heals(), 1) << territories << " territories";
+    EXPECT_EQ(world.healed_steps().front(), 2);
+    EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(rest.state_hash())) << territories << " territories";
+    std::printf("[ heal K=%d ] healed step %lld: %s\n", territories,
+                static_cast<long long>(world.healed_steps().front()), hash_hex(world.state_hash()).c_str());
+  }
+}
+
+// Blow-ups again and again: falling cubes stepped at
+// 0.15 s land 1 m deep in the ground, one after another. Every landing is
+// healed, the same steps for 1 and 4 territories, and the same hash.
+TEST(Watchdog, HealsEveryBlowUpOfAStepTooLongForEveryPartition) {
+  Scene s = test::scene("falling-cubes", 300);
+  s.settings.dt = 0.15;
+  std::vector<std::int64_t> healed;
+  std::uint64_t hash = 0;
+  for (int territories : {1, 4}) {
+    PartitionedOptions o;
+    o.watchdog.response = WatchdogResponse::Heal;
+    o.schedule = territories > 1 ? Schedule::ThreadPerWorld : Schedule::Sequential;
+    PartitionedWorld world(s, make_partition("kmeans", s, territories, GridOptions{}), o);
+    world.step(120);
+    std::printf("[ heal K=%d ] %d heals, %s\n", territories, world.heals(), hash_hex(world.state_hash()).c_str());
+    EXPECT_GE(world.heals(), 2);
+    if (territories == 1) {
+      healed = world.healed_steps();
+      hash = world.state_hash();
+    } else {
+      EXPECT_EQ(world.healed_steps(), healed);
+      EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(hash));
+    }
+  }
+}
 
 TEST(Watchdog, HealGivesUpWithAClearErrorWhenTheStepStaysBad) {
   // Limits no state can meet: every re-simulation fails again.
