@@ -6,9 +6,7 @@
 // the one-territory run. Label "concurrency" (ThreadSanitizer in CI).
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cstdio>
-#include <thread>
 
 #include "runtime/simulation_test_util.h"
 #include "soda/grid/partition.h"
@@ -49,11 +47,13 @@ TEST(SimulationInput, QueuedInputsGiveTheOneTerritoryResult) {
   EXPECT_NE(one.first, none.first);    // the inputs did something
 }
 
-// Thesis §3.2.3, late spawn: a 1x8 strip whose world 0 is slowed down, so
-// that the far end runs ahead; a body is added at a step the world that
-// owns its position has already passed (but not older than the commit
-// horizon). Every world rolls back to that step; the result equals the
-// one-territory run with the body added at that step from the start.
+// Thesis §3.2.3, late spawn: a 1x8 strip whose world 0 is held back
+// (test::SpawnGate: after its step 20 it waits for the test; on one thread
+// the round-robin order does it), so that the far end runs ahead; a body is
+// added at a step the world that owns its position has already passed (but
+// not older than the commit horizon). Every world rolls back to that step;
+// the result equals the one-territory run with the body added at that step
+// from the start.
 class LateSpawn : public ::testing::TestWithParam<int> {};  // threads: 0 per world, 3 pool, 1 one
 
 TEST_P(LateSpawn, InATerritoryThatIsAheadMatchesOneTerritory) {
@@ -66,18 +66,17 @@ TEST_P(LateSpawn, InATerritoryThatIsAheadMatchesOneTerritory) {
   ASSERT_EQ(map.owner_of(at), 7);
   const BodyId added = unused_id(s);
 
+  test::SpawnGate gate(8, /*hold=*/GetParam() != 1);
   SimulationConfig config{.threads = GetParam(), .buffer_capacity = 64, .past_inputs = true};
-  config.after_step = [](WorldId w, std::int64_t) {
-    if (w == 0) std::this_thread::sleep_for(std::chrono::milliseconds(4));
-  };
+  config.after_step = gate.hook();
   Simulation sim(s, map, config);
   sim.start(sim.time_of(kSteps));
   const Body cube = new_cube(added, at);
-  // Wait until world 7 has passed the commit horizon. (Without speculation
-  // a world finishes step t only with every neighbour's messages of t, so
-  // the lead along the strip stays about a step.)
-  const test::Spawned spawned = test::add_at_horizon(
-      sim, cube, [&] { return sim.published_steps()[7]; }, 1, 2000, std::chrono::milliseconds(2));
+  // World 7 past the commit horizon. (Without speculation a world finishes
+  // step t only with every neighbour's messages of t, so the lead along the
+  // strip stays about a step.) The lockstep input holds every world, world
+  // 0 too: the gate lets it go first.
+  const test::Spawned spawned = gate.add_when_ahead(sim, cube, 7, 1, /*add_while_held=*/false);
   const std::int64_t step = spawned.step;
   ASSERT_GE(step, 0) << "world 7 never got ahead of the horizon";
   EXPECT_EQ(sim.rollbacks(), 1u);

@@ -7,14 +7,15 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "runtime/partitioned_test_util.h"
@@ -105,34 +106,123 @@ inline std::optional<Vec3> far_spawn_point(const Scene& s) {
   return Vec3(far->position.x(), top + 2.0, far->position.z());
 }
 
-/// Late spawn: polls (every `pause`, at most `attempts` times) until the
-/// world whose newest step `newest()` gives is `min_lead` or more steps past
-/// the commit horizon (and the horizon past step 10), then adds `body` at
-/// the horizon's step. If the horizon moved past it meanwhile the error must
-/// say so, and it tries again.
+/// Late spawn: the step the body was added at (-1: never) and the lead over
+/// the commit horizon the far world had then.
 struct Spawned {
-  std::int64_t step = -1;  // the step the body was added at; -1: never
-  std::int64_t lead = 0;   // the world's lead over the horizon then
+  std::int64_t step = -1;
+  std::int64_t lead = 0;
 };
-inline Spawned add_at_horizon(Simulation& sim, const Body& body, const std::function<std::int64_t()>& newest,
-                                std::int64_t min_lead, int attempts, std::chrono::milliseconds pause) {
-  Spawned out;
-  for (int attempt = 0; attempt < attempts && out.step < 0; ++attempt) {
-    std::this_thread::sleep_for(pause);
-    const std::int64_t gvt = sim.commit_horizon_step();
-    out.lead = newest() - gvt;
-    if (out.lead < min_lead || gvt < 10) continue;
-    try {
-      sim.add_body(sim.time_of(gvt), body);
-      out.step = gvt;
-    } catch (const std::invalid_argument& e) {
-      const bool too_old = std::string(e.what()).find("older than the commit horizon") != std::string::npos;
-      EXPECT_TRUE(too_old) << e.what();
-      if (!too_old) return out;  // any other error ends the test's attempt
+
+/// Late spawn without timing: hook() (SimulationConfig::after_step) keeps
+/// every world's newest scene step (re-runs included) and, with `hold`
+/// (lockstep only: a speculating world held in after_step could not repair
+/// its lost bets, and every world would wait for it), holds world 0 after
+/// each of its steps from `hold_from` on while armed, so
+/// that the far end of a strip runs ahead of the commit horizon and stays
+/// there: world 0 is the slowest world by construction, not by a sleep.
+/// add_when_ahead() waits (woken by every world's step) until world `target`
+/// is `min_lead` or more steps past the horizon and the horizon is past step
+/// 10, adds the body at the horizon's step and lets world 0 go. Without
+/// `hold` (one thread steps every world: holding world 0 would stop them
+/// all) the round-robin order itself puts the far end a step ahead once per
+/// round, and add_when_ahead() waits for such a moment; an input that the
+/// horizon has passed meanwhile is refused and tried again. No sleep and no
+/// count of attempts decides: the one deadline is a hang guard far above
+/// any normal run (a world that never gets ahead is a failure, not a wait).
+class SpawnGate {
+ public:
+  static constexpr std::chrono::minutes kHangGuard{5};
+
+  SpawnGate(int worlds, bool hold, std::int64_t hold_from = 20)
+      : newest_(static_cast<std::size_t>(worlds), 0), hold_(hold), hold_from_(hold_from), armed_(hold) {}
+
+  ~SpawnGate() { release(); }
+
+  std::int64_t newest(WorldId w) const {
+    std::lock_guard lock(mutex_);
+    return newest_[static_cast<std::size_t>(w)];
+  }
+
+  std::function<void(WorldId, std::int64_t)> hook() {
+    return [this](WorldId w, std::int64_t step) {
+      std::unique_lock lock(mutex_);
+      std::int64_t& n = newest_[static_cast<std::size_t>(w)];
+      n = std::max(n, step);
+      changed_.notify_all();
+      if (w != 0 || !armed_ || step < hold_from_) return;
+      held_ = true;
+      changed_.notify_all();
+      const bool let_go = changed_.wait_for(lock, kHangGuard, [&] { return !armed_; });
+      held_ = false;
+      if (!let_go) throw std::runtime_error("SpawnGate: world 0 held for longer than the hang guard");
+    };
+  }
+
+  /// Lets world 0 go for good.
+  void release() {
+    std::lock_guard lock(mutex_);
+    armed_ = false;
+    changed_.notify_all();
+  }
+
+  /// `add_while_held`: add with world 0 still held (a speculative
+  /// Simulation posts the rollback and holds nobody); else let world 0 go
+  /// first (a lockstep Simulation holds every world at one boundary for the
+  /// input, world 0 included).
+  Spawned add_when_ahead(Simulation& sim, const Body& body, WorldId target, std::int64_t min_lead,
+                         bool add_while_held) {
+    struct LetGo {
+      SpawnGate& g;
+      ~LetGo() { g.release(); }
+    } let_go{*this};
+    Spawned out;
+    const auto deadline = std::chrono::steady_clock::now() + kHangGuard;
+    std::unique_lock lock(mutex_);
+    for (;;) {
+      std::int64_t gvt = 0;
+      const bool ready = changed_.wait_until(lock, deadline, [&] {
+        gvt = sim.commit_horizon_step();
+        out.lead = newest_[static_cast<std::size_t>(target)] - gvt;
+        return (!hold_ || held_) && gvt >= 10 && out.lead >= min_lead;
+      });
+      if (!ready) {
+        ADD_FAILURE() << "world " << target << " never got " << min_lead << " steps ahead of the commit horizon "
+                      << "(hang guard; newest " << newest_[static_cast<std::size_t>(target)] << ", horizon " << gvt
+                      << ")";
+        return out;
+      }
+      if (!add_while_held) {
+        armed_ = false;
+        changed_.notify_all();
+      }
+      lock.unlock();
+      bool added = false;
+      try {
+        sim.add_body(sim.time_of(gvt), body);
+        added = true;
+      } catch (const std::invalid_argument& e) {
+        const bool too_old = std::string(e.what()).find("older than the commit horizon") != std::string::npos;
+        EXPECT_TRUE(too_old) << e.what();
+        if (!too_old) return out;  // any other error ends the attempt
+      }
+      lock.lock();
+      if (added) {
+        out.step = gvt;
+        return out;
+      }
+      armed_ = hold_;  // the horizon passed the step: hold world 0 again and wait for the next chance
     }
   }
-  return out;
-}
+
+ private:
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  std::vector<std::int64_t> newest_;
+  const bool hold_;
+  const std::int64_t hold_from_;
+  bool armed_;
+  bool held_ = false;
+};
 
 /// The end of a late-spawn test: an input at step 1 is refused as older
 /// than the commit horizon; the run ends at `steps` with one body more, and

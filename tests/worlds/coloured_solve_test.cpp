@@ -232,17 +232,25 @@ TEST(SolverPool, BusyPoolRunsTheSecondCallerAlone) {
   EXPECT_EQ(done, 4);
 }
 
+// The tests below make two tasks wait for each other: a correct pool meets
+// them within microseconds, a wrong one leaves them waiting for ever. The
+// wait is a hang guard only, far above any normal run (ThreadSanitizer on a
+// loaded 2-core machine included): it turns a hang into a failure, and no
+// timing decides a pass.
+constexpr std::chrono::minutes kHangGuard{2};
+
 // Home blocks: of a job of 4 tasks on 2 threads, the caller takes tasks 0
 // and 1 (block 0), the helper 2 and 3 (block 1). Task 0 and task 2 wait for
 // each other, then 1 and 3: with one shared counter the helper would take
-// task 1 and both threads would wait for ever (10 s is a failure).
+// task 1 and both threads would wait for ever (kHangGuard turns that into a
+// failure).
 TEST(SolverPool, EachThreadStartsInItsOwnBlock) {
   SolverPool pool(2);
   for (int round = 0; round < 20; ++round) {
     std::atomic<int> started[4] = {0, 0, 0, 0};
     std::thread::id ran_by[4];
     std::atomic<bool> met{true};
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    const auto deadline = std::chrono::steady_clock::now() + kHangGuard;
     const std::thread::id caller = std::this_thread::get_id();
     pool.run(4, [&](int i) {
       ran_by[i] = std::this_thread::get_id();
@@ -271,10 +279,11 @@ TEST(SolverPool, GuestsTakeTasksUntilTold) {
   for (int g = 0; g < 2; ++g) guests.emplace_back([&, g] { served[g] = pool.serve(until[g]); });
   while (pool.guests() < 2) std::this_thread::yield();
   // A job of two tasks that each wait for the other: done only if a guest
-  // takes one (the caller alone would wait for ever; 10 s is a failure).
+  // takes one (the caller alone would wait for ever; kHangGuard turns that
+  // into a failure).
   std::atomic<int> running{0};
   std::atomic<bool> met{true};
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  const auto deadline = std::chrono::steady_clock::now() + kHangGuard;
   const int threads = pool.run(2, [&](int) {
     running.fetch_add(1);
     while (running.load() < 2 && std::chrono::steady_clock::now() < deadline) std::this_thread::yield();
@@ -324,7 +333,7 @@ TEST(SolverPool, AGuestWaitsForAFreeSlot) {
   // Only the second guest can take the second task of this job.
   std::atomic<int> running{0};
   std::atomic<bool> met{true};
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  const auto deadline = std::chrono::steady_clock::now() + kHangGuard;
   pool.run(2, [&](int) {
     running.fetch_add(1);
     while (running.load() < 2 && std::chrono::steady_clock::now() < deadline) std::this_thread::yield();
