@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Prints the committed result files that are older than the code they measure.
 
-Reads docs/results/sources.tsv (file glob, measured paths, command). A result
-file is stale when a commit that touches one of its measured paths came after
+Reads docs/results/sources.tsv (file glob, measured paths, command; "-" as
+the paths marks a dated record of past rounds, never stale). A result file
+is stale when a commit that touches one of its measured paths came after
 the last commit of the file; the line names the commits since and the command
 that regenerates it. Also lists result files under docs/results/ that the
 manifest does not cover, and docs/results/ links in README.md and docs/*.md
@@ -57,6 +58,8 @@ def main():
             reported += 1
         for path in files:
             covered.add(path)
+            if measures == ["-"]:
+                continue  # a dated record of past rounds: it describes the code of its dates
             commit = git("log", "-1", "--format=%H", "--", path)
             if not commit:
                 print(f"unknown: {path}: not committed, or no history here (shallow clone?)")
