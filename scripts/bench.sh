@@ -1,11 +1,19 @@
 #!/usr/bin/env bash
-# Quick start 1: install what is missing, build (Release), and run the
+# Quick start 1: install what is missing, build the `soda` command (Release,
+# float: only what `soda bench` links, not the double-precision build, the
+# tests or the examples; scripts/test.sh builds everything), and run the
 # falling-cubes benchmark against stock Bullet, side by side.
 # Sizes: N=16000 REPEAT=3 scripts/bench.sh; other arguments go to `soda bench`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh
-scripts/build.sh Release build
+scripts/setup.sh build
+start=$SECONDS
+# The same configuration as scripts/build.sh (both precisions, tests on), so
+# that scripts/test.sh later builds the rest in the same build/ folder; only
+# the `soda` target is built here.
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
+cmake --build build -j "$(nproc)" --target soda
+echo "bench: soda built in $((SECONDS - start)) s"
 # The headline: stock Bullet, SODA on one territory and SODA on as many
 # territories as cores, sleeping on and again off, side by side in one
 # process; prints a table of the speed-ups, the bodies asleep and the hash

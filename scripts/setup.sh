@@ -1,8 +1,21 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages SODA builds against, skipping those already
 # there. Needs root (or sudo). Safe to run again.
+#   scripts/setup.sh          everything: the build, the plots, the viewer and
+#                             the browser tests (scripts/test.sh)
+#   scripts/setup.sh build    only what configuring and building needs
+#                             (scripts/bench.sh): no plotting, no three.js,
+#                             no chromium, node or playwright-core
 set -euo pipefail
 
+mode="${1:-all}"
+case "$mode" in
+  all|build) ;;
+  *) echo "setup: unknown mode '$mode' (all or build)" >&2; exit 2 ;;
+esac
+
+# What CMake needs to configure and build every target (MPI too: SODA_MPI
+# is decided, and cached, at the first configure).
 packages=(
   g++ cmake ninja-build pkg-config
   libbullet-dev          # Bullet 3.24, float and -float64 libraries
@@ -10,15 +23,19 @@ packages=(
   libcli11-dev nlohmann-json3-dev
   libgtest-dev
   zlib1g-dev             # replay files (replay/: zlib chunks)
-  python3-matplotlib     # bench/plot_accuracy.py (plots only; the C++ never needs it)
   libcpp-httplib-dev     # the viewer's frame server (soda view, soda run --serve)
-  libjs-three            # three.js for the browser viewer (served from /usr/share/javascript/three)
-  chromium               # the browser tests (headless, WebGL on SwiftShader)
   libopenmpi-dev openmpi-bin  # territories on MPI ranks (mpi/, docs/mpi.md; mpirun for its tests)
 )
-# node (>= 20: playwright-core's requirement; the machine's own) runs the
-# browser tests; Debian's nodejs if there is none at all.
-command -v node >/dev/null || packages+=(nodejs npm)
+if [ "$mode" = all ]; then
+  packages+=(
+    python3-matplotlib   # bench/plot_accuracy.py (plots only; the C++ never needs it)
+    libjs-three          # three.js for the browser viewer (served from /usr/share/javascript/three)
+    chromium             # the browser tests (headless, WebGL on SwiftShader)
+  )
+  # node (>= 20: playwright-core's requirement; the machine's own) runs the
+  # browser tests; Debian's nodejs if there is none at all.
+  command -v node >/dev/null || packages+=(nodejs npm)
+fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -44,7 +61,7 @@ install_playwright() {
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#packages[@]} packages present"
-  install_playwright
+  [ "$mode" = all ] && install_playwright
   exit 0
 fi
 
@@ -58,4 +75,5 @@ fi
 echo "setup: installing ${missing[*]}"
 $sudo apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
-install_playwright
+[ "$mode" = all ] && install_playwright
+exit 0
