@@ -39,8 +39,8 @@ std::string fmt(const char* f, double v) {
   return buf;
 }
 
-Vec3 pos(const BodySample& s) { return {s.position[0], s.position[1], s.position[2]}; }
-Vec3 vel(const BodySample& s) { return {s.linear_velocity[0], s.linear_velocity[1], s.linear_velocity[2]}; }
+Vec3 sample_position(const BodySample& s) { return {s.position[0], s.position[1], s.position[2]}; }
+Vec3 sample_velocity(const BodySample& s) { return {s.linear_velocity[0], s.linear_velocity[1], s.linear_velocity[2]}; }
 
 // What a case's criterion may look at, gathered over every step.
 struct Observed {
@@ -123,7 +123,7 @@ Observed observe(W& world, const Scene& scene, int steps) {
       }
     }
     for (std::size_t i = 0; i < now.size(); ++i) {
-      o.max_displacement[i] = std::max(o.max_displacement[i], (pos(now[i]) - pos(o.initial[i])).norm());
+      o.max_displacement[i] = std::max(o.max_displacement[i], (sample_position(now[i]) - sample_position(o.initial[i])).norm());
       o.max_x[i] = std::max(o.max_x[i], now[i].position[0]);
       o.min_y = std::min(o.min_y, now[i].position[1]);
     }
@@ -135,13 +135,13 @@ Observed observe(W& world, const Scene& scene, int steps) {
   }
   o.final = now;
   for (std::size_t i = 0; i < o.at_settle.size() && i < o.final.size(); ++i)
-    o.drift_after_settle = std::max(o.drift_after_settle, (pos(o.final[i]) - pos(o.at_settle[i])).norm());
+    o.drift_after_settle = std::max(o.drift_after_settle, (sample_position(o.final[i]) - sample_position(o.at_settle[i])).norm());
   {
     std::map<BodyId, int> activation;
     for (const BodyState& b : world.body_states()) activation[b.id] = b.activation_state;
     for (const BodySample& b : o.final) o.final_activation.push_back(activation.at(b.id));
   }
-  for (const BodySample& s : o.final) o.max_speed_end = std::max(o.max_speed_end, vel(s).norm());
+  for (const BodySample& s : o.final) o.max_speed_end = std::max(o.max_speed_end, sample_velocity(s).norm());
   o.sleeping = world.sleeping_count();
   o.hash = world.state_hash();
   return o;
@@ -179,7 +179,7 @@ void stands(StressResult& r, const Observed& o, double tolerance = kStandToleran
   const auto it = std::max_element(o.max_displacement.begin(), o.max_displacement.end());
   const double worst = *it;
   const std::size_t i = static_cast<std::size_t>(it - o.max_displacement.begin());
-  const Vec3 top_shift = pos(o.final.back()) - pos(o.initial.back());
+  const Vec3 top_shift = sample_position(o.final.back()) - sample_position(o.initial.back());
   verdict(r, worst <= tolerance, worst, tolerance,
           "max displacement " + fmt("%.4g", worst) + " m (body " + std::to_string(o.initial[i].id) +
               "); top body moved (" + fmt("%.3g", top_shift.x()) + ", " + fmt("%.3g", top_shift.y()) + ", " +
@@ -429,7 +429,7 @@ StressResult run_stress_case(const StressCase& c) {
     } else if (c.group == "heavy-drop") {
       double sideways = 0;
       for (std::size_t i = 0; i + 1 < o.final.size(); ++i) {
-        const Vec3 d = pos(o.final[i]) - pos(o.initial[i]);
+        const Vec3 d = sample_position(o.final[i]) - sample_position(o.initial[i]);
         sideways = std::max(sideways, std::hypot(d.x(), d.z()));
       }
       const double top = o.final.back().position[1], want = c.n + 0.5;
@@ -440,7 +440,7 @@ StressResult run_stress_case(const StressCase& c) {
                   std::to_string(o.dynamic) + " asleep");
     } else if (c.group == "plank-pile") {
       const BodySample& plank = o.final.back();  // the plank is the last body
-      const double speed = vel(plank).norm();
+      const double speed = sample_velocity(plank).norm();
       const bool pass = plank.position[1] >= 3.0 && speed < 0.01 && o.min_y > 0.0 && o.penetration.max < 0.05 &&
                         o.energy_max <= o.energy0;
       verdict(r, pass, o.penetration.max, 0.05,
@@ -475,7 +475,7 @@ StressResult run_stress_case(const StressCase& c) {
       std::size_t count = 0;
       for (std::size_t k = 0; k < std::min(o.early.size(), origin.early.size()); ++k)
         for (std::size_t i = 0; i < o.early[k].size(); ++i) {
-          const Vec3 d = pos(o.early[k][i]) - Vec3(c.n, 0, 0) - pos(origin.early[k][i]);
+          const Vec3 d = sample_position(o.early[k][i]) - Vec3(c.n, 0, 0) - sample_position(origin.early[k][i]);
           sq += d.squaredNorm();
           ++count;
         }

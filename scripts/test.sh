@@ -9,6 +9,20 @@ scripts/build.sh Release build
 # Committed result files older than the code they measure (docs/results/sources.tsv):
 # printed as a warning, never a failure.
 scripts/stale-results.py || true
+# The build scripts/bench.sh makes (each library and the CLI compiled as one
+# unit, SODA_UNITY_BUILD in CMakeLists.txt): it must compile, and give the same
+# bits as the build above.
+cmake -S . -B build/unity-check -G Ninja -DCMAKE_BUILD_TYPE=Release -DSODA_UNITY_BUILD=ON \
+  -DSODA_BUILD_DOUBLE=OFF -DSODA_BUILD_TESTS=OFF
+cmake --build build/unity-check -j "$(nproc)" --target soda
+for args in "falling-cubes --n 500 --steps 100" "cube-pile --n 300 --steps 100 --territories 2"; do
+  # shellcheck disable=SC2086  # $args is a list of arguments
+  a=$(build/bin/soda run --scene $args --log-level warn | grep -o 'state_hash [0-9a-f]*')
+  # shellcheck disable=SC2086
+  b=$(build/unity-check/bin/soda run --scene $args --log-level warn | grep -o 'state_hash [0-9a-f]*')
+  echo "unity check, soda run --scene $args: $a, as one unit $b"
+  [ -n "$a" ] && [ "$a" = "$b" ] || { echo "unity check: the hashes differ" >&2; exit 1; }
+done
 # The installed package (docs/embedding.md, "Using SODA from CMake"): install
 # to a prefix inside build/, compile every public header alone against it
 # (tests/install/), then build and run the find_package(soda) consumer

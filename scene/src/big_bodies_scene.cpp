@@ -11,7 +11,7 @@
 namespace soda::detail {
 namespace {
 
-constexpr int kDefaultCubes = 300;
+constexpr int kDefaultBigBodiesCubes = 300;
 
 // A convex hull shaped as a prism: a triangle of `width` by `height` (m)
 // extruded `length` metres along x, centred on its local origin.
@@ -30,7 +30,7 @@ Shape prism(double length, double width, double height) {
 Scene make_big_bodies(const SceneParams& params) {
   Scene scene = start_scene("big-bodies", params);
   SceneRandom rng(params.seed);
-  const int n = params.n > 0 ? params.n : kDefaultCubes;
+  const int n = params.n > 0 ? params.n : kDefaultBigBodiesCubes;
   // Unit cubes on a square grid 1.6 m apart, in layers 1.6 m apart from
   // y = 1 m: a loose block the big bodies fall into.
   const int side = static_cast<int>(std::ceil(std::sqrt(n / 3.0)));

@@ -18,14 +18,6 @@
 #include "soda/scene/validate.h"
 
 namespace soda::detail {
-namespace {
-
-// Ground margin beyond the dynamic bodies' footprint, as in generators.cpp.
-constexpr double kGroundMargin = 10.0;
-constexpr BodyId kGroundId = 0;
-const Vec3 kUnitHalf = Vec3::Constant(0.5);  // unit box
-
-}  // namespace
 
 int magnitude_or_default(const SceneParams& params, int default_n) { return params.n >= 1 ? params.n : default_n; }
 

@@ -11,11 +11,8 @@
 namespace soda::detail {
 namespace {
 
-// Ground: a static box whose top face is at y = 0, covering the footprint plus
-// this margin on every side, so cubes that tumble off a cluster still land.
-constexpr double kGroundMargin = 10.0;
+// Ground: a static box whose top face is at y = 0 (kGroundMargin: generators.h).
 constexpr double kGroundHalfThickness = 0.5;
-constexpr BodyId kGroundId = 0;
 
 Body make_ground(double half_footprint) {
   Body g;

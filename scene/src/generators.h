@@ -5,6 +5,28 @@
 
 namespace soda::detail {
 
+// Shared by the generators (declared once: every scene means the same by them).
+/// The ground is a static box whose top face is at y = 0, covering the
+/// dynamic bodies' footprint plus this margin on every side (m), so bodies
+/// that tumble off a cluster still land.
+inline constexpr double kGroundMargin = 10.0;
+/// The ground's id in every generated scene.
+inline constexpr BodyId kGroundId = 0;
+/// Half extents of a unit box (m).
+inline const Vec3 kUnitHalf = Vec3::Constant(0.5);
+/// A rotation by `angle` (rad) about +y.
+inline Quat yaw(double angle) { return Quat(Eigen::AngleAxisd(angle, Vec3::UnitY())); }
+
+// The sleepers and idle-territories scenes: sleepers are unit cubes 1.5 m
+// apart (0.5 m gaps, wider than twice the contact breaking threshold, so no
+// two share a contact or a broadphase pair); active cubes stand in columns
+// 1.8 m apart (> sqrt(3): randomly oriented unit cubes cannot touch at the
+// start), in kActiveLayers layers 1.8 m apart from y = kFirstActiveY.
+inline constexpr double kSleeperSpacing = 1.5;
+inline constexpr double kActiveSpacing = 1.8;
+inline constexpr int kActiveLayers = 5;
+inline constexpr double kFirstActiveY = 3.0;
+
 // generators.cpp: the thesis' scenes.
 Scene make_falling_cubes(const SceneParams& params);
 Scene make_cube_pile(const SceneParams& params);

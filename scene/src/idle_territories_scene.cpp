@@ -11,19 +11,11 @@ namespace {
 
 constexpr int kDefaultPerRegion = 200;
 constexpr int kRegions = 8;
-// Sleepers: unit cubes resting on the ground 1.5 m apart (no two share a
-// contact or a broadphase pair), as in the sleepers scene.
-constexpr double kSleeperSpacing = 1.5;
-// Active cubes: columns 1.8 m apart (> sqrt(3): randomly oriented unit
-// cubes cannot touch at the start), layers 1.8 m apart from y = 3 m.
-constexpr double kActiveSpacing = 1.8;
-constexpr int kActiveLayers = 5;
-constexpr double kFirstActiveY = 3.0;
+// Sleepers and active cubes spaced as in the sleepers scene (generators.h).
 // Empty ground between the regions' bodies: wider than a grid slab's
 // rounding (a cell of about 1.7 m) plus where a falling pile spreads, so
 // that no body of one region comes near another region's territory.
 constexpr double kRegionGap = 16.0;
-constexpr double kGroundMargin = 10.0;
 
 }  // namespace
 

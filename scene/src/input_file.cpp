@@ -16,8 +16,8 @@ namespace {
 using detail::Context;
 using detail::json;
 
-constexpr const char* kFormat = "soda-inputs";
-constexpr int kVersion = 1;
+constexpr const char* kInputsFormat = "soda-inputs";
+constexpr int kInputsVersion = 1;
 
 UserInput::Kind parse_kind(const Context& ctx, const std::string& name) {
   for (UserInput::Kind k : {UserInput::Kind::AddBody, UserInput::Kind::RemoveBody, UserInput::Kind::SetVelocity,
@@ -73,7 +73,7 @@ UserInput parse_input(const std::string& source, std::size_t index, const json& 
   return in;
 }
 
-json vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
+json inputs_vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
 
 }  // namespace
 
@@ -106,9 +106,9 @@ std::vector<UserInput> parse_inputs_json(const std::string& text, const std::str
   Context ctx{source};
   if (!doc.is_object()) ctx.fail("(top level)", "must be an object");
   ctx.only_known(doc, {"format", "version", "inputs"});
-  if (ctx.string(doc, "format", true, "") != kFormat) ctx.fail("format", std::string("must be \"") + kFormat + "\"");
-  if (ctx.integer(doc, "version", true, 0) != kVersion)
-    ctx.fail("version", "unsupported version (this build reads version " + std::to_string(kVersion) + ")");
+  if (ctx.string(doc, "format", true, "") != kInputsFormat) ctx.fail("format", std::string("must be \"") + kInputsFormat + "\"");
+  if (ctx.integer(doc, "version", true, 0) != kInputsVersion)
+    ctx.fail("version", "unsupported version (this build reads version " + std::to_string(kInputsVersion) + ")");
   const json* list = ctx.find(doc, "inputs", true);
   if (!list->is_array()) ctx.fail("inputs", "must be an array");
   std::vector<UserInput> inputs;
@@ -140,17 +140,17 @@ std::string inputs_to_json(const std::vector<UserInput>& inputs) {
       case UserInput::Kind::RemoveBody: e["id"] = in.id; break;
       case UserInput::Kind::SetVelocity:
         e["id"] = in.id;
-        e["linear_velocity"] = vec_json(in.linear);
-        e["angular_velocity"] = vec_json(in.angular);
+        e["linear_velocity"] = inputs_vec_json(in.linear);
+        e["angular_velocity"] = inputs_vec_json(in.angular);
         break;
       case UserInput::Kind::ApplyImpulse:
         e["id"] = in.id;
-        e["impulse"] = vec_json(in.linear);
+        e["impulse"] = inputs_vec_json(in.linear);
         break;
     }
     list.push_back(std::move(e));
   }
-  return json{{"format", kFormat}, {"version", kVersion}, {"inputs", std::move(list)}}.dump(1) + "\n";
+  return json{{"format", kInputsFormat}, {"version", kInputsVersion}, {"inputs", std::move(list)}}.dump(1) + "\n";
 }
 
 }  // namespace soda

@@ -28,7 +28,7 @@
 namespace soda::detail {
 namespace {
 
-constexpr int kDefaultCubes = 2400;
+constexpr int kDefaultLoadCubes = 2400;
 // A column: kLayers unit cubes (1 kg), seeded random yaw, launched together
 // kLayerPitch apart, so they land one onto another. Taller columns topple
 // and take longer to come to rest.
@@ -53,7 +53,6 @@ constexpr double kWakeStartAbove = 1.0; // m between a column's top face and its
 // below its sleeping thresholds), so the windows do not overlap.
 constexpr int kWindowSteps = 150;
 constexpr int kFirstLanding = 10;       // step at which the left columns land (window 0)
-constexpr double kGroundMargin = 10.0;  // as generators.cpp
 
 // Vertical launch speed that brings a body from height y0 to y1 in k steps
 // of Bullet's semi-implicit Euler (v += g dt, then y += v dt):
@@ -78,7 +77,6 @@ double arrival_speed(double y0, double rest, int step, double dt, double g) {
   return v0;
 }
 
-Quat yaw(double angle) { return Quat(Eigen::AngleAxisd(angle, Vec3::UnitY())); }
 
 }  // namespace
 
@@ -89,7 +87,7 @@ Scene make_alternating_load(const SceneParams& params) {
   SceneRandom rng(params.seed);
   const double dt = scene.settings.dt;
   const double g = -scene.settings.gravity.y();
-  const int n = params.n > 0 ? params.n : kDefaultCubes;
+  const int n = params.n > 0 ? params.n : kDefaultLoadCubes;
   const int columns = (n + 2 * kLayers - 1) / (2 * kLayers);  // per half
   const int per_spot = kSpotSide * kSpotSide;
   const int spots = (columns + per_spot - 1) / per_spot;      // per half

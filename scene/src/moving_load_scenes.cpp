@@ -26,11 +26,8 @@ namespace soda::detail {
 namespace {
 
 constexpr double kPitch = 1.25;          // m between the centres of neighbouring unit cubes: 0.25 m gaps
-constexpr double kGroundMargin = 10.0;   // as generators.cpp
-const Vec3 kUnitHalf(0.5, 0.5, 0.5);
 constexpr double kRestGap = 0.001;       // m between a resting body and the wall it rests against
 
-Quat yaw(double angle) { return Quat(Eigen::AngleAxisd(angle, Vec3::UnitY())); }
 
 Body wall(BodyId id, const Vec3& half_extents, const Vec3& position, double friction) {
   Body w = static_box(id, half_extents, position);

@@ -30,9 +30,7 @@ constexpr double kJitter = 0.1;          // m, either way, in x and z
 constexpr double kLatticeSlack = 1.5;    // lattice points per cube of a wave: the choice is random
 constexpr double kMarkerPitch = 4.0;     // m between floor markers
 constexpr double kBinWallHeight = 3.0;   // m
-constexpr double kGroundMargin = 10.0;   // as generators.cpp
 constexpr double kSettleSeconds = 2.5;   // after the last wave: land, settle
-const Vec3 kUnitHalf(0.5, 0.5, 0.5);
 
 struct RainLayout {
   int n = 0;            // cubes in all waves

@@ -12,17 +12,9 @@ namespace {
 constexpr int kDefaultSleepers = 100000;
 // One active cube per this many sleepers: 1,000 for the default 100,000.
 constexpr int kSleepersPerActive = 100;
-// Sleepers: unit cubes 1.5 m apart (0.5 m gaps, wider than twice the contact
-// breaking threshold, so no two sleepers share a contact or a broadphase
-// pair), each exactly resting on the ground (centre at y = 0.5 m).
-constexpr double kSleeperSpacing = 1.5;
-// Active cubes: columns 1.8 m apart (> sqrt(3): randomly oriented unit cubes
-// cannot touch at the start), layers 1.8 m apart from y = 3 m, over the
-// middle of the field; they land on sleepers and wake them.
-constexpr double kActiveSpacing = 1.8;
-constexpr int kActiveLayers = 5;
-constexpr double kFirstActiveY = 3.0;
-constexpr double kGroundMargin = 10.0;
+// Sleepers each exactly resting on the ground (centre at y = 0.5 m); the
+// active cubes over the middle of the field land on sleepers and wake them
+// (spacings: generators.h).
 
 }  // namespace
 

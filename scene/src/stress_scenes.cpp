@@ -9,12 +9,6 @@
 #include "random.h"
 
 namespace soda::detail {
-namespace {
-
-constexpr double kGroundMargin = 10.0;  // as generators.cpp
-const Vec3 kUnitHalf = Vec3::Constant(0.5);
-
-}  // namespace
 
 Scene start_scene(const char* name, const SceneParams& params) {
   Scene scene;

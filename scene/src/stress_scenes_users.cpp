@@ -4,11 +4,6 @@
 #include "generators.h"
 
 namespace soda::detail {
-namespace {
-
-constexpr double kGroundMargin = 10.0;  // as generators.cpp
-
-}  // namespace
 
 Scene make_card_house(const SceneParams& params) {
   Scene scene = start_scene("card-house", params);

@@ -28,7 +28,7 @@ namespace {
 // 100,000 sleepers walk hundreds of levels per insertion and every wake
 // query too. O(N log N) in all. Threshold 2: a pure top-down split.
 constexpr int kRebuildFromLeaves = 1024;
-constexpr int kTopDownThreshold = 2;
+constexpr int kParkedTopDownThreshold = 2;
 // Bullet's broadphase trees are rebuilt after a batch removed more than this
 // many times the leaves left in them.
 constexpr std::size_t kRebuildAfterRemoving = 1;
@@ -81,7 +81,7 @@ std::size_t Parking::add_island(btCollisionObject* const* bodies, int n) {
     bullet_aabb(*b, lo, hi);
     island.leaves.push_back(tree_.insert(btDbvtVolume::FromMM(lo, hi), reinterpret_cast<void*>(slot)));
     const int leaves = tree_.m_leaves;
-    if (leaves >= kRebuildFromLeaves && (leaves & (leaves - 1)) == 0) tree_.optimizeTopDown(kTopDownThreshold);
+    if (leaves >= kRebuildFromLeaves && (leaves & (leaves - 1)) == 0) tree_.optimizeTopDown(kParkedTopDownThreshold);
   }
   ++parked_islands_;
   parked_bodies_ += static_cast<std::size_t>(n);
@@ -169,7 +169,7 @@ void Parking::finish_parking() {
   // down; the trees' shapes decide only the order overlaps are found in.
   for (btDbvt& set : broadphase_.m_sets)
     if (static_cast<std::size_t>(set.m_leaves) * kRebuildAfterRemoving < leaving_.size())
-      set.optimizeTopDown(kTopDownThreshold);
+      set.optimizeTopDown(kParkedTopDownThreshold);
   leaving_.clear();
 }
 
