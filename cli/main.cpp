@@ -7,6 +7,7 @@
 #include <exception>
 #include <iostream>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -20,6 +21,7 @@
 #include "soda/bench/result_json.h"
 #include "soda/grid/partition.h"
 #include "soda/replay/replay_error.h"
+#include "soda/runtime/checkpoint.h"
 #include "soda/scene/input_file.h"
 #include "soda/runtime/memory_estimate.h"
 #include "soda/scene/registry.h"
@@ -63,6 +65,7 @@ struct Options {
   std::string rollback = "propagate";
   std::string json_path;
   std::string inputs_path;  // run: an input file to replay (docs/inputs.md)
+  std::string resume_path;  // run: a checkpoint to resume (docs/checkpoints.md)
   int repeat = 3;
   bool no_awake = false;  // bench: skip the runs with sleeping off
   std::optional<int> serve_port;  // run --serve: the browser viewer, live (docs/viewer.md)
@@ -172,6 +175,8 @@ void add_run_options(CLI::App& cmd, Options& o) {
   cmd.add_option("--json", o.json_path, "Write results as JSON to this path ('-': stdout)");
 }
 
+void resolve_run_config(Options& o);
+
 soda::Scene resolve_scene(Options& o) {
   soda::Scene scene = soda::load_or_make_scene(o.scene, o.params);
   if (o.dt) scene.settings.dt = *o.dt;
@@ -187,6 +192,12 @@ soda::Scene resolve_scene(Options& o) {
   }
   soda::validate_scene(scene, source, kPrecision);
   o.config.steps = scene.settings.steps;
+  resolve_run_config(o);
+  return scene;
+}
+
+// The run options that do not describe the scene.
+void resolve_run_config(Options& o) {
   if (o.world == "canonical") o.config.world = soda::WorldKind::Canonical;
   else if (o.world == "stock") o.config.world = soda::WorldKind::Stock;
   else throw std::invalid_argument("--world must be 'canonical' or 'stock', got '" + o.world + "'");
@@ -197,7 +208,6 @@ soda::Scene resolve_scene(Options& o) {
   o.config.rollback = o.rollback == "recompute" ? soda::PartitionedOptions::Rollback::Recompute
                                                 : soda::PartitionedOptions::Rollback::Propagate;
   if (o.config.watchdog.heal_substeps < 1) throw std::invalid_argument("--heal-substeps must be >= 1");
-  return scene;
 }
 
 void print_summary(const soda::RunResult& r) {
@@ -272,7 +282,41 @@ void print_summary(const soda::RunResult& r) {
                 static_cast<long long>(step));
 }
 
+void print_checkpoints(const Options& o, const soda::RunResult& r) {
+  if (r.resumed_at >= 0)
+    std::printf("  resumed %s at step %lld, ran to step %lld\n", o.resume_path.c_str(),
+                static_cast<long long>(r.resumed_at), static_cast<long long>(o.config.steps));
+  if (r.checkpoint_step >= 0)
+    std::printf("  checkpoint at step %lld: %llu bytes to %s\n", static_cast<long long>(r.checkpoint_step),
+                static_cast<unsigned long long>(r.checkpoint_bytes), o.config.checkpoint_path.c_str());
+}
+
+// soda run --resume FILE: the scene, its state and its queued inputs come
+// from the checkpoint; --steps is the scene step to reach.
+int cmd_resume(Options& o) {
+  if (o.serve_port) throw std::invalid_argument("--serve cannot be combined with --resume");
+  auto snapshot = std::make_shared<const soda::SimulationSnapshot>(soda::read_checkpoint(o.resume_path));
+  soda::Scene scene = soda::scene_of(snapshot->state);
+  scene.name = o.resume_path;
+  o.scene = o.resume_path;
+  resolve_run_config(o);
+  o.config.steps = o.steps ? *o.steps : scene.settings.steps;
+  o.config.resume = snapshot;
+  o.config.resume_source = o.resume_path;
+  if (!o.inputs_path.empty()) {
+    o.config.inputs = soda::load_input_file(o.inputs_path);
+    o.config.inputs_source = o.inputs_path;
+  }
+  const soda::RunResult r = soda::run_scene(scene, o.config);
+  print_summary(r);
+  print_checkpoints(o, r);
+  if (!o.json_path.empty())
+    soda::write_json(soda::run_json({o.scene, o.params, &scene, o.config}, r), o.json_path);
+  return 0;
+}
+
 int cmd_run(Options& o) {
+  if (!o.resume_path.empty()) return cmd_resume(o);
   const soda::Scene scene = resolve_scene(o);
   // A registry scene's own inputs (rain's later waves) are part of the
   // scene; an input file on top of them is refused rather than merged (the
@@ -294,10 +338,13 @@ int cmd_run(Options& o) {
   }
   if (o.serve_port && o.config.group)
     throw std::invalid_argument("--serve is not supported under mpirun yet (docs/mpi.md)");
+  if (o.serve_port && !o.config.checkpoint_path.empty())
+    throw std::invalid_argument("--serve cannot be combined with --checkpoint");
   if (o.serve_port) return soda::cli::serve_run(scene, o.config, {*o.serve_port, o.serve_linger, o.serve_wait});
   const soda::RunResult r = soda::run_scene(scene, o.config);
   if (o.config.group && o.config.group->rank() != 0) return 0;  // rank 0 prints the whole scene's result
   print_summary(r);
+  print_checkpoints(o, r);
   if (!o.config.record_path.empty())
     std::printf("  recorded %llu frames, %llu bytes to %s (recording thread CPU %.3f s)\n",
                 static_cast<unsigned long long>(r.record_frames), static_cast<unsigned long long>(r.record_bytes),
@@ -439,6 +486,23 @@ int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
                   "--record: zlib level, 1 (fastest) .. 9 (smallest)")
       ->check(CLI::Range(1, 9))
       ->capture_default_str();
+  CLI::Option* checkpoint =
+      run->add_option("--checkpoint", run_o.config.checkpoint_path,
+                      "Write a checkpoint file of the run at scene step --checkpoint-at (docs/checkpoints.md), then "
+                      "run on; 'soda run --resume FILE' goes on from it to the same hash");
+  CLI::Option* checkpoint_at =
+      run->add_option("--checkpoint-at", run_o.config.checkpoint_at, "--checkpoint: the scene step to save at")
+          ->check(CLI::NonNegativeNumber);
+  checkpoint->needs(checkpoint_at);
+  checkpoint_at->needs(checkpoint);
+  CLI::Option* resume = run->add_option(
+      "--resume", run_o.resume_path,
+      "Resume a checkpoint file (docs/checkpoints.md): its scene, state and queued inputs, with any --territories, "
+      "--partition, --threads, --anticipation; --steps is then the scene step to reach, numbered as in the run "
+      "that saved it (default: the scene's steps), and --inputs adds inputs at or after its step");
+  for (const char* scene_option : {"--scene", "--n", "--seed", "--random-scale", "--dt", "--iterations",
+                                   "--shuffle-seed", "--record", "--world", "--solver-defaults"})
+    resume->excludes(run->get_option(scene_option));
   run->add_option("--serve", run_o.serve_port,
                   "Serve the run to the browser viewer on 127.0.0.1:PORT while it runs (0: any free port; "
                   "docs/viewer.md)")
@@ -527,6 +591,9 @@ int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
     std::fprintf(stderr, "soda: error: %s\n", e.what());
     return kExitBadInput;
   } catch (const soda::SceneError& e) {
+    std::fprintf(stderr, "soda: error: %s\n", e.what());
+    return kExitBadInput;
+  } catch (const soda::CheckpointError& e) {  // unreadable, truncated, damaged, foreign; or not writable
     std::fprintf(stderr, "soda: error: %s\n", e.what());
     return kExitBadInput;
   } catch (const std::invalid_argument& e) {  // includes soda::GridError

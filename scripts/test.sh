@@ -42,6 +42,7 @@ build/consumer/game_loop
 build/consumer/game_loop --stepping
 build/consumer/picking
 build/consumer/snapshot_restore
+build/consumer/save_resume
 # ThreadSanitizer cannot see inside Debian's (uninstrumented) Bullet; see
 # docs/bullet-globals.md for how its shared state is handled.
 cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSODA_SANITIZE=thread -DSODA_BUILD_DOUBLE=OFF

@@ -379,9 +379,11 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   make_balance_policy(config.balance);  // BalanceError (std::invalid_argument) for bad options
   if (config.solver_defaults != SolverDefaults::Soda &&
       (config.world != WorldKind::Canonical || config.territories > 1 || config.sync_test > 0 || config.inputs ||
-       config.watchdog.response == WatchdogResponse::Heal || !config.record_path.empty() || config.group))
+       config.watchdog.response == WatchdogResponse::Heal || !config.record_path.empty() || config.group ||
+       through_simulation_only(config)))
     throw std::invalid_argument("--solver-defaults bullet runs one canonical world only (not with --world stock, "
-                                "--territories > 1, --sync-test, --watchdog heal, inputs, --record or ranks)");
+                                "--territories > 1, --sync-test, --watchdog heal, inputs, --record, checkpoints "
+                                "or ranks)");
   const SleepingSwitch sleeping(config.sleeping);
   const Stamp start;
   check_run_memory(scene, config);
@@ -391,9 +393,11 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
       throw std::invalid_argument("over MPI ranks: --record is not supported yet (docs/mpi.md)");
     if (config.inputs)
       throw std::invalid_argument("over MPI ranks: inputs are not supported yet (docs/mpi.md)");
+    if (!config.checkpoint_path.empty() || config.resume)
+      throw std::invalid_argument("over MPI ranks: --checkpoint and --resume are not supported yet (docs/mpi.md)");
     return run_partitioned(scene, config);
   }
-  if (!config.record_path.empty() || (config.inputs && inputs_through_simulation(config)))
+  if (through_simulation_only(config) || (config.inputs && inputs_through_simulation(config)))
     return run_with_inputs(scene, config);
   if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0 ||
       config.inputs)

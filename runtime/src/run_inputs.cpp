@@ -17,11 +17,35 @@
 namespace soda {
 namespace {
 
+// The checkpoint options: a Simulation's, within the run's steps.
+void check_checkpoints(const RunConfig& config) {
+  const std::string what = config.resume ? "--resume " + config.resume_source : "--checkpoint " + config.checkpoint_path;
+  if (const std::string why = simulation_unsupported(config); !why.empty())
+    throw std::invalid_argument(what + ": the run must go through a Simulation, " + why);
+  if (!config.record_path.empty())
+    throw std::invalid_argument("--record cannot be combined with --checkpoint or --resume (a replay file holds a "
+                                "run from step 0)");
+  const std::int64_t first = config.resume ? config.resume->state.steps_done : 0;
+  if (config.resume && config.steps < first)
+    throw std::invalid_argument("--steps " + std::to_string(config.steps) + ": before step " + std::to_string(first) +
+                                ", where checkpoint " + config.resume_source +
+                                " was saved (with --resume, --steps is the scene step to reach, numbered as in the "
+                                "run that saved it)");
+  if (!config.checkpoint_path.empty() && (config.checkpoint_at < first || config.checkpoint_at > config.steps))
+    throw std::invalid_argument("--checkpoint-at " + std::to_string(config.checkpoint_at) +
+                                ": outside the run's steps " + std::to_string(first) + " .. " +
+                                std::to_string(config.steps));
+}
+
 void check_supported(const RunConfig& config) {
-  const std::string what = config.record_path.empty() ? "--inputs" : "--record";
+  const std::string what = !config.record_path.empty()     ? "--record"
+                           : config.resume                  ? "--resume"
+                           : !config.checkpoint_path.empty() ? "--checkpoint"
+                                                             : "--inputs";
   if (config.world != WorldKind::Canonical)
     throw std::invalid_argument(what + " runs the canonical world only (not --world stock)");
   if (config.shuffle_seed != 0) throw std::invalid_argument(what + " cannot be combined with --shuffle-seed");
+  if (config.resume || !config.checkpoint_path.empty()) check_checkpoints(config);
   if (config.record_path.empty()) return;
   if (config.inputs)
     throw std::invalid_argument("--record " + config.record_path + ": " + config.inputs_source +
@@ -115,14 +139,21 @@ bool inputs_through_simulation(const RunConfig& config) {
   return config.inputs_via_simulation && feature_a_simulation_lacks(config) == nullptr;
 }
 
+bool through_simulation_only(const RunConfig& config) {
+  return !config.record_path.empty() || !config.checkpoint_path.empty() || config.resume != nullptr;
+}
+
 RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   check_supported(config);
   SimulationConfig sc = simulation_config(config);
   // The worlds' reach has room for the largest body the inputs add.
-  if (config.inputs)
-    for (const UserInput& in : *config.inputs)
+  auto room_for = [&sc](const std::vector<UserInput>& inputs) {
+    for (const UserInput& in : inputs)
       if (in.kind == UserInput::Kind::AddBody)
         sc.added_extent = std::max(sc.added_extent, 2.0 * in.body.shape.bounding_radius());
+  };
+  if (config.inputs) room_for(*config.inputs);
+  if (config.resume) room_for(config.resume->inputs);  // queued in the checkpoint
   sc.buffer_capacity = std::max<std::size_t>(sc.buffer_capacity, static_cast<std::size_t>(config.anticipation) + 3);
   // Progress and step times from world 0's thread (re-runs after a rollback
   // included).
@@ -137,15 +168,26 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
     step_ends.push_back(now);
     if (config.progress_seconds > 0 && now >= next_progress) {
       spdlog::info("{} {}: world 0 at step {}/{}, {:.1f} s elapsed", scene.name,
-                   config.inputs ? "with inputs" : "recording", step, config.steps,
+                   config.inputs                    ? "with inputs"
+                   : !config.record_path.empty()   ? "recording"
+                   : config.resume                 ? "resumed"
+                                                   : "checkpointing",
+                   step, config.steps,
                    static_cast<double>(now - t0) * 1e-9);
       next_progress = now + static_cast<std::int64_t>(config.progress_seconds * 1e9);
     }
   };
   // The map made here (as the Simulation would make it): a replay's header
   // and first frame name it.
-  const TerritoryMap map = make_partition(config.partition, scene, config.territories, sc.grid);
-  Simulation sim(scene, map, sc);
+  // A resumed run is cut around the bodies where the checkpoint has them
+  // (the snapshot constructor's own partition); it records nothing.
+  const std::optional<TerritoryMap> map =
+      config.resume ? std::nullopt
+                    : std::optional<TerritoryMap>(make_partition(config.partition, scene, config.territories, sc.grid));
+  std::optional<Simulation> storage;
+  if (config.resume) storage.emplace(*config.resume, sc);
+  else storage.emplace(scene, *map, sc);
+  Simulation& sim = *storage;
   std::optional<SceneReader> reader;
   if (!config.record_path.empty()) reader.emplace(sim.add_reader());
   if (config.inputs)
@@ -159,7 +201,9 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   }
   RunResult r;
   r.world = WorldKind::Canonical;
-  r.steps = config.steps;
+  const std::int64_t first = config.resume ? config.resume->state.steps_done : 0;
+  r.steps = static_cast<int>(config.steps - first);
+  if (config.resume) r.resumed_at = first;
   r.territories = sim.world_count();
   r.partition = config.partition;
   r.schedule = schedule_name(sim.schedule());
@@ -168,7 +212,13 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   r.rollback = config.rollback;
   t0 = wall_ns();
   next_progress = t0 + static_cast<std::int64_t>(config.progress_seconds * 1e9);
-  if (reader) record(sim, *reader, scene, map, config, r);
+  if (reader) record(sim, *reader, scene, *map, config, r);
+  if (!config.checkpoint_path.empty()) {
+    sim.advance_to(sim.time_of(config.checkpoint_at));
+    const SimulationSnapshot at = sim.snapshot();
+    r.checkpoint_bytes = write_checkpoint(at, config.checkpoint_path);
+    r.checkpoint_step = at.state.steps_done;
+  }
   sim.advance_to(sim.time_of(config.steps));
   r.wall_seconds = static_cast<double>(wall_ns() - t0) * 1e-9;
   std::vector<std::int64_t> step_ns;

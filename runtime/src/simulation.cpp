@@ -1,7 +1,9 @@
 // Simulation: the public face of SimulationEngine (simulation_engine.h).
 #include "soda/runtime/simulation.h"
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
 
 #include "simulation_engine.h"
 
@@ -49,6 +51,10 @@ Simulation::Simulation(const SimulationSnapshot& snapshot, SimulationConfig conf
 
 Simulation::Simulation(const SimulationSnapshot& snapshot, TerritoryMap map, SimulationConfig config)
     : engine_(std::make_unique<SimulationEngine>(snapshot, std::move(map), std::move(config))) {}
+
+Simulation Simulation::resume(const std::string& path, SimulationConfig config) {
+  return Simulation(read_checkpoint(path), std::move(config));
+}
 
 Simulation::~Simulation() = default;
 
@@ -125,6 +131,16 @@ std::vector<BufferMemory> Simulation::buffer_memory() const {
 std::int64_t Simulation::commit_horizon_step() const { return engine_->commit_horizon_step(); }
 std::uint64_t Simulation::rollbacks() const { return engine_->rollbacks(); }
 
+std::vector<UserInput> Simulation::input_log() const { return engine_->input_log(); }
+
+void Simulation::write_input_log(const std::string& path) const {
+  const std::string text = inputs_to_json(input_log());
+  std::ofstream out(path, std::ios::trunc);
+  out << text;
+  out.close();
+  if (!out) throw std::runtime_error("cannot write the input log " + path);
+}
+
 SceneReader Simulation::add_reader() { return SceneReader(engine_->core); }
 
 SceneQuery Simulation::add_query() { return SceneQuery(engine_->core, add_reader()); }
@@ -157,6 +173,12 @@ std::uint64_t Simulation::state_hash() const {
 SimulationSnapshot Simulation::snapshot() const {
   engine_->wait_idle("snapshot");
   return engine_->snapshot();
+}
+
+std::int64_t Simulation::save(const std::string& path) const {
+  const SimulationSnapshot snap = snapshot();
+  write_checkpoint(snap, path);
+  return snap.state.steps_done;
 }
 
 std::size_t Simulation::sleeping_count() const {

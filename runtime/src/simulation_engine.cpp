@@ -1,5 +1,6 @@
 #include "simulation_engine.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include <spdlog/spdlog.h>
@@ -255,7 +256,10 @@ void SimulationEngine::input(UserInput in) {
     if (const std::string why = world->add_refusal(in.body); !why.empty())
       throw std::invalid_argument(describe(in) + ": " + why);
   in.sequence = next_sequence_++;
-  auto record = [&] { ledger_.record(in); };
+  auto record = [&] {
+    ledger_.record(in);
+    given_.push_back(in);
+  };
   // The validator learns of the input before any world can begin its step.
   // The census hears of an added or removed body before any world can
   // apply it (and publish a frame with or without it).
@@ -345,6 +349,13 @@ void SimulationEngine::rewind_world(WorldId w, const WorldSnapshot& state) {
 
 std::int64_t SimulationEngine::commit_horizon_step() const {
   return world->internals().horizon->highest_gvt() / substeps_;
+}
+
+std::vector<UserInput> SimulationEngine::input_log() const {
+  std::lock_guard lock(lifecycle_);
+  std::vector<UserInput> log = given_;
+  std::stable_sort(log.begin(), log.end(), [](const UserInput& a, const UserInput& b) { return a.step < b.step; });
+  return log;
 }
 
 std::uint64_t SimulationEngine::rollbacks() const {

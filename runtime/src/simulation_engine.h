@@ -41,6 +41,8 @@ class SimulationEngine {
   /// Simulation::snapshot, once wait_idle returned.
   SimulationSnapshot snapshot() const;
   std::uint64_t rollbacks() const;
+  /// Simulation::input_log.
+  std::vector<UserInput> input_log() const;
 
   std::shared_ptr<SimulationCore> core;
   std::unique_ptr<PartitionedWorld> world;
@@ -67,6 +69,7 @@ class SimulationEngine {
   InputQueue inputs_;
   std::uint64_t next_sequence_ = 0;
   std::uint64_t rollbacks_ = 0;
+  std::vector<UserInput> given_;  // every input the calls gave and the run took, in call order
 };
 
 }  // namespace soda

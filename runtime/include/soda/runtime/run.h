@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -122,6 +123,20 @@ struct RunConfig {
   /// The replay's keyframe interval and zlib level (ReplayWriterOptions).
   int record_keyframe_every = 60;
   int record_compression_level = 1;
+  /// Not empty: write a checkpoint file there (docs/checkpoints.md) of the
+  /// run at scene step checkpoint_at (0 .. steps), then run on to `steps`:
+  /// the run goes through a Simulation (`soda run --checkpoint-at STEP
+  /// --checkpoint FILE`). The state hash is the same as without.
+  std::string checkpoint_path;
+  std::int64_t checkpoint_at = -1;
+  /// Set: the run resumes this checkpoint (read_checkpoint; `soda run
+  /// --resume FILE`) instead of starting the scene at step 0: run_scene's
+  /// scene is scene_of(resume->state), and `steps` is the scene step to
+  /// reach, numbered as in the run that saved it (>= the checkpoint's
+  /// step). Through a Simulation, with any territories, partition, threads
+  /// and anticipation; inputs, if given, are added to the checkpoint's own.
+  std::shared_ptr<const SimulationSnapshot> resume;
+  std::string resume_source = "checkpoint";  // names it in messages (the file)
   /// Threads that solve the colours of a large island (docs/coloured-solve.md):
   /// K = 1, the canonical world's pool; K > 1, PartitionedOptions::solver_threads.
   /// Results never depend on it. 1: none. >= 1. Not with the stock world.
@@ -191,6 +206,11 @@ struct RunResult {
   std::uint64_t record_frames = 0;
   std::uint64_t record_bytes = 0;
   double record_cpu_seconds = 0;
+  /// RunConfig::checkpoint_path: its step and size; RunConfig::resume: the
+  /// step it resumed at (-1: none).
+  std::int64_t checkpoint_step = -1;
+  std::uint64_t checkpoint_bytes = 0;
+  std::int64_t resumed_at = -1;
   int solver_threads = 1;                   // RunConfig::solver_threads
   std::uint64_t coloured_islands = 0;       // islands solved coloured, summed over steps (and worlds)
   std::uint64_t guest_tasks = 0;            // K > 1: WorldMetrics::guest_tasks summed over worlds

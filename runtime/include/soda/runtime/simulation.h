@@ -44,6 +44,7 @@
 #include "soda/grid/grid.h"
 #include "soda/grid/partition.h"
 #include "soda/grid/territory_map.h"
+#include "soda/runtime/checkpoint.h"
 #include "soda/runtime/partitioned_world.h"
 #include "soda/runtime/scene_query.h"
 #include "soda/runtime/scene_reader.h"
@@ -188,6 +189,14 @@ class Simulation {
   explicit Simulation(const SimulationSnapshot& snapshot, SimulationConfig config = {});
   /// As above with a ready territory map.
   Simulation(const SimulationSnapshot& snapshot, TerritoryMap map, SimulationConfig config = {});
+  /// Resumes a checkpoint file written by save(): Simulation(read_checkpoint(path),
+  /// config), a Simulation at the saved step that goes on bit for bit as the
+  /// run that saved it, with any territories, partition, threads and
+  /// speculation (docs/checkpoints.md). Throws CheckpointError naming the
+  /// file for one that is unreadable, truncated, damaged, of another version
+  /// or of another precision; otherwise as the snapshot constructor.
+  ///   soda::Simulation sim = soda::Simulation::resume("at-5s.ckpt", {.territories = 8});
+  static Simulation resume(const std::string& path, SimulationConfig config = {});
   /// stop(); a SimulationError is swallowed here (logged).
   ~Simulation();
   Simulation(const Simulation&) = delete;
@@ -256,6 +265,16 @@ class Simulation {
   std::int64_t commit_horizon_step() const;
   /// Rollbacks done for inputs at past steps.
   std::uint64_t rollbacks() const;
+  /// Every input this Simulation's input calls accepted (not those a
+  /// snapshot it was restored from queued), sorted by step, calls of one
+  /// step in call order: the order they apply in. Any thread.
+  std::vector<UserInput> input_log() const;
+  /// Writes input_log() to `path` as an input file (docs/inputs.md): `soda
+  /// run --inputs PATH` on the same scene replays the run to the same hash
+  /// (`--resume CHECKPOINT --inputs PATH` for a Simulation restored from
+  /// one). Throws std::runtime_error naming the path if it cannot be
+  /// written. Any thread; the inputs accepted so far.
+  void write_input_log(const std::string& path) const;
 
   // --- readers -------------------------------------------------------------
 
@@ -313,6 +332,12 @@ class Simulation {
   /// (docs/embedding.md, "Snapshots"). Cost: O(bodies + contacts), copied
   /// while the worlds are parked.
   SimulationSnapshot snapshot() const;
+  /// Writes snapshot() to a checkpoint file at `path` (docs/checkpoints.md;
+  /// written to `path`.tmp and renamed, never half a file) and returns its
+  /// step, steps_done(): the committed step the worlds are parked at.
+  /// Simulation::resume(path, config) goes on from it. Throws
+  /// CheckpointError if the file cannot be written.
+  std::int64_t save(const std::string& path) const;
   std::size_t sleeping_count() const;
   std::size_t body_count() const;
   std::vector<WorldMetrics> metrics() const;
