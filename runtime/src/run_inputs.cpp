@@ -81,17 +81,6 @@ void record(Simulation& sim, SceneReader& reader, const Scene& scene, const Terr
   r.record_cpu_seconds = static_cast<double>(thread_cpu_ns() - cpu0) * 1e-9;
 }
 
-// The API call for one input, as an embedding application makes it.
-void give(Simulation& sim, const UserInput& in) {
-  const double time = sim.time_of(in.step);
-  switch (in.kind) {
-    case UserInput::Kind::AddBody: sim.add_body(time, in.body); break;
-    case UserInput::Kind::RemoveBody: sim.remove_body(time, in.id); break;
-    case UserInput::Kind::SetVelocity: sim.set_velocity(time, in.id, in.linear, in.angular); break;
-    case UserInput::Kind::ApplyImpulse: sim.apply_impulse(time, in.id, in.linear); break;
-  }
-}
-
 }  // namespace
 
 SimulationConfig simulation_config(const RunConfig& config) {
@@ -193,7 +182,7 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   if (config.inputs)
     for (const UserInput& in : *config.inputs) {
     try {
-      give(sim, in);
+      sim.give(in);
     } catch (const std::invalid_argument& e) {
       throw SceneError(config.inputs_source + ": input #" + std::to_string(in.sequence) + " (" +
                        input_kind_name(in.kind) + " at step " + std::to_string(in.step) + "): " + e.what());

@@ -121,6 +121,17 @@ void Simulation::apply_impulse(double time, BodyId id, const Vec3& impulse) {
   engine_->input(in);
 }
 
+BodyId Simulation::give(const UserInput& input) {
+  const double time = time_of(input.step);
+  switch (input.kind) {
+    case UserInput::Kind::AddBody: return add_body(time, input.body);
+    case UserInput::Kind::RemoveBody: remove_body(time, input.id); break;
+    case UserInput::Kind::SetVelocity: set_velocity(time, input.id, input.linear, input.angular); break;
+    case UserInput::Kind::ApplyImpulse: apply_impulse(time, input.id, input.linear); break;
+  }
+  return input.id;
+}
+
 std::vector<std::int64_t> Simulation::published_steps() const { return engine_->core->control.published_steps(); }
 
 std::vector<BufferMemory> Simulation::buffer_memory() const {

@@ -27,15 +27,7 @@ SceneParams rain_params() { return SceneParams{kRainN, 1, false}; }
 // The embedding API's replay: each input as its call, in list order.
 std::uint64_t simulation_hash(const Scene& s, const std::vector<UserInput>& inputs, int steps, int territories) {
   Simulation sim(s, SimulationConfig{.territories = territories});
-  for (const UserInput& in : inputs) {
-    const double t = sim.time_of(in.step);
-    switch (in.kind) {
-      case UserInput::Kind::AddBody: sim.add_body(t, in.body); break;
-      case UserInput::Kind::RemoveBody: sim.remove_body(t, in.id); break;
-      case UserInput::Kind::SetVelocity: sim.set_velocity(t, in.id, in.linear, in.angular); break;
-      case UserInput::Kind::ApplyImpulse: sim.apply_impulse(t, in.id, in.linear); break;
-    }
-  }
+  for (const UserInput& in : inputs) sim.give(in);
   EXPECT_TRUE(sim.advance_to(sim.time_of(steps)));
   const std::uint64_t h = sim.state_hash();
   sim.stop();

@@ -269,17 +269,6 @@ TEST(Checkpoint, WriteFailureNamesThePath) {
   }
 }
 
-// The API call for one input of a log, as an application makes it.
-void give(Simulation& sim, const UserInput& in) {
-  const double t = sim.time_of(in.step);
-  switch (in.kind) {
-    case UserInput::Kind::AddBody: sim.add_body(t, in.body); break;
-    case UserInput::Kind::RemoveBody: sim.remove_body(t, in.id); break;
-    case UserInput::Kind::SetVelocity: sim.set_velocity(t, in.id, in.linear, in.angular); break;
-    case UserInput::Kind::ApplyImpulse: sim.apply_impulse(t, in.id, in.linear); break;
-  }
-}
-
 // Inputs given out of step order, one of them at a step the worlds have
 // passed (a rollback): the log lists them in the order they apply, and a
 // fresh run given the log file's inputs ends on the same hash.
@@ -307,7 +296,7 @@ TEST(InputLog, ReplaysToTheSameHash) {
   ASSERT_EQ(read.size(), log.size());
 
   Simulation b(s, SimulationConfig{.territories = 4});
-  for (const UserInput& in : read) give(b, in);
+  for (const UserInput& in : read) b.give(in);
   ASSERT_TRUE(b.advance_to(b.time_of(kSteps)));
   std::printf("[ cube-pile 150, %zu inputs logged (one at a past step), K 2 past_inputs ] %s, replayed from %s on "
               "K 4: %s\n",

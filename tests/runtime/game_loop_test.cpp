@@ -76,20 +76,10 @@ Plan make_plan(const Scene& s) {
   return p;
 }
 
-void give(Simulation& sim, const UserInput& in) {
-  const double t = sim.time_of(in.step);
-  switch (in.kind) {
-    case UserInput::Kind::AddBody: sim.add_body(t, in.body); break;
-    case UserInput::Kind::RemoveBody: sim.remove_body(t, in.id); break;
-    case UserInput::Kind::SetVelocity: sim.set_velocity(t, in.id, in.linear, in.angular); break;
-    case UserInput::Kind::ApplyImpulse: sim.apply_impulse(t, in.id, in.linear); break;
-  }
-}
-
 // The one-territory run with every input queued before it, frame by frame.
 std::vector<std::vector<ScenePose>> reference_frames(const Scene& s, const Plan& plan) {
   Simulation one(s, SimulationConfig{.threads = 1});
-  for (const Plan::Input& i : plan.inputs) give(one, i.input);
+  for (const Plan::Input& i : plan.inputs) one.give(i.input);
   SceneReader reader = one.add_reader();
   std::vector<std::vector<ScenePose>> frames;
   for (int k = 0; k <= kSteps; ++k) {
@@ -142,7 +132,7 @@ TEST_P(GameLoop, EveryFrameWhileBodiesComeAndGoEqualsOneTerritory) {
   std::size_t at_frame = 0;
   for (const Plan::Input& i : plan.inputs) {
     if (i.at_frame) ++at_frame;
-    if (!i.at_frame && i.given_at < 0) give(sim, i.input);
+    if (!i.at_frame && i.given_at < 0) sim.give(i.input);
   }
   sim.start(sim.time_of(kSteps));
 
@@ -162,10 +152,10 @@ TEST_P(GameLoop, EveryFrameWhileBodiesComeAndGoEqualsOneTerritory) {
         for (const Plan::Input& i : plan.inputs) {
           if (i.at_frame && i.input.step == k) {
             progress.wait_past(k + 1);  // some world has passed the frame on screen
-            give(sim, i.input);
+            sim.give(i.input);
             progress.rolled_back_to(k);
           }
-          if (!i.at_frame && i.given_at == k) give(sim, i.input);
+          if (!i.at_frame && i.given_at == k) sim.give(i.input);
         }
       }
     } catch (const std::exception& e) {

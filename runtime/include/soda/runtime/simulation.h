@@ -259,6 +259,10 @@ class Simulation {
   void set_velocity(double time, BodyId id, const Vec3& linear, const Vec3& angular = Vec3::Zero());
   /// Gives a dynamic body an impulse (N s) at its centre and wakes it.
   void apply_impulse(double time, BodyId id, const Vec3& impulse);
+  /// The call for `input`'s kind at time_of(input.step): an input record
+  /// as an input file or input_log() holds it (user_input.h), given as the
+  /// calls above give it, with their errors. Returns the body's id.
+  BodyId give(const UserInput& input);
   /// The commit horizon (GVT): the oldest scene step an input may still
   /// name (with past_inputs), the newest step every world has reached
   /// without it. Never decreases.
