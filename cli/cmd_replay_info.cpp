@@ -26,6 +26,9 @@ Command add_replay_info_command(CLI::App& app) {
             std::printf("  scene %s (seed %llu), dt %.6g s, %d territories, %zu bodies (%zu dynamic):%s\n",
                         h.scene.c_str(), static_cast<unsigned long long>(h.seed), h.dt, h.territories,
                         h.bodies.size(), h.dynamic_count(), kinds.c_str());
+            if (!in.added_bodies().empty())
+              std::printf("  bodies added during the run: %zu (ids %u .. %u), described in the file\n",
+                          in.added_bodies().size(), in.added_bodies().front().id, in.added_bodies().back().id);
             std::printf("  grid: cells of %.4g m from (%.4g, %.4g, %.4g), map box (%d, %d, %d)..(%d, %d, %d), %lld cells\n",
                         h.grid.cell_size(), h.grid.origin().x(), h.grid.origin().y(), h.grid.origin().z(),
                         h.box.lo.x, h.box.lo.y, h.box.lo.z, h.box.hi.x, h.box.hi.y, h.box.hi.z,
@@ -47,8 +50,9 @@ Command add_replay_info_command(CLI::App& app) {
               const replay::ViewFrame f = *in.frame_at(last);
               std::size_t asleep = 0;
               for (std::uint8_t s : f.sleeping) asleep += s;
-              std::printf("  last frame: step %lld, %zu asleep, state_hash %s\n", static_cast<long long>(f.step),
-                          asleep, f.state_hash ? hash_hex(*f.state_hash).c_str() : "(none)");
+              std::printf("  last frame: step %lld, %zu bodies, %zu asleep, state_hash %s\n",
+                          static_cast<long long>(f.step), f.sleeping.size(), asleep,
+                          f.state_hash ? hash_hex(*f.state_hash).c_str() : "(none)");
             }
             return 0;
           }};

@@ -10,6 +10,9 @@ namespace {
 
 constexpr std::uint8_t kHasMap = 1;
 constexpr std::uint8_t kHasHash = 2;
+// A keyframe's population byte (version 2).
+constexpr std::uint8_t kHeaderBodies = 0;  // the header's dynamic bodies
+constexpr std::uint8_t kListedBodies = 1;  // the ids listed in the keyframe
 
 void put_box(ByteWriter& w, const PositionBox& b) {
   for (int a = 0; a < 3; ++a) w.f32(b.lo[a]);
@@ -88,6 +91,10 @@ std::vector<std::uint8_t> encode_keyframe(const StoredFrame& f) {
   w.i64(f.step);
   put_box(w, f.box);
   w.u32(static_cast<std::uint32_t>(n));
+  w.u8(f.ids ? kListedBodies : kHeaderBodies);
+  if (f.ids)
+    for (std::size_t i = 0; i < f.ids->size(); ++i)  // gaps: id - previous id - 1 (first: the id)
+      w.varint(i == 0 ? (*f.ids)[i] : (*f.ids)[i] - (*f.ids)[i - 1] - 1);
   for (std::size_t a = 0; a < 3; ++a)  // one axis after another: like bytes together
     for (std::size_t i = 0; i < n; ++i) w.u16(f.position[3 * i + a]);
   for (std::uint32_t q : f.orientation) w.u32(q);
@@ -130,14 +137,29 @@ std::vector<std::uint8_t> encode_delta(const StoredFrame& prev, const StoredFram
   return std::move(w.bytes());
 }
 
-void decode_keyframe(std::span<const std::uint8_t> raw, const FrameShape& shape, StoredFrame& f) {
+void decode_keyframe(std::span<const std::uint8_t> raw, const FrameShape& shape, std::uint32_t version,
+                     StoredFrame& f) {
   ByteReader r(raw, "keyframe");
   f.step = r.i64();
   f.box = get_box(r);
   const std::uint32_t n = r.u32();
-  if (n != shape.bodies)
-    r.fail(std::to_string(n) + " bodies, the header has " + std::to_string(shape.bodies) + " dynamic bodies");
   r.count(n, 10, "bodies");
+  const std::uint8_t population = version >= 2 ? r.u8() : kHeaderBodies;
+  f.ids.reset();
+  if (population == kHeaderBodies) {
+    if (n != shape.bodies)
+      r.fail(std::to_string(n) + " bodies, the header has " + std::to_string(shape.bodies) + " dynamic bodies");
+  } else if (population == kListedBodies) {
+    std::vector<BodyId>& ids = f.ids.emplace(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint64_t gap = r.varint();
+      const std::uint64_t id = i == 0 ? gap : std::uint64_t{ids[i - 1]} + 1 + gap;
+      if (gap > 0xFFFFFFFFu || id > 0xFFFFFFFFu) r.fail("body id " + std::to_string(id) + " out of range");
+      ids[i] = static_cast<BodyId>(id);
+    }
+  } else {
+    r.fail("unknown population kind " + std::to_string(population));
+  }
   f.position.resize(3 * std::size_t{n});
   for (std::size_t a = 0; a < 3; ++a)
     for (std::size_t i = 0; i < n; ++i) f.position[3 * i + a] = r.u16();
@@ -173,7 +195,7 @@ void decode_delta(std::span<const std::uint8_t> raw, const FrameShape& shape, St
   if (step <= f.step)
     r.fail("step " + std::to_string(step) + " does not follow step " + std::to_string(f.step));
   f.step = step;
-  const std::size_t n = shape.bodies;
+  const std::size_t n = f.orientation.size();  // the keyframe's bodies
   const std::vector<std::size_t> moved = get_indices(r, n, "moved bodies");
   r.count(moved.size(), 10, "moved bodies");
   for (std::size_t a = 0; a < 3; ++a)
@@ -191,6 +213,7 @@ void decode_delta(std::span<const std::uint8_t> raw, const FrameShape& shape, St
 ViewFrame to_view_frame(const StoredFrame& f) {
   ViewFrame v;
   v.step = f.step;
+  v.ids = f.ids;
   const std::size_t n = f.orientation.size();
   v.position.resize(3 * n);
   for (std::size_t i = 0; i < n; ++i)

@@ -32,6 +32,44 @@ CellCoord get_cell(ByteReader& r) {
   return c;
 }
 
+// One body's record, the same in HEAD and BODS.
+void put_body(ByteWriter& w, const ViewBody& b) {
+  w.u32(b.id);
+  w.u8(b.is_static ? 1 : 0);
+  w.u8(static_cast<std::uint8_t>(b.shape.kind));
+  put_vec(w, b.shape.half_extents);
+  w.f64(b.shape.radius);
+  w.f64(b.shape.height);
+  w.u32(static_cast<std::uint32_t>(b.shape.points.size()));
+  for (const Vec3& p : b.shape.points) put_vec(w, p);
+  put_vec(w, b.position);
+  w.f64(b.orientation.x());
+  w.f64(b.orientation.y());
+  w.f64(b.orientation.z());
+  w.f64(b.orientation.w());
+}
+
+ViewBody get_body(ByteReader& r) {
+  ViewBody b;
+  b.id = r.u32();
+  b.is_static = r.u8() != 0;
+  const std::uint8_t kind = r.u8();
+  if (kind > static_cast<std::uint8_t>(ShapeKind::ConvexHull))
+    r.fail("body " + std::to_string(b.id) + ": shape kind " + std::to_string(kind));
+  b.shape.kind = static_cast<ShapeKind>(kind);
+  b.shape.half_extents = get_vec(r);
+  b.shape.radius = r.f64();
+  b.shape.height = r.f64();
+  const std::uint32_t points = r.u32();
+  if (points > kMaxHullPoints) r.fail("body " + std::to_string(b.id) + ": " + std::to_string(points) + " hull points");
+  b.shape.points.resize(r.count(points, 24, "hull points"));
+  for (Vec3& p : b.shape.points) p = get_vec(r);
+  b.position = get_vec(r);
+  const double x = r.f64(), y = r.f64(), z = r.f64(), qw = r.f64();
+  b.orientation = Quat(qw, x, y, z);
+  return b;
+}
+
 }  // namespace
 
 FrameShape frame_shape(const ViewHeader& header) {
@@ -54,21 +92,7 @@ std::vector<std::uint8_t> encode_header(const ViewHeader& h, std::uint32_t keyfr
   put_cell(w, h.box.lo);
   put_cell(w, h.box.hi);
   w.u32(static_cast<std::uint32_t>(h.bodies.size()));
-  for (const ViewBody& b : h.bodies) {
-    w.u32(b.id);
-    w.u8(b.is_static ? 1 : 0);
-    w.u8(static_cast<std::uint8_t>(b.shape.kind));
-    put_vec(w, b.shape.half_extents);
-    w.f64(b.shape.radius);
-    w.f64(b.shape.height);
-    w.u32(static_cast<std::uint32_t>(b.shape.points.size()));
-    for (const Vec3& p : b.shape.points) put_vec(w, p);
-    put_vec(w, b.position);
-    w.f64(b.orientation.x());
-    w.f64(b.orientation.y());
-    w.f64(b.orientation.z());
-    w.f64(b.orientation.w());
-  }
+  for (const ViewBody& b : h.bodies) put_body(w, b);
   return std::move(w.bytes());
 }
 
@@ -96,27 +120,30 @@ ViewHeader decode_header(std::span<const std::uint8_t> raw, std::uint32_t& keyfr
   const std::size_t n = r.count(r.u32(), 1, "bodies");
   h.bodies.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    ViewBody& b = h.bodies[i];
-    b.id = r.u32();
-    if (i > 0 && b.id <= h.bodies[i - 1].id) r.fail("body ids not ascending at body #" + std::to_string(i));
-    b.is_static = r.u8() != 0;
-    const std::uint8_t kind = r.u8();
-    if (kind > static_cast<std::uint8_t>(ShapeKind::ConvexHull))
-      r.fail("body " + std::to_string(b.id) + ": shape kind " + std::to_string(kind));
-    b.shape.kind = static_cast<ShapeKind>(kind);
-    b.shape.half_extents = get_vec(r);
-    b.shape.radius = r.f64();
-    b.shape.height = r.f64();
-    const std::uint32_t points = r.u32();
-    if (points > kMaxHullPoints) r.fail("body " + std::to_string(b.id) + ": " + std::to_string(points) + " hull points");
-    b.shape.points.resize(r.count(points, 24, "hull points"));
-    for (Vec3& p : b.shape.points) p = get_vec(r);
-    b.position = get_vec(r);
-    const double x = r.f64(), y = r.f64(), z = r.f64(), qw = r.f64();
-    b.orientation = Quat(qw, x, y, z);
+    h.bodies[i] = get_body(r);
+    if (i > 0 && h.bodies[i].id <= h.bodies[i - 1].id) r.fail("body ids not ascending at body #" + std::to_string(i));
   }
   if (r.remaining() != 0) r.fail(std::to_string(r.remaining()) + " bytes left over");
   return h;
+}
+
+std::vector<std::uint8_t> encode_bodies(const std::vector<ViewBody>& bodies) {
+  ByteWriter w;
+  w.u32(static_cast<std::uint32_t>(bodies.size()));
+  for (const ViewBody& b : bodies) put_body(w, b);
+  return std::move(w.bytes());
+}
+
+std::vector<ViewBody> decode_bodies(std::span<const std::uint8_t> raw) {
+  ByteReader r(raw, "added bodies");
+  std::vector<ViewBody> out(r.count(r.u32(), 1, "bodies"));
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    out[i] = get_body(r);
+    if (out[i].is_static) r.fail("body " + std::to_string(out[i].id) + " is static (only dynamic bodies are added)");
+    if (i > 0 && out[i].id <= out[i - 1].id) r.fail("body ids not ascending at body #" + std::to_string(i));
+  }
+  if (r.remaining() != 0) r.fail(std::to_string(r.remaining()) + " bytes left over");
+  return out;
 }
 
 }  // namespace soda::replay

@@ -15,7 +15,11 @@ namespace soda::replay {
 
 inline constexpr char kFileMagic[8] = {'S', 'O', 'D', 'A', 'R', 'P', 'L', 'Y'};
 inline constexpr char kEndMagic[8] = {'S', 'O', 'D', 'A', 'E', 'N', 'D', '.'};
-inline constexpr std::uint32_t kFormatVersion = 1;
+/// The version this build writes; it reads kOldestVersion .. kFormatVersion.
+/// 2: frames whose set of bodies changes (KEYF population, BODS chunks, the
+/// index's list of BODS chunks); 1: a fixed set of bodies.
+inline constexpr std::uint32_t kFormatVersion = 2;
+inline constexpr std::uint32_t kOldestVersion = 1;
 inline constexpr std::size_t kFileHeaderBytes = 16;   // magic, version, flags (0)
 inline constexpr std::size_t kChunkHeaderBytes = 16;  // tag, raw size, stored size, CRC-32
 inline constexpr std::size_t kTrailerBytes = 16;      // index chunk offset, end magic
@@ -34,11 +38,13 @@ inline constexpr std::uint32_t kHeaderTag = tag("HEAD");
 inline constexpr std::uint32_t kKeyframeTag = tag("KEYF");
 inline constexpr std::uint32_t kDeltaTag = tag("DELT");
 inline constexpr std::uint32_t kIndexTag = tag("INDX");
+inline constexpr std::uint32_t kBodiesTag = tag("BODS");
 
 /// One frame as the file holds it (quantised); for a delta, the state after
 /// applying it. cell_owner is always the map in force.
 struct StoredFrame {
   std::int64_t step = 0;
+  std::optional<std::vector<BodyId>> ids;  // the bodies of the arrays; nullopt: the header's dynamic ones
   PositionBox box;                      // the keyframe's
   std::vector<std::uint16_t> position;  // 3 codes per body
   std::vector<std::uint32_t> orientation;
@@ -52,7 +58,7 @@ struct StoredFrame {
 
 /// What every frame of a file has in common (from its header).
 struct FrameShape {
-  std::size_t bodies = 0;  // dynamic
+  std::size_t bodies = 0;  // dynamic bodies of the header (a frame whose ids are empty has these)
   int worlds = 1;
   std::size_t cells = 0;   // box cells (0 for an invalid box)
 };
@@ -62,12 +68,20 @@ std::vector<std::uint8_t> encode_header(const ViewHeader& header, std::uint32_t 
 /// Throws FormatError.
 ViewHeader decode_header(std::span<const std::uint8_t> raw, std::uint32_t& keyframe_every);
 
+/// Bodies added after the header (BODS): their descriptions, ascending id.
+std::vector<std::uint8_t> encode_bodies(const std::vector<ViewBody>& bodies);
+/// Throws FormatError (a static body, ids not ascending).
+std::vector<ViewBody> decode_bodies(std::span<const std::uint8_t> raw);
+
 std::vector<std::uint8_t> encode_keyframe(const StoredFrame& frame);
-/// `prev`: the frame before `frame` (same box).
+/// `prev`: the frame before `frame` (same box, same ids).
 std::vector<std::uint8_t> encode_delta(const StoredFrame& prev, const StoredFrame& frame);
-/// Replaces `state` with the keyframe. Throws FormatError.
-void decode_keyframe(std::span<const std::uint8_t> raw, const FrameShape& shape, StoredFrame& state);
-/// Applies the delta to `state` (the frame before it). Throws FormatError.
+/// Replaces `state` with the keyframe of a file of `version`. Throws
+/// FormatError.
+void decode_keyframe(std::span<const std::uint8_t> raw, const FrameShape& shape, std::uint32_t version,
+                     StoredFrame& state);
+/// Applies the delta to `state` (the frame before it: its bodies are the
+/// delta's). Throws FormatError.
 void decode_delta(std::span<const std::uint8_t> raw, const FrameShape& shape, StoredFrame& state);
 
 /// The frame a stored one stands for (positions and orientations decoded).

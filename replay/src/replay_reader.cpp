@@ -75,9 +75,10 @@ ReplayReader::ReplayReader(std::string path) : path_(std::move(path)) {
     if (std::memcmp(head, kFileMagic, sizeof kFileMagic) != 0) fail("not a replay file (no SODARPLY magic)");
     ByteReader h(std::span<const std::uint8_t>(head).subspan(8), "the file header");
     version_ = h.u32();
-    if (version_ != kFormatVersion)
-      fail("replay format version " + std::to_string(version_) + ", this build reads version " +
-           std::to_string(kFormatVersion));
+    if (version_ < kOldestVersion || version_ > kFormatVersion)
+      fail("replay format version " + std::to_string(version_) + ", this build reads versions " +
+           std::to_string(kOldestVersion) + " to " + std::to_string(kFormatVersion) +
+           (version_ > kFormatVersion ? " (a newer writer?)" : ""));
     if (h.u32() != 0) fail("unknown file flags (a newer writer?)");
     if (file_bytes_ < kFileHeaderBytes + kTrailerBytes) fail("truncated: no end marker (the writer did not close it)");
     std::uint8_t tail[kTrailerBytes];
@@ -97,6 +98,7 @@ ReplayReader::ReplayReader(std::string path) : path_(std::move(path)) {
     keyframe_every_ = static_cast<int>(std::min<std::uint32_t>(every, 1u << 30));
 
     const std::vector<std::uint8_t> raw = read_chunk(index_at, kIndexTag, "the index");
+    std::vector<std::uint64_t> bodies_at;
     try {
       ByteReader r(raw, "the index");
       const std::size_t n = r.count(r.u64(), 17, "frames");
@@ -124,9 +126,33 @@ ReplayReader::ReplayReader(std::string path) : path_(std::move(path)) {
         e.keyframe = key;
         index_.push_back(e);
       }
+      if (version_ >= 2) {  // the BODS chunks: every body added during the run
+        const std::size_t chunks = r.count(r.u32(), 8, "added-bodies chunks");
+        for (std::size_t c = 0; c < chunks; ++c) {
+          const std::uint64_t at = r.u64();
+          if (at < kFileHeaderBytes || at >= index_at)
+            r.fail("added bodies at byte " + std::to_string(at) + ", outside the frames");
+          bodies_at.push_back(at);
+        }
+      }
       if (r.remaining() != 0) r.fail(std::to_string(r.remaining()) + " bytes left over");
     } catch (const FormatError& e) {
       fail(e.what());
+    }
+    for (std::uint64_t at : bodies_at) {
+      const std::vector<std::uint8_t> chunk = read_chunk(at, kBodiesTag, "the added bodies");
+      try {
+        for (ViewBody& b : decode_bodies(chunk)) added_.push_back(std::move(b));
+      } catch (const FormatError& e) {
+        fail("the added bodies at byte " + std::to_string(at) + ": " + e.what());
+      }
+    }
+    std::sort(added_.begin(), added_.end(), [](const ViewBody& a, const ViewBody& b) { return a.id < b.id; });
+    for (std::size_t i = 0; i < added_.size(); ++i) {
+      if (i > 0 && added_[i].id == added_[i - 1].id)
+        fail("body " + std::to_string(added_[i].id) + " is described twice (corrupted)");
+      if (FrameSource::header_body(header_, added_[i].id))
+        fail("added body " + std::to_string(added_[i].id) + " has the id of a header body (corrupted)");
     }
   } catch (...) {
     ::close(fd_);
@@ -178,8 +204,14 @@ ViewFrame ReplayReader::decode_locked(std::size_t i) {
     const std::string what = std::string(e.key ? "keyframe" : "delta") + " of step " + std::to_string(e.step);
     try {
       const std::vector<std::uint8_t> raw = read_chunk(e.offset, e.key ? kKeyframeTag : kDeltaTag, what);
-      if (e.key) decode_keyframe(raw, shape, *state_);
-      else decode_delta(raw, shape, *state_);
+      if (e.key) {
+        decode_keyframe(raw, shape, version_, *state_);
+        if (state_->ids)
+          for (BodyId id : *state_->ids)
+            if (!body_known(id)) throw FormatError("body " + std::to_string(id) + " has no description");
+      } else {
+        decode_delta(raw, shape, *state_);
+      }
       if (state_->step != e.step)
         throw FormatError("holds step " + std::to_string(state_->step) + ", the index says " + std::to_string(e.step));
       if (e.key && !(state_->box == e.box)) throw FormatError("position box differs from the index's");
@@ -193,6 +225,18 @@ ViewFrame ReplayReader::decode_locked(std::size_t i) {
     state_index_ = j;
   }
   return to_view_frame(*state_);
+}
+
+std::optional<ViewBody> ReplayReader::body(BodyId id) const {
+  if (auto b = header_body(header_, id)) return b;
+  auto it = std::lower_bound(added_.begin(), added_.end(), id, [](const ViewBody& b, BodyId i) { return b.id < i; });
+  if (it == added_.end() || it->id != id) return std::nullopt;
+  return *it;
+}
+
+bool ReplayReader::body_known(BodyId id) const {
+  const std::optional<ViewBody> b = body(id);
+  return b && !b->is_static;
 }
 
 std::optional<ViewFrame> ReplayReader::frame_at(std::int64_t step) {

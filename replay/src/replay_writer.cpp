@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <algorithm>
 #include <cstring>
 #include <stdexcept>
 
@@ -11,14 +12,15 @@
 namespace soda::replay {
 namespace {
 
-std::string body_field(const ViewHeader& h, std::int64_t step, std::size_t i, const char* field) {
-  std::size_t k = 0;
-  for (const ViewBody& b : h.bodies) {
-    if (b.is_static) continue;
-    if (k++ == i)
-      return "step " + std::to_string(step) + ", body " + std::to_string(b.id) + ": " + field;
-  }
+// "step S, body ID: field" for the i-th body of a frame whose bodies are `ids`.
+std::string body_field(const std::vector<BodyId>& ids, std::int64_t step, std::size_t i, const char* field) {
+  if (i < ids.size()) return "step " + std::to_string(step) + ", body " + std::to_string(ids[i]) + ": " + field;
   return "step " + std::to_string(step) + ": " + field;
+}
+
+bool same_shape(const Shape& a, const Shape& b) {
+  return a.kind == b.kind && a.half_extents == b.half_extents && a.radius == b.radius && a.height == b.height &&
+         a.points == b.points;
 }
 
 }  // namespace
@@ -35,6 +37,8 @@ ReplayWriter::ReplayWriter(std::string path, ViewHeader header, ReplayWriterOpti
     if (header_.bodies[i].id <= header_.bodies[i - 1].id)
       throw std::invalid_argument(path_ + ": header bodies not in ascending id order at body " +
                                   std::to_string(header_.bodies[i].id));
+  for (const ViewBody& b : header_.bodies)
+    if (!b.is_static) header_ids_.push_back(b.id);
   const std::vector<std::uint8_t> head = encode_header(header_, static_cast<std::uint32_t>(options_.keyframe_every));
   file_ = std::fopen(path_.c_str(), "wb");
   if (!file_) throw ReplayError(path_, std::string("cannot open for writing: ") + std::strerror(errno));
@@ -77,17 +81,43 @@ void ReplayWriter::write_chunk(std::uint32_t tag, const std::vector<std::uint8_t
   write_bytes(stored.data(), stored.size());
 }
 
-void ReplayWriter::check(const ViewFrame& f) const {
+void ReplayWriter::describe(const ViewBody& body) {
+  const std::string what = path_ + ": describe body " + std::to_string(body.id);
+  if (!file_) throw std::logic_error(what + " after close()");
+  if (body.is_static) throw std::invalid_argument(what + ": a static body (only dynamic bodies are added)");
+  if (FrameSource::header_body(header_, body.id))
+    throw std::invalid_argument(what + ": the header has a body with that id");
+  auto [it, added] = described_.try_emplace(body.id, Described{body, false});
+  if (!added && !same_shape(it->second.body.shape, body.shape))
+    throw std::invalid_argument(what + ": described before with another shape");
+}
+
+std::vector<BodyId> ReplayWriter::check(const ViewFrame& f) const {
   if (!file_) throw std::logic_error(path_ + ": append after close()");
   const std::string at = "step " + std::to_string(f.step);
   if (last_ && f.step <= last_->step)
     throw std::invalid_argument(path_ + ": " + at + " does not follow step " + std::to_string(last_->step));
   const FrameShape shape = frame_shape(header_);
-  const std::size_t n = shape.bodies;
+  std::vector<BodyId> undescribed;  // ids a BODS chunk must describe before this frame
+  const std::vector<BodyId>& ids = f.ids ? *f.ids : header_ids_;
+  for (std::size_t i = 0; f.ids && i < ids.size(); ++i) {
+    const BodyId id = ids[i];
+    if (i > 0 && id <= ids[i - 1])
+      throw std::invalid_argument(path_ + ": " + at + ": ids not ascending at body " + std::to_string(id));
+    if (std::binary_search(header_ids_.begin(), header_ids_.end(), id)) continue;
+    const auto d = described_.find(id);
+    if (d == described_.end())
+      throw std::invalid_argument(path_ + ": " + at + ", body " + std::to_string(id) +
+                                  (FrameSource::header_body(header_, id) ? ": a static body of the header"
+                                                                         : ": not in the header and never described "
+                                                                           "(ReplayWriter::describe)"));
+    if (!d->second.written) undescribed.push_back(id);
+  }
+  const std::size_t n = ids.size();
   auto size = [&](std::size_t got, std::size_t want, const char* field) {
     if (got != want)
       throw std::invalid_argument(path_ + ": " + at + ": " + field + " has " + std::to_string(got) +
-                                  " values, the header's " + std::to_string(n) + " dynamic bodies need " +
+                                  " values, the frame's " + std::to_string(n) + " dynamic bodies need " +
                                   std::to_string(want));
   };
   size(f.position.size(), 3 * n, "position");
@@ -97,13 +127,13 @@ void ReplayWriter::check(const ViewFrame& f) const {
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t a = 0; a < 3; ++a)
       if (!std::isfinite(f.position[3 * i + a]))
-        throw std::invalid_argument(path_ + ": " + body_field(header_, f.step, i, "position is not finite"));
+        throw std::invalid_argument(path_ + ": " + body_field(ids, f.step, i, "position is not finite"));
     double norm2 = 0;
     for (std::size_t a = 0; a < 4; ++a) norm2 += static_cast<double>(f.orientation[4 * i + a]) * f.orientation[4 * i + a];
     if (!(std::isfinite(norm2) && norm2 > 0.25 && norm2 < 4))
-      throw std::invalid_argument(path_ + ": " + body_field(header_, f.step, i, "orientation is not a unit quaternion"));
+      throw std::invalid_argument(path_ + ": " + body_field(ids, f.step, i, "orientation is not a unit quaternion"));
     if (f.owner[i] >= header_.territories)
-      throw std::invalid_argument(path_ + ": " + body_field(header_, f.step, i, "owner") + " " +
+      throw std::invalid_argument(path_ + ": " + body_field(ids, f.step, i, "owner") + " " +
                                   std::to_string(f.owner[i]) + " >= territories " +
                                   std::to_string(header_.territories));
   }
@@ -120,14 +150,19 @@ void ReplayWriter::check(const ViewFrame& f) const {
   if (!f.world_busy_ms.empty() && f.world_busy_ms.size() != static_cast<std::size_t>(header_.territories))
     throw std::invalid_argument(path_ + ": " + at + ": world_busy_ms has " + std::to_string(f.world_busy_ms.size()) +
                                 " values, not one per world (" + std::to_string(header_.territories) + ")");
+  return undescribed;
 }
 
 void ReplayWriter::append(const ViewFrame& f) {
-  check(f);
+  const std::vector<BodyId> undescribed = check(f);
   const std::size_t n = f.sleeping.size();
   auto cur = std::make_unique<StoredFrame>();
   cur->step = f.step;
-  const bool key = !last_ || since_key_ + 1 >= options_.keyframe_every || !box_holds(last_->box, f.position);
+  // The header's bodies are stored as "the header's" (no ids), whichever way
+  // the frame names them.
+  if (f.ids && *f.ids != header_ids_) cur->ids = f.ids;
+  const bool key = !last_ || since_key_ + 1 >= options_.keyframe_every || last_->ids != cur->ids ||
+                   !box_holds(last_->box, f.position);
   cur->box = key ? position_box(f.position) : last_->box;
   cur->position.resize(3 * n);
   for (std::size_t i = 0; i < n; ++i)
@@ -147,6 +182,14 @@ void ReplayWriter::append(const ViewFrame& f) {
   if (key) cur->map_changed = true;  // a keyframe carries the map in force
   cur->world_busy_ms = f.world_busy_ms;
   cur->state_hash = f.state_hash;
+  if (!undescribed.empty()) {  // the first frame that holds them: their descriptions first
+    std::vector<ViewBody> bodies;
+    for (BodyId id : undescribed) bodies.push_back(described_.at(id).body);
+    const std::uint64_t bodies_at = offset_;
+    write_chunk(kBodiesTag, encode_bodies(bodies));
+    bodies_chunks_.push_back(bodies_at);
+    for (BodyId id : undescribed) described_.at(id).written = true;
+  }
   const std::uint64_t at = offset_;
   write_chunk(key ? kKeyframeTag : kDeltaTag, key ? encode_keyframe(*cur) : encode_delta(*last_, *cur));
   index_.push_back({f.step, at, key, cur->box});
@@ -166,6 +209,8 @@ void ReplayWriter::close() {
     for (int a = 0; a < 3; ++a) w.f32(e.box.lo[a]);
     for (int a = 0; a < 3; ++a) w.f32(e.box.hi[a]);
   }
+  w.u32(static_cast<std::uint32_t>(bodies_chunks_.size()));
+  for (std::uint64_t at : bodies_chunks_) w.u64(at);
   const std::uint64_t index_at = offset_;
   write_chunk(kIndexTag, w.bytes());
   ByteWriter t;

@@ -32,6 +32,8 @@ std::vector<std::uint16_t> view_cell_owner(const TerritoryMap& map) {
   return {owners.begin(), owners.end()};
 }
 
+replay::ViewBody view_body(const Body& b) { return {b.id, b.is_static, b.shape, b.position, b.orientation}; }
+
 replay::ViewFrame view_frame(const SceneFrame& frame, const replay::ViewHeader& header, const TerritoryMap* map) {
   replay::ViewFrame v;
   v.step = frame.step;
@@ -42,21 +44,29 @@ replay::ViewFrame view_frame(const SceneFrame& frame, const replay::ViewHeader& 
   v.orientation.resize(4 * n);
   v.sleeping.resize(n);
   v.owner.resize(n);
-  std::size_t i = 0;
-  for (const replay::ViewBody& b : header.bodies) {
-    if (b.is_static) continue;
-    if (i >= n || frame.poses[i].id != b.id)
-      throw std::invalid_argument(at + ": body " + std::to_string(b.id) +
-                                  " of the header is not in the frame (bodies added or removed during the run?)");
+  // Walks the header's dynamic bodies beside the poses: while they agree the
+  // frame holds the header's bodies (no ids, the common case: no inputs).
+  auto next_dynamic = [&](std::size_t h) {
+    while (h < header.bodies.size() && header.bodies[h].is_static) ++h;
+    return h;
+  };
+  std::size_t h = next_dynamic(0);
+  bool header_bodies = true;
+  for (std::size_t i = 0; i < n; ++i) {
     const ScenePose& p = frame.poses[i];
+    if (i > 0 && p.id <= frame.poses[i - 1].id)
+      throw std::invalid_argument(at + ": body " + std::to_string(p.id) + " out of ascending id order");
+    if (header_bodies && h < header.bodies.size() && header.bodies[h].id == p.id) h = next_dynamic(h + 1);
+    else header_bodies = false;
     for (std::size_t a = 0; a < 3; ++a) v.position[3 * i + a] = static_cast<float>(p.position[a]);
     for (std::size_t a = 0; a < 4; ++a) v.orientation[4 * i + a] = static_cast<float>(p.orientation[a]);
     v.sleeping[i] = p.sleeping ? 1 : 0;
     v.owner[i] = static_cast<std::uint16_t>(frame.owners[i]);
-    ++i;
   }
-  if (i != n)
-    throw std::invalid_argument(at + ": body " + std::to_string(frame.poses[i].id) + " is not in the header");
+  if (!header_bodies || h != header.bodies.size()) {  // bodies came or went
+    std::vector<BodyId>& ids = v.ids.emplace(n);
+    for (std::size_t i = 0; i < n; ++i) ids[i] = frame.poses[i].id;
+  }
   v.world_busy_ms.reserve(frame.busy_seconds.size());
   for (double s : frame.busy_seconds) v.world_busy_ms.push_back(static_cast<float>(s * 1e3));
   if (map) v.cell_owner = view_cell_owner(*map);

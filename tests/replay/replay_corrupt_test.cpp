@@ -39,10 +39,13 @@ std::string read_all(const std::string& path) {
 class Damaged : public ::testing::Test {
  protected:
   void SetUp() override {
-    // Small (about 700 bytes): every byte of it is damaged in turn below.
+    // Small (about 1,100 bytes): every byte of it is damaged in turn below.
+    // Bodies come and go in it (two described, one removed): every chunk
+    // kind is there.
     const ViewHeader h = testing::make_header(4, 2);
     ReplayWriter out(good.path, h, {.keyframe_every = 3});
-    for (const ViewFrame& f : testing::make_frames(h, 7, 9)) out.append(f);
+    for (const ViewBody& b : testing::added_bodies()) out.describe(b);
+    for (const ViewFrame& f : testing::make_population_frames(h, testing::added_bodies(), 2, 9, 9)) out.append(f);
     out.close();
     bytes = bytes_of(good.path);
   }
@@ -65,10 +68,19 @@ TEST_F(Damaged, WrongMagic) {
 
 TEST_F(Damaged, WrongVersion) {
   std::vector<char> b = bytes;
-  b[8] = 2;
+  b[8] = 3;
   write_bytes(bad.path, b);
-  EXPECT_NE(read_all(bad.path).find("replay format version 2, this build reads version 1"), std::string::npos)
+  EXPECT_NE(read_all(bad.path).find("replay format version 3, this build reads versions 1 to 2 (a newer writer?)"),
+            std::string::npos)
       << read_all(bad.path);
+  b[8] = 0;
+  write_bytes(bad.path, b);
+  EXPECT_NE(read_all(bad.path).find("replay format version 0, this build reads versions 1 to 2"), std::string::npos)
+      << read_all(bad.path);
+  // A version 2 file read as version 1: its keyframes do not decode.
+  b[8] = 1;
+  write_bytes(bad.path, b);
+  EXPECT_NE(read_all(bad.path), "");
 }
 
 TEST_F(Damaged, EveryTruncationIsNamed) {
@@ -81,13 +93,34 @@ TEST_F(Damaged, EveryTruncationIsNamed) {
   }
 }
 
+// Offset of the first chunk tagged `tag` (walking the chunks from the file
+// header: tag, raw size, stored size, CRC, stored bytes).
+std::size_t chunk_at(const std::vector<char>& b, const char (&tag)[5]) {
+  std::size_t at = 16;
+  auto u32 = [&](std::size_t i) {
+    std::uint32_t v = 0;
+    for (int k = 3; k >= 0; --k) v = v << 8 | static_cast<unsigned char>(b[i + static_cast<std::size_t>(k)]);
+    return v;
+  };
+  while (at + 16 <= b.size()) {
+    if (std::string(&b[at], 4) == tag) return at;
+    at += 16 + u32(at + 8);
+  }
+  ADD_FAILURE() << "no " << tag << " chunk";
+  return 0;
+}
+
 TEST_F(Damaged, AFlippedByteInAFrameIsAChecksumError) {
   std::vector<char> b = bytes;
-  b[b.size() / 2] ^= 0x10;
+  b[chunk_at(b, "DELT") + 20] ^= 0x10;  // inside the first delta's stored bytes
   write_bytes(bad.path, b);
   const std::string what = read_all(bad.path);
   EXPECT_NE(what.find("checksum mismatch"), std::string::npos) << what;
   EXPECT_NE(what.find("of step"), std::string::npos) << what;  // names the frame
+  b = bytes;
+  b[chunk_at(b, "BODS") + 20] ^= 0x10;
+  write_bytes(bad.path, b);
+  EXPECT_NE(read_all(bad.path).find("the added bodies at byte"), std::string::npos) << read_all(bad.path);
 }
 
 // Every single-byte change anywhere: an error or (a byte that decodes

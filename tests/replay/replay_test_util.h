@@ -109,4 +109,63 @@ inline std::vector<ViewFrame> make_frames(const ViewHeader& h, int count, std::u
   return out;
 }
 
+/// Bodies come and go: frames of `h` (make_frames over its dynamic bodies
+/// and the `added` ones) in which each added body is alive from frame
+/// count / 3 + its index on, body `gone` (a header body) is removed at frame
+/// count / 2, and the first added body again at frame 2 * count / 3. A
+/// frame whose bodies are the header's has no ids. `added`: dynamic
+/// bodies with ids above the header's (their descriptions).
+inline std::vector<ViewFrame> make_population_frames(const ViewHeader& h, const std::vector<ViewBody>& added,
+                                                     BodyId gone, int count, std::uint64_t seed) {
+  ViewHeader all = h;
+  for (const ViewBody& b : added) all.bodies.push_back(b);
+  std::vector<BodyId> universe, header_ids;
+  for (const ViewBody& b : all.bodies)
+    if (!b.is_static) universe.push_back(b.id);
+  for (const ViewBody& b : h.bodies)
+    if (!b.is_static) header_ids.push_back(b.id);
+  std::vector<ViewFrame> out;
+  const std::vector<ViewFrame> frames = make_frames(all, count, seed);
+  for (int t = 0; t < count; ++t) {
+    const ViewFrame& f = frames[static_cast<std::size_t>(t)];
+    auto alive = [&](BodyId id) {
+      for (std::size_t k = 0; k < added.size(); ++k)
+        if (added[k].id == id)
+          return t >= count / 3 + static_cast<int>(k) && !(k == 0 && t >= 2 * count / 3);
+      return !(id == gone && t >= count / 2);
+    };
+    ViewFrame g;
+    g.step = f.step;
+    std::vector<BodyId> ids;
+    g.cell_owner = f.cell_owner;
+    g.world_busy_ms = f.world_busy_ms;
+    g.state_hash = f.state_hash;
+    for (std::size_t i = 0; i < universe.size(); ++i) {
+      if (!alive(universe[i])) continue;
+      ids.push_back(universe[i]);
+      g.position.insert(g.position.end(), f.position.begin() + 3 * i, f.position.begin() + 3 * i + 3);
+      g.orientation.insert(g.orientation.end(), f.orientation.begin() + 4 * i, f.orientation.begin() + 4 * i + 4);
+      g.sleeping.push_back(f.sleeping[i]);
+      g.owner.push_back(f.owner[i]);
+    }
+    if (ids != header_ids) g.ids = std::move(ids);
+    out.push_back(std::move(g));
+  }
+  return out;
+}
+
+/// Two bodies an input adds to make_header's scene: a box and a capsule,
+/// ids 1000 and 1001.
+inline std::vector<ViewBody> added_bodies() {
+  ViewBody box, capsule;
+  box.id = 1000;
+  box.shape = Shape::box(Vec3(2.0, 0.5, 1.0));
+  box.position = Vec3(3, 5, 3);
+  capsule.id = 1001;
+  capsule.shape = Shape::capsule(0.25, 1.5);
+  capsule.position = Vec3(-3, 5, 3);
+  capsule.orientation = Quat(Eigen::AngleAxisd(0.5, Vec3::UnitX()));
+  return {box, capsule};
+}
+
 }  // namespace soda::replay::testing

@@ -63,6 +63,31 @@ TEST(FrameCodec, BinaryLayoutIsTheDocumentedOne) {
   EXPECT_THROW(viewer::frame_binary(f, false), std::invalid_argument);
 }
 
+// A frame whose bodies are not the header's carries their ids right after
+// the header (flag 4), then the arrays as before.
+TEST(FrameCodec, IdsFollowTheHeaderWhenBodiesCameOrWent) {
+  replay::ViewFrame f;
+  f.step = 7;
+  f.ids = std::vector<BodyId>{3, 100000};
+  f.position = {1, 2, 3, 4, 5, 6};
+  f.orientation = {0, 0, 0, 1, 0, 1, 0, 0};
+  f.sleeping = {0, 1};
+  f.owner = {1, 0};
+  const std::string b = viewer::frame_binary(f, false);
+  ASSERT_EQ(b.size(), viewer::kFrameHeaderBytes + 2 * 4 + 6 * 4 + 8 * 4 + 2 * 2 + 2);
+  EXPECT_EQ(read_at<std::uint32_t>(b, 4), viewer::kFrameHasIds);
+  EXPECT_EQ(read_at<std::uint32_t>(b, 16), 2u);
+  EXPECT_EQ(read_at<std::uint32_t>(b, 40), 3u);
+  EXPECT_EQ(read_at<std::uint32_t>(b, 44), 100000u);
+  EXPECT_EQ(read_at<float>(b, 48 + 5 * 4), 6.0f);  // position[5]
+  EXPECT_EQ(viewer::frame_json(f, false)["ids"], (nlohmann::json{3, 100000}));
+  f.ids->pop_back();
+  EXPECT_THROW(viewer::frame_binary(f, false), std::invalid_argument);  // ids for another count
+  f.ids.reset();
+  EXPECT_EQ(read_at<std::uint32_t>(viewer::frame_binary(f, false), 4), 0u);
+  EXPECT_TRUE(viewer::frame_json(f, false)["ids"].is_null());
+}
+
 TEST(MemoryFrameSource, ServesNewestAndExactFramesWithTheMapInForce) {
   const test::Recording rec = test::record_frames(small_scene(), 2, 20);
   viewer::MemoryFrameSource& s = *rec.source;
@@ -133,6 +158,53 @@ TEST(FrameServer, AnswersOnLoopbackWithHeaderRangeFramesAndFiles) {
   EXPECT_EQ(client.Get("/three/build/three.module.js")->status, 200);
   server.stop();
   server.stop();  // idempotent
+}
+
+// /bodies describes the bodies frames hold that the header lacks; a frame
+// holding them carries their ids.
+TEST(FrameServer, DescribesBodiesAddedDuringTheRun) {
+  const Scene scene = small_scene(4);
+  const test::Recording rec = test::record_frames(scene, 1, 2);
+  auto source = std::make_shared<viewer::MemoryFrameSource>(rec.source->header());
+  replay::ViewFrame f = *rec.source->frame_at(2);
+  f.step = 3;  // body 2 removed, 100000 added
+  f.ids = std::vector<BodyId>{1, 3, 4, 100000};
+  f.state_hash.reset();
+  f.position[3 * 1] = 7.f;
+  f.owner.assign(4, 0);
+  source->add(*rec.source->frame_at(0));
+  source->add(f);
+  replay::ViewFrame bad = f;
+  bad.step = 4;
+  bad.ids = std::vector<BodyId>{1, 3, 100000};  // three bodies, arrays for four
+  EXPECT_THROW(source->add(bad), std::invalid_argument);
+  replay::ViewBody plank;
+  plank.id = 100000;
+  plank.shape = Shape::box(Vec3(2, 0.2, 0.5));
+  plank.position = Vec3(0, 12, 0);
+  source->describe(plank);
+  viewer::FrameServer server(source);
+  httplib::Client client("127.0.0.1", server.start());
+  auto bodies = client.Get("/bodies?ids=100000,2,555");
+  ASSERT_TRUE(bodies);
+  ASSERT_EQ(bodies->status, 200);
+  const nlohmann::json j = nlohmann::json::parse(bodies->body);
+  ASSERT_EQ(j["bodies"].size(), 2u);
+  EXPECT_EQ(j["bodies"][0]["id"], 100000);
+  EXPECT_EQ(j["bodies"][0]["shape"]["kind"], "box");
+  EXPECT_EQ(j["bodies"][0]["shape"]["half_extents"], (nlohmann::json{2.0, 0.2, 0.5}));
+  EXPECT_EQ(j["bodies"][1]["id"], 2);  // a header body
+  EXPECT_EQ(j["unknown"], (nlohmann::json{555}));
+  EXPECT_EQ(client.Get("/bodies?ids=1,x")->status, 400);
+  EXPECT_EQ(client.Get("/bodies?ids=-1")->status, 400);
+  EXPECT_EQ(nlohmann::json::parse(client.Get("/bodies")->body)["bodies"].size(), 0u);
+  auto frame = client.Get("/frame?at=3");
+  ASSERT_TRUE(frame);
+  ASSERT_EQ(frame->status, 200);
+  EXPECT_EQ(read_at<std::uint32_t>(frame->body, 4) & viewer::kFrameHasIds, viewer::kFrameHasIds);
+  EXPECT_EQ(read_at<std::uint32_t>(frame->body, 40 + 3 * 4), 100000u);  // ids[3]
+  EXPECT_EQ(read_at<std::uint32_t>(client.Get("/frame?at=0")->body, 4) & viewer::kFrameHasIds, 0u);
+  server.stop();
 }
 
 TEST(FrameServer, RefusesMissingFilesAndABusyPort) {

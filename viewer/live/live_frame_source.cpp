@@ -85,6 +85,19 @@ void LiveFrameSource::keep(replay::ViewFrame frame) {
   newest_ = std::move(frame);
 }
 
+void LiveFrameSource::describe(const Body& body) {
+  std::lock_guard lock(mutex_);
+  described_.insert_or_assign(body.id, view_body(body));
+}
+
+std::optional<replay::ViewBody> LiveFrameSource::body(BodyId id) const {
+  if (auto b = header_body(header_, id)) return b;
+  std::lock_guard lock(mutex_);
+  auto it = described_.find(id);
+  if (it == described_.end()) return std::nullopt;
+  return it->second;
+}
+
 std::optional<replay::ViewFrame> LiveFrameSource::newest_after(std::int64_t after) {
   std::lock_guard lock(mutex_);
   if (!newest_ || newest_->step <= after) return std::nullopt;

@@ -48,14 +48,17 @@ void append_value(std::string& out, T value) {
 
 }  // namespace
 
+nlohmann::json body_json(const replay::ViewBody& b) {
+  return {{"id", b.id},
+          {"static", b.is_static},
+          {"shape", shape_json(b.shape)},
+          {"position", vec(b.position)},
+          {"orientation", {b.orientation.x(), b.orientation.y(), b.orientation.z(), b.orientation.w()}}};
+}
+
 nlohmann::json header_json(const replay::ViewHeader& h) {
   nlohmann::json bodies = nlohmann::json::array();
-  for (const replay::ViewBody& b : h.bodies)
-    bodies.push_back({{"id", b.id},
-                      {"static", b.is_static},
-                      {"shape", shape_json(b.shape)},
-                      {"position", vec(b.position)},
-                      {"orientation", {b.orientation.x(), b.orientation.y(), b.orientation.z(), b.orientation.w()}}});
+  for (const replay::ViewBody& b : h.bodies) bodies.push_back(body_json(b));
   return {{"format", "soda-view-header"},
           {"version", 1},
           {"scene", h.scene},
@@ -70,6 +73,7 @@ nlohmann::json header_json(const replay::ViewHeader& h) {
 
 nlohmann::json frame_json(const replay::ViewFrame& f, bool finished) {
   return {{"step", f.step},
+          {"ids", f.ids ? nlohmann::json(*f.ids) : nlohmann::json(nullptr)},
           {"position", f.position},
           {"orientation", f.orientation},
           {"sleeping", f.sleeping},
@@ -87,11 +91,16 @@ std::string frame_binary(const replay::ViewFrame& f, bool finished) {
                                 std::to_string(f.position.size()) + " position floats, " +
                                 std::to_string(f.orientation.size()) + " orientation floats, " +
                                 std::to_string(f.sleeping.size()) + " sleep flags, " + std::to_string(n) + " owners)");
+  if (f.ids && f.ids->size() != n)
+    throw std::invalid_argument("frame " + std::to_string(f.step) + ": " + std::to_string(f.ids->size()) +
+                                " ids for " + std::to_string(n) + " bodies");
   std::string out;
-  out.reserve(kFrameHeaderBytes + n * (7 * 4 + 2 + 1) + f.cell_owner.size() * 2 + f.world_busy_ms.size() * 4);
+  out.reserve(kFrameHeaderBytes + n * ((f.ids ? 4 : 0) + 7 * 4 + 2 + 1) + f.cell_owner.size() * 2 +
+              f.world_busy_ms.size() * 4);
   // Offsets: 0 magic, 4 flags, 8 step, 16 n, 20 b, 24 c, 28 reserved, 32 hash.
   out.append(kFrameMagic, 4);
-  append_value<std::uint32_t>(out, (f.state_hash ? kFrameHasHash : 0u) | (finished ? kFrameFinished : 0u));
+  append_value<std::uint32_t>(out, (f.state_hash ? kFrameHasHash : 0u) | (finished ? kFrameFinished : 0u) |
+                                       (f.ids ? kFrameHasIds : 0u));
   append_value<std::int64_t>(out, f.step);
   append_value<std::uint32_t>(out, static_cast<std::uint32_t>(n));
   append_value<std::uint32_t>(out, static_cast<std::uint32_t>(f.world_busy_ms.size()));
@@ -99,6 +108,7 @@ std::string frame_binary(const replay::ViewFrame& f, bool finished) {
   append_value<std::uint32_t>(out, 0);
   append_value<std::uint64_t>(out, f.state_hash.value_or(0));
   if (out.size() != kFrameHeaderBytes) throw std::logic_error("frame_binary: header size");
+  if (f.ids) append(out, f.ids->data(), f.ids->size());
   append(out, f.position.data(), f.position.size());
   append(out, f.orientation.data(), f.orientation.size());
   append(out, f.world_busy_ms.data(), f.world_busy_ms.size());

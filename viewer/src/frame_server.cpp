@@ -1,5 +1,6 @@
 #include "soda/viewer/frame_server.h"
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
@@ -37,6 +38,31 @@ std::optional<std::int64_t> step_param(const httplib::Request& req, const char* 
     throw std::invalid_argument(std::string("query parameter '") + name + "' must be an integer step, got '" + text +
                                 "'");
   }
+}
+
+// "1,2,3" -> ids; at most kMaxBodiesAsked of them.
+constexpr std::size_t kMaxBodiesAsked = 100000;
+std::vector<BodyId> id_list(const std::string& text) {
+  std::vector<BodyId> ids;
+  std::size_t at = 0;
+  while (at < text.size()) {
+    const std::size_t end = std::min(text.find(',', at), text.size());
+    const std::string item = text.substr(at, end - at);
+    std::size_t used = 0;
+    unsigned long long v = 0;
+    try {
+      v = std::stoull(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != item.size() || item[0] == '-' || v > kMaxBodyId)
+      throw std::invalid_argument("query parameter 'ids' must be body ids separated by commas, got '" + item + "'");
+    ids.push_back(static_cast<BodyId>(v));
+    if (ids.size() > kMaxBodiesAsked)
+      throw std::invalid_argument("query parameter 'ids': more than " + std::to_string(kMaxBodiesAsked) + " ids");
+    at = end + 1;
+  }
+  return ids;
 }
 
 }  // namespace
@@ -78,6 +104,23 @@ struct FrameServer::Impl {
     server.set_mount_point("/", options.web_dir);
     server.Get("/header", [this](const httplib::Request&, httplib::Response& res) {
       res.set_content(header_json(source->header()).dump(), "application/json");
+    });
+    // Bodies a frame holds that the header lacks (added during the run):
+    // /bodies?ids=1,2,3 -> {"bodies": [...], "unknown": [ids the source
+    // does not know]}.
+    server.Get("/bodies", [this](const httplib::Request& req, httplib::Response& res) {
+      nlohmann::json bodies = nlohmann::json::array(), unknown = nlohmann::json::array();
+      try {
+        for (BodyId id : id_list(req.has_param("ids") ? req.get_param_value("ids") : std::string()))
+          if (const std::optional<replay::ViewBody> b = source->body(id)) bodies.push_back(body_json(*b));
+          else unknown.push_back(id);
+      } catch (const std::invalid_argument& e) {
+        res.status = 400;
+        res.set_content(e.what(), "text/plain");
+        return;
+      }
+      res.set_content(nlohmann::json{{"bodies", std::move(bodies)}, {"unknown", std::move(unknown)}}.dump(),
+                      "application/json");
     });
     server.Get("/range", [this](const httplib::Request&, httplib::Response& res) {
       const auto [first, last] = source->step_range();

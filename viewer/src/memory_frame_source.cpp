@@ -7,7 +7,7 @@
 namespace soda::viewer {
 
 void MemoryFrameSource::add(replay::ViewFrame frame) {
-  const std::size_t n = header_.dynamic_count();
+  const std::size_t n = frame.ids ? frame.ids->size() : header_.dynamic_count();
   auto check = [&](const char* name, std::size_t got, std::size_t want) {
     if (got != want)
       throw std::invalid_argument("frame " + std::to_string(frame.step) + ": " + name + " has " +
@@ -23,6 +23,19 @@ void MemoryFrameSource::add(replay::ViewFrame frame) {
     throw std::invalid_argument("frame " + std::to_string(frame.step) + " after frame " +
                                 std::to_string(frames_.back().step) + ": steps must increase");
   frames_.push_back(std::move(frame));
+}
+
+void MemoryFrameSource::describe(const replay::ViewBody& body) {
+  std::lock_guard lock(mutex_);
+  described_.insert_or_assign(body.id, body);
+}
+
+std::optional<replay::ViewBody> MemoryFrameSource::body(BodyId id) const {
+  if (auto b = header_body(header_, id)) return b;
+  std::lock_guard lock(mutex_);
+  auto it = described_.find(id);
+  if (it == described_.end()) return std::nullopt;
+  return it->second;
 }
 
 void MemoryFrameSource::finish() {

@@ -2,8 +2,9 @@
 // replay) is played, paused and scrubbed step by step with /frame?at=N; a
 // live one is polled with /frame?after=N (the newest committed frame).
 // URL parameters: ?play=0 starts paused; ?step=N starts at step N;
-// ?colour=sleep colours by sleep. docs/viewer.md.
-import { fetchFrame, fetchJson } from './protocol.js';
+// ?colour=sleep colours by sleep. Bodies added during the run are described
+// by the server's /bodies when a frame first holds them. docs/viewer.md.
+import { fetchBodies, fetchFrame, fetchJson } from './protocol.js';
 import { drawLoadChart } from './load_chart.js';
 import { cssColour, worldColour } from './palette.js';
 import { SceneView } from './scene_view.js';
@@ -32,12 +33,14 @@ const state = {
   colourMode: params.get('colour') === 'sleep' ? 'sleep' : 'world',
   busy: false,          // a request is under way
   pending: null,        // a step asked for meanwhile (replay)
+  asked: new Set(),     // bodies asked of /bodies
 };
 
 function report(error) {
   const f = state.shown;
   status.dataset.step = f ? String(f.step) : '-1';
   status.dataset.bodies = f ? String(f.n) : '0';
+  status.dataset.drawn = state.view ? String(state.view.drawnCount()) : '0';
   status.dataset.frames = String(state.framesShown);
   status.dataset.finished = state.finished ? '1' : '0';
   status.dataset.hash = state.hash;
@@ -49,7 +52,14 @@ function report(error) {
       (state.finished ? ', finished' : '');
 }
 
-function show(frame) {
+// Shows a frame; bodies it holds that the page has no description of yet
+// (added during the run) are asked of the server first.
+async function show(frame) {
+  const missing = state.view.undescribed(frame.ids).filter((id) => !state.asked.has(id));
+  if (missing.length > 0) {
+    for (const id of missing) state.asked.add(id);  // asked once: one the server cannot describe is not drawn
+    state.view.describe(await fetchBodies(missing));
+  }
   state.view.update(frame, state.colourMode);
   state.view.render();
   state.shown = frame;
@@ -72,7 +82,7 @@ async function liveLoop() {
     try {
       const after = state.shown ? state.shown.step : -1;
       const frame = await fetchFrame(`after=${after}`);
-      if (frame) show(frame);
+      if (frame) await show(frame);
       if (state.finished) return;
       if (!frame) {
         // Nothing newer: the run may have ended on the step shown (the pump
@@ -81,7 +91,7 @@ async function liveLoop() {
         const range = await fetchJson('/range');
         if (range.finished) {
           const last = await fetchFrame(`at=${range.last}`);
-          if (last) show(last);
+          if (last) await show(last);
           return;
         }
         await new Promise((r) => setTimeout(r, LIVE_POLL_MS));
@@ -104,12 +114,12 @@ async function showStep(step) {
   state.busy = true;
   try {
     const frame = await fetchFrame(`at=${step}`);
-    if (frame) show(frame);
+    if (frame) await show(frame);
     while (state.pending !== null) {
       const next = state.pending;
       state.pending = null;
       const f = await fetchFrame(`at=${next}`);
-      if (f) show(f);
+      if (f) await show(f);
     }
     return frame !== null;
   } catch (e) {
@@ -167,11 +177,12 @@ async function main() {
   $('colour-mode').value = state.colourMode;
   legend(state.header.territories);
   state.view = new SceneView($('view'), state.header);
+  window.sodaView = state.view;  // for the browser tests: isDrawn(id), drawnCount()
   state.view.render();
   report();
   $('colour-mode').addEventListener('change', (e) => {
     state.colourMode = e.target.value;
-    if (state.shown) show(state.shown);
+    if (state.shown) show(state.shown).catch((err) => report(err.message));
   });
   $('borders').addEventListener('change', (e) => state.view.setBordersVisible(e.target.checked));
   setPlaying(state.playing && state.mode === 'replay');
@@ -188,7 +199,7 @@ async function main() {
   } else {
     const start = params.has('step') ? Number(params.get('step')) : state.first;
     const frame = await fetchFrame(`at=${start}`) ?? await fetchFrame(`after=${start - 1}`);
-    if (frame) show(frame);
+    if (frame) await show(frame);
     replayLoop();
   }
 }

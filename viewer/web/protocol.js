@@ -4,6 +4,7 @@ const MAGIC = 'SVF1';
 const HEADER_BYTES = 40;
 const HAS_HASH = 1;
 const FINISHED = 2;
+const HAS_IDS = 4;
 
 export async function fetchJson(path) {
   const res = await fetch(path, { cache: 'no-store' });
@@ -20,10 +21,19 @@ export async function fetchFrame(query) {
   return parseFrame(await res.arrayBuffer());
 }
 
-// Typed-array views on one binary frame: {step, n, position (Float32Array
-// 3n), orientation (4n, x y z w), worldBusyMs, owner (Uint16Array n),
-// cellOwner (Uint16Array c, empty: unchanged), sleeping (Uint8Array n),
-// stateHash (16 hex digits or null), finished}.
+// Descriptions of bodies added during the run (the header lacks them):
+// [{id, static, shape, position, orientation}] for those the server knows.
+export async function fetchBodies(ids) {
+  const res = await fetch(`/bodies?ids=${Array.from(ids).join(',')}`, { cache: 'no-store' });
+  if (!res.ok) throw new Error(`/bodies: HTTP ${res.status}`);
+  return (await res.json()).bodies;
+}
+
+// Typed-array views on one binary frame: {step, n, ids (Uint32Array n, or
+// null: the header's dynamic bodies), position (Float32Array 3n),
+// orientation (4n, x y z w), worldBusyMs, owner (Uint16Array n), cellOwner
+// (Uint16Array c, empty: unchanged), sleeping (Uint8Array n), stateHash (16
+// hex digits or null), finished}.
 export function parseFrame(buffer) {
   const view = new DataView(buffer);
   const magic = String.fromCharCode(...new Uint8Array(buffer, 0, 4));
@@ -42,6 +52,7 @@ export function parseFrame(buffer) {
   };
   const frame = {
     step, n,
+    ids: (flags & HAS_IDS) ? take(Uint32Array, n) : null,
     position: take(Float32Array, 3 * n),
     orientation: take(Float32Array, 4 * n),
     worldBusyMs: take(Float32Array, b),

@@ -1,7 +1,10 @@
 // The 3-D view: one InstancedMesh per shape type (unit geometry, scaled per
 // instance; capsules per length/radius ratio, convex hulls per body), bodies
 // coloured by owning world or by sleep, statics in grey, territory borders
-// as lines on the faces between cells of different owners.
+// as lines on the faces between cells of different owners. Bodies come and
+// go with the frames (their ids): a body that comes takes a free instance of
+// its shape's mesh (the mesh grows when full), one that goes is hidden and
+// its instance freed.
 import * as THREE from '/three/build/three.module.js';
 import { OrbitControls } from '/three/examples/jsm/controls/OrbitControls.js';
 import { ConvexBufferGeometry } from '/three/examples/jsm/geometries/ConvexGeometry.js';
@@ -54,6 +57,11 @@ function capsuleGeometry(halfLength) {
   return new THREE.LatheBufferGeometry(profile, 20);
 }
 
+// Instances a group starts with beyond the header's bodies of its shape,
+// and the factor it grows by when bodies added during the run need more.
+const SPARE_INSTANCES = 4;
+const GROWTH = 2;
+
 export class SceneView {
   constructor(container, header) {
     this.header = header;
@@ -82,41 +90,104 @@ export class SceneView {
     this.showBorders = true;
   }
 
-  // Groups every body by shape type; dynamic ones get a slot (mesh, index).
+  // Groups every body by shape type (one InstancedMesh each, with room for
+  // the header's bodies and a few more); statics are placed once, dynamic
+  // bodies get a slot (group, index) while a frame holds them.
   buildBodies() {
     this.matrix = new THREE.Matrix4();
     this.position = new THREE.Vector3();
     this.quaternion = new THREE.Quaternion();
     this.scaleVector = new THREE.Vector3();
     this.colour = new THREE.Color();
-    const groups = new Map();
-    const slots = [];  // per dynamic body, in header order: {group, index, scale}
+    this.hidden = new THREE.Matrix4().makeScale(0, 0, 0);
+    this.groups = new Map();       // key -> {mesh, colours, capacity, used, free, make}
+    this.described = new Map();    // dynamic body id -> its description (header's and added ones)
+    this.slots = new Map();        // dynamic body id -> {group, index, scale}, the bodies drawn
+    this.headerIds = [];           // the header's dynamic bodies, ascending id
+    this.shownIds = null;          // the ids of the frame drawn last (null: none yet)
+    const wanted = new Map();      // key -> {count: instances the header needs, make}
     const statics = [];
-    this.header.bodies.forEach((body) => {
+    for (const body of this.header.bodies) {
       const kind = shapeKind(body.shape);
-      const key = (body.static ? 'static:' : '') + (kind.key ?? `hull:${body.id}`);
-      if (!groups.has(key)) groups.set(key, { make: kind.make, count: 0, isStatic: body.static });
-      const group = groups.get(key);
-      const slot = { group, index: group.count++, scale: kind.scale };
-      if (body.static) statics.push({ slot, body }); else slots.push(slot);
-    });
-    for (const group of groups.values()) {
-      const geometry = group.make();
-      const colours = new Float32Array(group.count * 3);
-      geometry.setAttribute('color', new THREE.InstancedBufferAttribute(colours, 3));
-      const material = new THREE.MeshLambertMaterial({ vertexColors: THREE.VertexColors });
-      group.mesh = new THREE.InstancedMesh(geometry, material, group.count);
-      group.mesh.frustumCulled = false;  // instances lie far from the unit geometry's bounds
-      group.colours = colours;
-      this.scene.add(group.mesh);
+      const key = this.groupKey(body, kind);
+      if (!wanted.has(key)) wanted.set(key, { count: 0, make: kind.make });
+      wanted.get(key).count += 1;
+      if (body.static) statics.push({ body, kind, key });
+      else {
+        this.described.set(body.id, body);
+        this.headerIds.push(body.id);
+      }
     }
+    for (const [key, { count, make }] of wanted) this.makeGroup(key, count + SPARE_INSTANCES, make);
     const grey = new THREE.Color(STATIC_COLOUR);
-    for (const { slot, body } of statics) {
+    for (const { body, kind, key } of statics) {
+      const slot = this.takeSlot(key, kind);
       this.place(slot, body.position, body.orientation);
       slot.group.colours.set([grey.r, grey.g, grey.b], slot.index * 3);
     }
-    this.groups = [...groups.values()];
-    this.slots = slots;
+  }
+
+  groupKey(body, kind) {
+    return (body.static ? 'static:' : '') + (kind.key ?? `hull:${body.id}`);
+  }
+
+  // A new InstancedMesh for `key` with room for `capacity` instances, every
+  // one hidden; an old one of that key (too small) is copied and replaced
+  // (its geometry kept).
+  makeGroup(key, capacity, make) {
+    const old = this.groups.get(key);
+    const geometry = old ? old.mesh.geometry : make();
+    const group = old ?? { used: 0, free: [] };
+    const colours = new Float32Array(capacity * 3);
+    const mesh = new THREE.InstancedMesh(geometry, new THREE.MeshLambertMaterial({
+      vertexColors: THREE.VertexColors }), capacity);
+    for (let i = 0; i < capacity; ++i) this.hidden.toArray(mesh.instanceMatrix.array, i * 16);
+    if (old) {
+      mesh.instanceMatrix.array.set(old.mesh.instanceMatrix.array);
+      colours.set(old.colours);
+      this.scene.remove(old.mesh);
+      old.mesh.material.dispose();
+    }
+    mesh.geometry.setAttribute('color', new THREE.InstancedBufferAttribute(colours, 3));
+    mesh.frustumCulled = false;  // instances lie far from the unit geometry's bounds
+    group.mesh = mesh;
+    group.colours = colours;
+    group.capacity = capacity;
+    this.groups.set(key, group);
+    this.scene.add(mesh);
+    return group;
+  }
+
+  // A free instance of the group `key` (made, or grown, when needed).
+  takeSlot(key, kind) {
+    let group = this.groups.get(key);
+    if (!group) group = this.makeGroup(key, 1 + SPARE_INSTANCES, kind.make);
+    let index = group.free.pop();
+    if (index === undefined) {
+      if (group.used === group.capacity) group = this.makeGroup(key, group.capacity * GROWTH);
+      index = group.used++;
+    }
+    return { group, index, scale: kind.scale };
+  }
+
+  // Descriptions of bodies a frame may hold that the header lacks (from the
+  // server's /bodies).
+  describe(bodies) {
+    for (const body of bodies) if (!body.static) this.described.set(body.id, body);
+  }
+
+  // The ids of `ids` this view has no description of.
+  undescribed(ids) {
+    return ids ? Array.from(ids).filter((id) => !this.described.has(id)) : [];
+  }
+
+  // Whether body `id` is drawn now (tests).
+  isDrawn(id) {
+    return this.slots.has(id);
+  }
+
+  drawnCount() {
+    return this.slots.size;
   }
 
   place(slot, p, q) {
@@ -144,12 +215,38 @@ export class SceneView {
     this.controls.update();
   }
 
+  // Makes the drawn bodies those of `ids` (null: the header's): a body that
+  // came gets an instance, one that went gives its instance back (hidden).
+  // A body nobody described (the server could not) is left out.
+  setBodies(ids) {
+    const list = ids ?? this.headerIds;
+    if (this.shownIds === list || (ids === null && this.shownIds === this.headerIds)) return;
+    const wanted = new Set(list);
+    for (const [id, slot] of this.slots) {
+      if (wanted.has(id)) continue;
+      this.hidden.toArray(slot.group.mesh.instanceMatrix.array, slot.index * 16);
+      slot.group.free.push(slot.index);
+      this.slots.delete(id);
+    }
+    for (const id of list) {
+      if (this.slots.has(id)) continue;
+      const body = this.described.get(id);
+      if (!body) continue;
+      const kind = shapeKind(body.shape);
+      this.slots.set(id, this.takeSlot(this.groupKey(body, kind), kind));
+    }
+    this.shownIds = list;
+  }
+
   // Poses and colours of one frame; colourMode 'world' or 'sleep'.
   update(frame, colourMode) {
+    this.setBodies(frame.ids);
+    const ids = frame.ids ?? this.headerIds;
     const p = frame.position;
     const q = frame.orientation;
-    for (let i = 0; i < this.slots.length; ++i) {
-      const slot = this.slots[i];
+    for (let i = 0; i < ids.length; ++i) {
+      const slot = this.slots.get(ids[i]);
+      if (!slot) continue;  // not described: not drawn
       const o = 3 * i;
       const r = 4 * i;
       this.matrix.compose(this.position.set(p[o], p[o + 1], p[o + 2]),
@@ -163,7 +260,7 @@ export class SceneView {
       slot.group.colours[slot.index * 3 + 1] = this.colour.g;
       slot.group.colours[slot.index * 3 + 2] = this.colour.b;
     }
-    for (const group of this.groups) {
+    for (const group of this.groups.values()) {
       group.mesh.instanceMatrix.needsUpdate = true;
       group.mesh.geometry.attributes.color.needsUpdate = true;
     }

@@ -53,11 +53,17 @@ class ReplayReader final : public FrameSource {
   /// {first step, last step}; {0, -1} for a file without frames.
   std::pair<std::int64_t, std::int64_t> step_range() const override;
   bool finished() const override { return true; }
+  /// A body of the header or one added during the run (added_bodies()).
+  std::optional<ViewBody> body(BodyId id) const override;
 
   // The file -----------------------------------------------------------------
   const std::string& path() const { return path_; }
-  /// Format version (kFormatVersion of the writer; this build reads 1).
+  /// Format version: 2 (what this build writes: bodies may come and go) or
+  /// 1 (a fixed set of bodies; read as before).
   std::uint32_t version() const { return version_; }
+  /// The bodies frames hold that the header lacks (added by inputs during
+  /// the run), ascending id, as described when they first appeared.
+  const std::vector<ViewBody>& added_bodies() const { return added_; }
   std::uint64_t file_bytes() const { return file_bytes_; }
   std::size_t frame_count() const { return index_.size(); }
   std::size_t keyframe_count() const;
@@ -83,6 +89,7 @@ class ReplayReader final : public FrameSource {
   void read_bytes(std::uint64_t offset, void* out, std::size_t size, const std::string& what) const;
   [[noreturn]] void fail(const std::string& what) const;
   std::optional<std::size_t> find(std::int64_t step) const;
+  bool body_known(BodyId id) const;  // a dynamic body of the header or added_
   ViewFrame decode_locked(std::size_t i);
 
   std::string path_;
@@ -91,6 +98,7 @@ class ReplayReader final : public FrameSource {
   std::uint32_t version_ = 0;
   int keyframe_every_ = 1;
   ViewHeader header_;
+  std::vector<ViewBody> added_;  // from the BODS chunks, ascending id
   std::vector<IndexEntry> index_;
   std::mutex mutex_;                     // guards the two below and the decoding
   std::unique_ptr<StoredFrame> state_;   // the frame last decoded

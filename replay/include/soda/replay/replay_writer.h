@@ -1,12 +1,14 @@
 // replay/ — replay files (docs/replay-format.md). This header: writing one.
 //
 //   soda::replay::ReplayWriter out("run.replay", header);
+//   out.describe(body);                                // a body added later by an input
 //   for (const ViewFrame& f : frames) out.append(f);   // steps ascending
 //   out.close();                                       // index + end marker
 #pragma once
 
 #include <cstdint>
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -45,16 +47,27 @@ class ReplayWriter {
   ReplayWriter(const ReplayWriter&) = delete;
   ReplayWriter& operator=(const ReplayWriter&) = delete;
 
+  /// Describes a dynamic body that is not in the header (one an input adds
+  /// during the run), so that frames may hold it: its description is
+  /// written once, before the first frame that holds it (a BODS chunk).
+  /// Describe it before that frame is appended; describing bodies that no
+  /// frame ever holds costs nothing. Throws std::invalid_argument for a
+  /// static body, an id of the header, or an id described before with
+  /// another shape (the same description again is ignored).
+  void describe(const ViewBody& body);
+
   /// Quantises `frame` and appends it (a keyframe or a delta against the
-  /// previous frame). Its step must exceed the previous frame's; its arrays
-  /// must have the header's sizes (per dynamic body: 3 positions, 4
-  /// orientation components, a sleep flag, an owner < territories;
-  /// world_busy_ms empty or one per world; cell_owner empty or one per box
-  /// cell, and given on the first frame when the box has cells). Throws
-  /// std::invalid_argument naming the step, body id and field for a frame
-  /// that breaks these or holds a non-finite position or orientation (the
-  /// file is left as before the call), ReplayError for an I/O failure, and
-  /// std::logic_error after close().
+  /// previous frame; a keyframe whenever its bodies are not the previous
+  /// frame's). Its step must exceed the previous frame's; `ids` empty (the
+  /// header's dynamic bodies) or ascending ids, each a dynamic body of the
+  /// header or described; its arrays sized for its bodies (per body: 3
+  /// positions, 4 orientation components, a sleep flag, an owner <
+  /// territories; world_busy_ms empty or one per world; cell_owner empty or
+  /// one per box cell, and given on the first frame when the box has
+  /// cells). Throws std::invalid_argument naming the step, body id and field
+  /// for a frame that breaks these or holds a non-finite position or
+  /// orientation (the file is left as before the call), ReplayError for an
+  /// I/O failure, and std::logic_error after close().
   void append(const ViewFrame& frame);
 
   /// Writes the index and the end marker and closes the file. Throws
@@ -84,10 +97,20 @@ class ReplayWriter {
   };
   void write_chunk(std::uint32_t tag, const std::vector<std::uint8_t>& raw);
   void write_bytes(const void* data, std::size_t size);
-  void check(const ViewFrame& frame) const;
+  /// Checks `frame`; returns the ids it holds that no chunk has described
+  /// yet (their descriptions are in described_).
+  std::vector<BodyId> check(const ViewFrame& frame) const;
 
   std::string path_;
   ViewHeader header_;
+  std::vector<BodyId> header_ids_;  // the header's dynamic bodies, ascending
+  /// Bodies described by describe(): whether a BODS chunk holds them yet.
+  struct Described {
+    ViewBody body;
+    bool written = false;
+  };
+  std::map<BodyId, Described> described_;
+  std::vector<std::uint64_t> bodies_chunks_;  // offsets of the BODS chunks
   ReplayWriterOptions options_;
   std::FILE* file_ = nullptr;
   std::uint64_t offset_ = 0;

@@ -9,6 +9,7 @@
 // Neither side knows the other's implementation: only this header.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -36,8 +37,10 @@ struct ViewHeader {
   std::uint64_t seed = 0;
   double dt = 1.0 / 60.0;             // seconds per scene step
   int territories = 1;                // K: worlds, ids 0 .. K-1
-  /// Every body, ascending id. The dynamic ones, in this order, are the
-  /// order of every per-body array of a ViewFrame.
+  /// Every body of the scene as it starts, ascending id. The dynamic ones,
+  /// in this order, are the order of the per-body arrays of every ViewFrame
+  /// whose `ids` is empty. Bodies added later by inputs are not here: a
+  /// FrameSource describes them (FrameSource::body).
   std::vector<ViewBody> bodies;
   /// The grid and box of the territory map (TerritoryMap::grid(), box()):
   /// ViewFrame::cell_owner holds one owner per box cell in box index order.
@@ -51,7 +54,13 @@ struct ViewHeader {
 /// The scene at one committed step boundary.
 struct ViewFrame {
   std::int64_t step = 0;
-  /// Per dynamic body, in ViewHeader::bodies order (statics skipped):
+  /// The dynamic bodies alive at this step, ascending id, when they are not
+  /// exactly the header's dynamic bodies (bodies added or removed by
+  /// inputs); nullopt when they are. The per-body arrays below run over
+  /// these ids, or over the header's dynamic bodies when nullopt.
+  std::optional<std::vector<BodyId>> ids;
+  /// Per dynamic body, in `ids` order (nullopt: ViewHeader::bodies order,
+  /// statics skipped):
   std::vector<float> position;        // 3 floats per body (x, y, z), m
   std::vector<float> orientation;     // 4 floats per body (x, y, z, w), unit
   std::vector<std::uint8_t> sleeping; // 1 if the body is asleep, else 0
@@ -86,12 +95,26 @@ class FrameSource {
   virtual std::pair<std::int64_t, std::int64_t> step_range() const = 0;
   /// True when no frame will be added any more (a file; a finished run).
   virtual bool finished() const = 0;
+  /// The description of body `id`: a body of the header, or one a frame
+  /// holds that the header lacks (added during the run); nullopt if the
+  /// source knows no such body. This default looks in the header only.
+  virtual std::optional<ViewBody> body(BodyId id) const { return header_body(header(), id); }
+
+  /// The header's body `id` (binary search), nullopt if it has none.
+  static std::optional<ViewBody> header_body(const ViewHeader& header, BodyId id);
 };
 
 inline std::size_t ViewHeader::dynamic_count() const {
   std::size_t n = 0;
   for (const ViewBody& b : bodies) n += b.is_static ? 0 : 1;
   return n;
+}
+
+inline std::optional<ViewBody> FrameSource::header_body(const ViewHeader& header, BodyId id) {
+  auto it = std::lower_bound(header.bodies.begin(), header.bodies.end(), id,
+                             [](const ViewBody& b, BodyId i) { return b.id < i; });
+  if (it == header.bodies.end() || it->id != id) return std::nullopt;
+  return *it;
 }
 
 }  // namespace soda::replay

@@ -26,13 +26,19 @@ replay::ViewHeader view_header(const Scene& scene, const TerritoryMap& map);
 /// 16 bits hold. Pure; thread-safe.
 std::vector<std::uint16_t> view_cell_owner(const TerritoryMap& map);
 
+/// A body as the viewer describes it: id, shape, pose (where it starts).
+/// For bodies an input adds during a run (ReplayWriter::describe,
+/// LiveFrameSource::describe). Pure; thread-safe.
+replay::ViewBody view_body(const Body& body);
+
 /// `frame` as a viewer sees it: positions and orientations rounded to
 /// float, sleep flags, owners (SceneFrame::owners), per-world busy time in
 /// ms (SceneFrame::busy_seconds), and cell_owner = view_cell_owner(*map) if `map` is
-/// given (else empty: "unchanged"). The frame's poses must be the header's
-/// dynamic bodies (ascending id, every one): throws std::invalid_argument
-/// naming the step and body otherwise (bodies added or removed by inputs
-/// are not in a fixed header). Pure; thread-safe.
+/// given (else empty: "unchanged"). Its bodies are the frame's poses
+/// (ascending id): ids is nullopt when they are exactly the header's
+/// dynamic bodies, else the poses' ids (bodies added or removed by inputs).
+/// Throws std::invalid_argument naming the step and body for poses not in
+/// ascending id order or owners that do not match them. Pure; thread-safe.
 replay::ViewFrame view_frame(const SceneFrame& frame, const replay::ViewHeader& header,
                              const TerritoryMap* map = nullptr);
 

@@ -9,17 +9,17 @@
 // whose requests (newest_after) only copy the kept frame under a mutex.
 // Steps between two pumps are skipped (the viewer shows the newest).
 //
-// What a SceneFrame lacks is derived: the owner of a body is the owner of
-// the cell holding its position in the run's territory map (the map a
-// Simulation keeps: it has no load balancing); a body is shown asleep when
-// its velocities are exactly zero (Bullet zeroes them when it deactivates a
-// body); world_busy_ms is empty (not measured live: the viewer charts
-// bodies per world instead).
+// A frame holds the bodies alive at its step (view_frame: ids when they
+// are not the header's); a body an input adds is drawn once described
+// (describe(), before or while the run goes). Owners, sleep flags and busy
+// times are the worlds' own (SceneFrame); cell_owner is the run's map (a
+// Simulation has no load balancing), sent with every frame.
 #pragma once
 
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -37,9 +37,9 @@ namespace soda::viewer {
 inline constexpr std::chrono::milliseconds kPumpPeriod{16};
 
 /// A SceneFrame as the viewer's frame: soda::view_frame (runtime/
-/// view_adapter.h: the worlds' own owners, sleep flags and busy times; the
-/// frame must hold exactly the header's dynamic bodies, else
-/// std::invalid_argument) with cell_owner = `cell_owner`. Pure function.
+/// view_adapter.h: the worlds' own owners, sleep flags and busy times; ids
+/// when the bodies are not the header's) with cell_owner = `cell_owner`.
+/// Pure function.
 replay::ViewFrame to_view_frame(const SceneFrame& frame, const replay::ViewHeader& header,
                                 const std::vector<std::uint16_t>& cell_owner);
 
@@ -57,6 +57,9 @@ class LiveFrameSource : public replay::FrameSource {
 
   /// Starts the pump thread.
   void start();
+  /// Describes a body an input adds (Simulation::add_body), so that a
+  /// viewer can draw it when a frame holds it (body()). Any thread.
+  void describe(const Body& body);
   /// The run is over: stops the pump, reads the frame of `last_step`
   /// (waiting for it; the worlds must publish it) and keeps it with
   /// `state_hash`; finished() is then true.
@@ -68,6 +71,7 @@ class LiveFrameSource : public replay::FrameSource {
   std::optional<replay::ViewFrame> frame_at(std::int64_t step) override;
   std::pair<std::int64_t, std::int64_t> step_range() const override;
   bool finished() const override;
+  std::optional<replay::ViewBody> body(BodyId id) const override;
 
   /// Frames the pump has read so far (tests: the pump runs).
   std::int64_t frames_read() const { return frames_read_.load(); }
@@ -92,6 +96,7 @@ class LiveFrameSource : public replay::FrameSource {
 
   mutable std::mutex mutex_;
   std::optional<replay::ViewFrame> newest_;
+  std::map<BodyId, replay::ViewBody> described_;
   bool finished_ = false;
   std::string pump_error_;
 };

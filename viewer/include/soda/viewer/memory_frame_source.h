@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <utility>
@@ -22,9 +23,13 @@ class MemoryFrameSource : public replay::FrameSource {
   explicit MemoryFrameSource(replay::ViewHeader header) : header_(std::move(header)) {}
 
   /// Appends a frame; its step must be greater than the last one's (throws
-  /// std::invalid_argument otherwise), its arrays sized for the header's
-  /// dynamic bodies (throws std::invalid_argument naming the array).
+  /// std::invalid_argument otherwise), its arrays sized for its bodies (its
+  /// ids, or the header's dynamic bodies; throws std::invalid_argument
+  /// naming the array).
   void add(replay::ViewFrame frame);
+  /// Describes a body that frames hold and the header lacks (added during
+  /// the run); body() answers for it.
+  void describe(const replay::ViewBody& body);
   /// No frame will be added any more.
   void finish();
 
@@ -33,6 +38,7 @@ class MemoryFrameSource : public replay::FrameSource {
   std::optional<replay::ViewFrame> frame_at(std::int64_t step) override;
   std::pair<std::int64_t, std::int64_t> step_range() const override;
   bool finished() const override;
+  std::optional<replay::ViewBody> body(BodyId id) const override;
 
  private:
   // frames_[index] with the map in force at its step (the frame's own, or
@@ -43,6 +49,7 @@ class MemoryFrameSource : public replay::FrameSource {
   const replay::ViewHeader header_;
   mutable std::mutex mutex_;
   std::vector<replay::ViewFrame> frames_;
+  std::map<BodyId, replay::ViewBody> described_;
   bool finished_ = false;
 };
 
