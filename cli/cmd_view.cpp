@@ -63,7 +63,6 @@ SimulationConfig serve_simulation_config(const RunConfig& c) {
   if (const std::string why = soda::simulation_unsupported(c); !why.empty())
     throw std::invalid_argument("--serve runs the scene through a Simulation, " + why);
   refuse(c.slow_world0_ms > 0, "a slowed world 0");
-  refuse(c.inputs.has_value(), "user inputs yet (--inputs, or a scene with inputs of its own such as rain)");
   refuse(!c.sleeping, "runs with sleeping off");
   refuse(!c.record_path.empty(), "--record at the same time (record first, then 'soda view FILE')");
   SimulationConfig s = soda::simulation_config(c);
@@ -78,6 +77,13 @@ int serve_run(const Scene& scene, const RunConfig& config, const ServeOptions& s
   TerritoryMap map = make_partition(sc.partition, scene, sc.territories, sc.grid);
   Simulation sim(scene, map, sc);
   auto source = std::make_shared<viewer::LiveFrameSource>(sim, scene, map);
+  // Inputs (--inputs, a scene's own): given before the worlds start, as
+  // soda run gives them; the bodies they add described for the viewer.
+  if (config.inputs) {
+    for (const UserInput& in : *config.inputs)
+      if (in.kind == UserInput::Kind::AddBody) source->describe(in.body);
+    give_inputs(sim, *config.inputs, config.inputs_source);
+  }
   viewer::FrameServer server(source, {.port = serve.port, .web_dir = "", .three_dir = ""});
   InterruptGuard guard;
   server.start();

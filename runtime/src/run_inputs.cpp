@@ -47,23 +47,24 @@ void check_supported(const RunConfig& config) {
   if (config.shuffle_seed != 0) throw std::invalid_argument(what + " cannot be combined with --shuffle-seed");
   if (config.resume || !config.checkpoint_path.empty()) check_checkpoints(config);
   if (config.record_path.empty()) return;
-  if (config.inputs)
-    throw std::invalid_argument("--record " + config.record_path + ": " + config.inputs_source +
-                                " add or remove bodies during the run; a replay file holds a fixed set of bodies "
-                                "(run without inputs, or a scene without inputs of its own)");
   if (const std::string why = simulation_unsupported(config); !why.empty())
     throw std::invalid_argument("--record " + config.record_path + ": the run must go through a Simulation, " + why);
 }
 
 // Reads every committed frame 0 .. steps through `reader` into the replay
 // file while the worlds run (started up to `steps`); the last one carries
-// the state hash. On the calling thread.
+// the state hash. Frames hold the bodies alive at their step; the bodies
+// the inputs add are described to the file (it stores a description before
+// the first frame that holds the body). On the calling thread.
 void record(Simulation& sim, SceneReader& reader, const Scene& scene, const TerritoryMap& map,
             const RunConfig& config, RunResult& r) {
   const std::int64_t cpu0 = thread_cpu_ns();
   const replay::ViewHeader header = view_header(scene, map);
   replay::ReplayWriter out(config.record_path, header,
                            {config.record_keyframe_every, config.record_compression_level});
+  if (config.inputs)
+    for (const UserInput& in : *config.inputs)
+      if (in.kind == UserInput::Kind::AddBody) out.describe(view_body(in.body));
   sim.start(sim.time_of(config.steps));
   for (std::int64_t k = 0; k <= config.steps; ++k) {
     std::optional<SceneFrame> frame = reader.read_at(sim.time_of(k));
@@ -101,6 +102,11 @@ SimulationConfig simulation_config(const RunConfig& config) {
   sc.reach_speed = config.reach_speed;
   sc.watchdog = config.watchdog;
   sc.balance = config.balance;  // a Simulation refuses any policy but "none"
+  // The worlds' reach has room for the largest body the inputs add.
+  if (config.inputs)
+    for (const UserInput& in : *config.inputs)
+      if (in.kind == UserInput::Kind::AddBody)
+        sc.added_extent = std::max(sc.added_extent, 2.0 * in.body.shape.bounding_radius());
   return sc;
 }
 
@@ -114,6 +120,17 @@ const char* feature_a_simulation_lacks(const RunConfig& config) {
   return nullptr;
 }
 }  // namespace
+
+void give_inputs(Simulation& sim, const std::vector<UserInput>& inputs, const std::string& source) {
+  for (const UserInput& in : inputs) {
+    try {
+      sim.give(in);
+    } catch (const std::invalid_argument& e) {
+      throw SceneError(source + ": input #" + std::to_string(in.sequence) + " (" + input_kind_name(in.kind) +
+                       " at step " + std::to_string(in.step) + "): " + e.what());
+    }
+  }
+}
 
 std::string simulation_unsupported(const RunConfig& config) {
   const char* what = config.world != WorldKind::Canonical ? "--world stock"
@@ -135,14 +152,12 @@ bool through_simulation_only(const RunConfig& config) {
 RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   check_supported(config);
   SimulationConfig sc = simulation_config(config);
-  // The worlds' reach has room for the largest body the inputs add.
-  auto room_for = [&sc](const std::vector<UserInput>& inputs) {
-    for (const UserInput& in : inputs)
+  // The worlds' reach has room for the largest body a resumed checkpoint's
+  // queued inputs add (simulation_config makes room for config.inputs').
+  if (config.resume)
+    for (const UserInput& in : config.resume->inputs)
       if (in.kind == UserInput::Kind::AddBody)
         sc.added_extent = std::max(sc.added_extent, 2.0 * in.body.shape.bounding_radius());
-  };
-  if (config.inputs) room_for(*config.inputs);
-  if (config.resume) room_for(config.resume->inputs);  // queued in the checkpoint
   sc.buffer_capacity = std::max<std::size_t>(sc.buffer_capacity, static_cast<std::size_t>(config.anticipation) + 3);
   // Progress and step times from world 0's thread (re-runs after a rollback
   // included).
@@ -179,15 +194,7 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   Simulation& sim = *storage;
   std::optional<SceneReader> reader;
   if (!config.record_path.empty()) reader.emplace(sim.add_reader());
-  if (config.inputs)
-    for (const UserInput& in : *config.inputs) {
-    try {
-      sim.give(in);
-    } catch (const std::invalid_argument& e) {
-      throw SceneError(config.inputs_source + ": input #" + std::to_string(in.sequence) + " (" +
-                       input_kind_name(in.kind) + " at step " + std::to_string(in.step) + "): " + e.what());
-    }
-  }
+  if (config.inputs) give_inputs(sim, *config.inputs, config.inputs_source);
   RunResult r;
   r.world = WorldKind::Canonical;
   const std::int64_t first = config.resume ? config.resume->state.steps_done : 0;

@@ -21,13 +21,14 @@ bool through_simulation_only(const RunConfig& config);
 /// run_scene when config.inputs is set and inputs_through_simulation, or
 /// through_simulation_only (validated there first): with a record path,
 /// a SceneReader on the calling thread reads every committed frame into the
-/// replay file while the worlds run; with a checkpoint path the run writes
-/// a checkpoint at its step on the way; with a checkpoint to resume, the
-/// Simulation is restored from it. Throws std::invalid_argument for a
-/// configuration a Simulation does not run (stock world, shuffle seed; with
-/// a record path also inputs, balancing, SyncTest, heal; with a checkpoint
-/// to write or resume also balancing, SyncTest, heal, a record path, a
-/// checkpoint step or --steps outside the run),
+/// replay file while the worlds run (bodies the inputs add and remove come
+/// and go in its frames); with a checkpoint path the run writes a checkpoint
+/// at its step on the way; with a checkpoint to resume, the Simulation is
+/// restored from it. Throws std::invalid_argument for a configuration a
+/// Simulation does not run (stock world, shuffle seed; with a record path
+/// also balancing, SyncTest, heal; with a checkpoint to write or resume also
+/// balancing, SyncTest, heal, a record path, a checkpoint step or --steps
+/// outside the run),
 /// replay::ReplayError when the file cannot be written, and
 /// SceneError
 /// naming the input file, the entry and what is wrong for an input the

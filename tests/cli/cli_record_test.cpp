@@ -22,6 +22,37 @@ TEST_F(CliTest, RecordKeepsTheHashAndReplayInfoReadsIt) {
   EXPECT_NE(info.output.find("state_hash " + hash_of(plain)), std::string::npos) << info.output;
 }
 
+// With inputs: the hash of the run unrecorded, and a file whose frames hold
+// the body the input adds (replay-info names it) and the run's hash. The
+// registry's rain (inputs of its own: waves of bodies) records too.
+TEST_F(CliTest, RecordWithInputsKeepsTheHashAndHoldsTheAddedBodies) {
+  const std::string inputs = write("inputs.json", R"({"format": "soda-inputs", "version": 1, "inputs": [
+    {"type": "add_body", "step": 10, "body": {"id": 500, "type": "dynamic", "mass": 1,
+      "shape": {"type": "box", "half_extents": [1.0, 0.1, 0.3]}, "position": [0, 9, 0]}},
+    {"type": "remove_body", "step": 20, "id": 3}]})");
+  const std::string file = (dir_ / "inputs.replay").string();
+  for (int k : {1, 4}) {
+    const std::string args = "run --scene falling-cubes --n 100 --steps 40 --territories " + std::to_string(k) +
+                             " --inputs " + inputs;
+    const Outcome plain = run_cli(args);
+    const Outcome recorded = run_cli(args + " --record " + file);
+    ASSERT_EQ(recorded.exit_code, 0) << recorded.output;
+    EXPECT_EQ(hash_of(recorded), hash_of(plain)) << "K = " << k;
+    const Outcome info = run_cli("replay-info " + file);
+    ASSERT_EQ(info.exit_code, 0) << info.output;
+    EXPECT_NE(info.output.find("format version 2"), std::string::npos) << info.output;
+    EXPECT_NE(info.output.find("bodies added during the run: 1 (ids 500 .. 500)"), std::string::npos) << info.output;
+    EXPECT_NE(info.output.find("last frame: step 40, 100 bodies"), std::string::npos) << info.output;  // +500, -3
+    EXPECT_NE(info.output.find("state_hash " + hash_of(plain)), std::string::npos) << info.output;
+  }
+  const std::string rain = "run --scene rain --n 200 --steps 150 --territories 2";
+  const Outcome plain = run_cli(rain);
+  const Outcome recorded = run_cli(rain + " --record " + file);
+  ASSERT_EQ(recorded.exit_code, 0) << recorded.output;
+  EXPECT_EQ(hash_of(recorded), hash_of(plain));
+  EXPECT_NE(run_cli("replay-info " + file).output.find("bodies added during the run"), std::string::npos);
+}
+
 TEST_F(CliTest, ReplayInfoOfANonReplayIsBadInput) {
   const std::string path = write("not.replay", "hello, this is not a replay file at all");
   const Outcome o = run_cli("replay-info " + path);

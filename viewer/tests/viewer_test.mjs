@@ -2,19 +2,20 @@
 //   node viewer_test.mjs replay SERVER_EXE OUT_DIR   a recorded run (viewer_test_server)
 //   node viewer_test.mjs live SODA_EXE OUT_DIR       soda run --serve 0 (a running scene)
 //   node viewer_test.mjs file SODA_EXE OUT_DIR       soda run --record, then soda view FILE
+//   node viewer_test.mjs inputs SODA_EXE OUT_DIR     the same with --inputs: bodies come and go
 // Starts the server on 127.0.0.1, loads the page in headless chromium, waits
 // for the page to report a frame, screenshots it into OUT_DIR, checks that
 // every world's colour is drawn somewhere and the background elsewhere, and
 // the step shown. Exits 1 with "FAIL: ..." on any failure; stops itself
 // (every wait has a timeout).
 import { execFileSync } from 'node:child_process';
-import { mkdirSync, readFileSync } from 'node:fs';
+import { mkdirSync, readFileSync, writeFileSync } from 'node:fs';
 import path from 'node:path';
 import { countColours, fail, launchBrowser, loadPlaywright, startServer, status } from './browser.mjs';
 
 const [mode, exe, outDir] = process.argv.slice(2);
-if (!['replay', 'live', 'file'].includes(mode) || !exe || !outDir)
-  fail('usage: node viewer_test.mjs replay|live|file EXE OUT_DIR');
+if (!['replay', 'live', 'file', 'inputs'].includes(mode) || !exe || !outDir)
+  fail('usage: node viewer_test.mjs replay|live|file|inputs EXE OUT_DIR');
 const playwright = loadPlaywright();
 const palette = paletteFromSource();
 const TERRITORIES = 4;
@@ -24,6 +25,22 @@ const LIVE_STEPS = 300;
 // 960x640), the background at least this fraction of the canvas.
 const MIN_WORLD_PIXELS = 40;
 const MIN_BACKGROUND_FRACTION = 0.2;
+// inputs: a plank added at step 30 (in the frames from 31 on) and body 5
+// removed at step 50 (in the frames up to 50), on falling-cubes 400.
+const ADDED = 100000;
+const REMOVED = 5;
+const ADD_STEP = 30;
+const REMOVE_STEP = 50;
+const CUBES = 400;
+const INPUTS = {
+  format: 'soda-inputs', version: 1,
+  inputs: [
+    { type: 'add_body', step: ADD_STEP,
+      body: { id: ADDED, type: 'dynamic', mass: 4, shape: { type: 'box', half_extents: [2.0, 0.2, 0.5] },
+              position: [0, 12, 0], linear_velocity: [0, -2, 0] } },
+    { type: 'remove_body', step: REMOVE_STEP, id: REMOVED },
+  ],
+};
 
 // WORLD_COLOURS and BACKGROUND_COLOUR as the page has them (palette.js).
 function paletteFromSource() {
@@ -43,16 +60,42 @@ function checkPixels(px, label) {
   });
 }
 
+// Scrubs the page to `step` (as a drag of the slider does) and checks which
+// bodies it draws: every body of the frame, the added one from its step on,
+// the removed one up to its step.
+async function checkBodiesAt(page, step) {
+  await page.fill('#timeline', String(step));
+  await page.waitForFunction((s) => document.getElementById('status').dataset.step === String(s), step,
+                             { timeout: TIMEOUT_MS });
+  const st = await status(page);
+  const drawn = await page.evaluate(([a, r]) => [window.sodaView.isDrawn(a), window.sodaView.isDrawn(r)],
+                                    [ADDED, REMOVED]);
+  const bodies = CUBES + (step > ADD_STEP ? 1 : 0) - (step > REMOVE_STEP ? 1 : 0);
+  console.log(`inputs: step ${step}: ${st.bodies} bodies in the frame, ${st.drawn} drawn, added ${drawn[0]}, ` +
+              `removed body drawn ${drawn[1]}`);
+  if (st.bodies !== String(bodies) || st.drawn !== String(bodies))
+    fail(`step ${step}: the page shows ${st.bodies} bodies and draws ${st.drawn}, the run had ${bodies}`);
+  if (drawn[0] !== step > ADD_STEP) fail(`step ${step}: the added body ${drawn[0] ? 'is' : 'is not'} drawn`);
+  if (drawn[1] !== step <= REMOVE_STEP) fail(`step ${step}: the removed body ${drawn[1] ? 'is' : 'is not'} drawn`);
+}
+
 async function run() {
   mkdirSync(outDir, { recursive: true });
   // file: a replay file recorded by soda run --record and served by soda
   // view, the user's path (the same checks as the in-memory replay).
   let fileHash = null;
   let args;
-  if (mode === 'file') {
-    const file = path.join(outDir, 'viewer-test.replay');
-    const out = execFileSync(exe, ['run', '--scene', 'falling-cubes', '--n', '400', '--territories', String(TERRITORIES),
-                                   '--steps', '90', '--record', file, '--log-level', 'warn'],
+  if (mode === 'file' || mode === 'inputs') {
+    const file = path.join(outDir, `viewer-test-${mode}.replay`);
+    const extra = [];
+    if (mode === 'inputs') {
+      const inputs = path.join(outDir, 'viewer-test-inputs.json');
+      writeFileSync(inputs, JSON.stringify(INPUTS));
+      extra.push('--inputs', inputs);
+    }
+    const out = execFileSync(exe, ['run', '--scene', 'falling-cubes', '--n', String(CUBES), '--territories',
+                                   String(TERRITORIES), '--steps', '90', '--record', file, '--log-level', 'warn',
+                                   ...extra],
                              { encoding: 'utf8', timeout: TIMEOUT_MS });
     fileHash = /state_hash ([0-9a-f]{16})/.exec(out)?.[1];
     if (!fileHash) fail(`soda run --record printed no state_hash: ${out}`);
@@ -68,7 +111,24 @@ async function run() {
     const errors = [];
     page.on('pageerror', (e) => errors.push(e.message));
     page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
-    if (mode === 'replay' || mode === 'file') {
+    if (mode === 'inputs') {
+      // Played from step 0 to the end, as a user presses Play: every frame
+      // drawn, bodies created and removed on the way.
+      await page.goto(`${server.url}?play=1&step=0`, { timeout: TIMEOUT_MS });
+      await page.waitForFunction(() => document.getElementById('status').dataset.step === '90', null,
+                                 { timeout: TIMEOUT_MS });
+      const played = await status(page);
+      console.log(`inputs: played to step ${played.step} in ${played.frames} frames`);
+      if (Number(played.frames) < 10) fail(`playing showed ${played.frames} frames: it did not play`);
+      if (played.hash !== fileHash || played.finished !== '1')
+        fail(`after playing the page shows hash '${played.hash}' (finished ${played.finished}), the run's is ${fileHash}`);
+      // Scrubbed around each input, forwards and back.
+      for (const step of [ADD_STEP, ADD_STEP + 1, REMOVE_STEP, REMOVE_STEP + 1, 60, ADD_STEP - 10, 90, REMOVE_STEP])
+        await checkBodiesAt(page, step);
+      await checkBodiesAt(page, 60);
+      await page.screenshot({ path: path.join(outDir, 'viewer-inputs.png') });
+      checkPixels(await countColours(page, palette.list, palette.background), 'inputs step 60');
+    } else if (mode === 'replay' || mode === 'file') {
       const step = 60;
       await page.goto(`${server.url}?play=0&step=${step}`, { timeout: TIMEOUT_MS });
       await page.waitForFunction((s) => document.getElementById('status').dataset.step === String(s), step,

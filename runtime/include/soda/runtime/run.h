@@ -241,9 +241,17 @@ RunResult run_scene(const Scene& scene, const RunConfig& config);
 /// The Simulation settings of a run: territories, partition, threads, pin,
 /// serialise, validate, anticipation, solver_threads, rollback,
 /// checkpoint_every, eager_bets, reach_speed, watchdog and balance copied
-/// from `config`, the rest SimulationConfig's defaults. For the runs that go
-/// through a Simulation (inputs, --record, --serve). Pure.
+/// from `config`, added_extent the largest extent of a body config.inputs
+/// add, the rest SimulationConfig's defaults. For the runs that go through
+/// a Simulation (inputs, --record, --serve). Pure.
 SimulationConfig simulation_config(const RunConfig& config);
+
+/// Gives `inputs` to `sim` through its input calls, in order (add_body,
+/// remove_body, set_velocity, apply_impulse at step * dt): what `soda run
+/// --inputs` and `soda run --serve` do before the worlds start. Throws
+/// SceneError naming `source`, the entry, its kind and step for an input the
+/// Simulation refuses (unknown id, id in use, bad body, ...).
+void give_inputs(Simulation& sim, const std::vector<UserInput>& inputs, const std::string& source);
 
 /// Why `config` cannot run through a Simulation, naming the option it does
 /// not support (--world stock, --shuffle-seed, --sync-test, --lb,
