@@ -269,7 +269,7 @@ AnalyticRun run_partitioned(const AnalyticScene& as, const Scene& scene, const A
   const int steps = static_cast<int>(one.states.size()) - 1;
   const TerritoryMap map = make_partition(p.spec, scene, p.territories, p.grid);
   PartitionedWorld world(scene, map,
-                         PartitionedOptions{.schedule = Schedule::Sequential, .serialise = true, .validate = true});
+                         PartitionedOptions{.schedule = Schedule::Sequential, .serialise = true, .runtime = {.validate = true}});
   Recording rec;
   std::set<WorldId> at_start, visited;
   auto keep = [&] {

@@ -17,7 +17,7 @@ BenchSet bench_set(const Scene& scene, const RunConfig& run_config, int repeat) 
   baseline_config.world = WorldKind::Stock;
   baseline_config.territories = 1;
   baseline_config.shuffle_seed = 0;
-  baseline_config.solver_threads = 1;  // stock Bullet has no coloured solve
+  baseline_config.runtime.solver_threads = 1;  // stock Bullet has no coloured solve
   baseline_config.solver_defaults = SolverDefaults::Soda;  // the stock world has its own
   RunConfig one_config = run_config;
   one_config.territories = 1;

@@ -21,7 +21,7 @@ void check_config(const LbExperimentConfig& config) {
   std::set<std::string> seen;
   for (const std::string& p : config.policies) {
     if (!seen.insert(p).second) throw std::invalid_argument("soda lb: policy '" + p + "' named twice in --policies");
-    BalanceOptions o = config.run.balance;
+    BalanceOptions o = config.run.runtime.balance;
     o.policy = p;
     (void)make_balance_policy(o);  // throws BalanceError for an unknown name or bad knobs, before any run
   }
@@ -34,7 +34,7 @@ void check_config(const LbExperimentConfig& config) {
 RunConfig policy_config(const LbExperimentConfig& config, const std::string& policy) {
   RunConfig c = config.run;
   c.world = WorldKind::Canonical;
-  c.balance.policy = policy;
+  c.runtime.balance.policy = policy;
   return c;
 }
 
@@ -42,10 +42,10 @@ RunConfig stock_config(const LbExperimentConfig& config) {
   RunConfig c = config.run;
   c.world = WorldKind::Stock;
   c.territories = 1;
-  c.balance = {};
-  c.anticipation = 0;
+  c.runtime.balance = {};
+  c.runtime.anticipation = 0;
   c.sync_test = 0;
-  c.validate = false;
+  c.runtime.validate = false;
   return c;
 }
 
@@ -56,10 +56,10 @@ RunConfig one_territory_config(const LbExperimentConfig& config) {
   c.world = WorldKind::Canonical;
   c.territories = 1;
   c.partition = "kmeans";
-  c.balance = {};
-  c.anticipation = 0;
+  c.runtime.balance = {};
+  c.runtime.anticipation = 0;
   c.sync_test = 0;
-  c.validate = false;
+  c.runtime.validate = false;
   return c;
 }
 
@@ -214,7 +214,7 @@ void write_maps_csv(std::ostream& out, const LbExperimentResult& r, const std::v
 nlohmann::json lb_summary_json(const RunDescription& d, const LbExperimentConfig& config,
                                const LbExperimentResult& r) {
   const RunResult& first = r.runs.front().best;
-  const BalanceOptions& o = config.run.balance;
+  const BalanceOptions& o = config.run.runtime.balance;
   nlohmann::json j = {
       {"benchmark", "lb"},
       {"scene", d.scene},
@@ -228,11 +228,11 @@ nlohmann::json lb_summary_json(const RunDescription& d, const LbExperimentConfig
       {"partition", config.run.partition},
       {"schedule", first.schedule},
       {"threads", first.threads},
-      {"solver_threads", config.run.solver_threads},
-      {"solver_guests", config.run.solver_guests},
-      {"anticipation", config.run.anticipation},
+      {"solver_threads", config.run.runtime.solver_threads},
+      {"solver_guests", config.run.runtime.solver_guests},
+      {"anticipation", config.run.runtime.anticipation},
       {"sync_test", config.run.sync_test},
-      {"validate", config.run.validate},
+      {"validate", config.run.runtime.validate},
       {"balance_options",
        {{"period", o.period}, {"seed", o.seed}, {"smoothing", o.smoothing}, {"overload", o.overload},
         {"underload", o.underload}, {"max_cells_per_move", o.max_cells_per_move}}},

@@ -172,7 +172,7 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"threads", d.config.threads == 0 ? r.territories : d.config.threads},
       {"shuffle_seed", d.config.shuffle_seed},
       {"dt", st.dt},
-      {"parking", d.config.parking},
+      {"parking", d.config.runtime.parking},
       {"substeps", st.substeps},
       {"iterations", st.iterations},
       {"steps", r.steps},
@@ -195,15 +195,15 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"steps_per_second", r.wall_seconds > 0 ? r.steps / r.wall_seconds : 0.0},
       {"real_time_factor", r.wall_seconds > 0 ? simulated / r.wall_seconds : 0.0},
       {"step_ms", step_time_json(r.step_time)},
-      {"watchdog", watchdog_response_name(d.config.watchdog.response)},
+      {"watchdog", watchdog_response_name(d.config.runtime.watchdog.response)},
       {"healed_steps", r.healed_steps},
       {"sync_test", d.config.sync_test},
       {"sync_rollbacks", r.sync_rollbacks},
-      {"anticipation", d.config.anticipation},
-      {"rollback", rollback_name(d.config.rollback)},
-      {"checkpoint_every", d.config.checkpoint_every},
-      {"eager_bets", d.config.eager_bets},
-      {"balance", balance_json(d.config.balance, r.balance_log)},
+      {"anticipation", d.config.runtime.anticipation},
+      {"rollback", rollback_name(d.config.runtime.rollback)},
+      {"checkpoint_every", d.config.runtime.checkpoint_every},
+      {"eager_bets", d.config.runtime.eager_bets},
+      {"balance", balance_json(d.config.runtime.balance, r.balance_log)},
   };
   if (!d.config.record_path.empty()) {  // soda run --record: the replay file's cost (docs/replay-format.md)
     const double per_kbody_second =
@@ -219,7 +219,7 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
     j["schedule"] = r.schedule;
     j["threads"] = r.threads;
     j["messages"] = r.messages;
-    j["reach_speed"] = d.config.reach_speed;
+    j["reach_speed"] = d.config.runtime.reach_speed;
     j["reach_cells"] = r.reach_cells;
     j["message_bytes"] = r.message_bytes;
     j["slowest_world_cpu_seconds"] = slowest_world_cpu_seconds(r.world_metrics);

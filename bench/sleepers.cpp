@@ -143,7 +143,7 @@ nlohmann::json sleepers_bench_json(const RunDescription& d, const SleepersBenchC
           {"iterations", scene.settings.iterations},
           {"steps", config.run.steps},
           {"territories", config.run.territories},
-          {"parking", config.run.parking},
+          {"parking", config.run.runtime.parking},
           {"repeat", config.repeat},
           {"runs", runs},
           {"cost_vs_active_only", r.cost_vs_active_only},

@@ -64,16 +64,16 @@ SpeculationBenchResult bench_speculation(const Scene& scene, const SpeculationBe
     SpeculationRun r;
     r.name = name;
     r.config = config.run;
-    r.config.anticipation = 0;
-    r.config.rollback = PartitionedOptions::Rollback::Propagate;
+    r.config.runtime.anticipation = 0;
+    r.config.runtime.rollback = PartitionedOptions::Rollback::Propagate;
     const std::string n = name;
     if (n == "stock" || n == "one-territory") {
       r.config.territories = 1;
       r.config.world = n == "stock" ? WorldKind::Stock : WorldKind::Canonical;
       if (n == "stock") r.config.shuffle_seed = 0;
     } else if (n != "lockstep") {
-      r.config.anticipation = config.anticipation;
-      r.config.rollback =
+      r.config.runtime.anticipation = config.anticipation;
+      r.config.runtime.rollback =
           n == "propagate" ? PartitionedOptions::Rollback::Propagate : PartitionedOptions::Rollback::Recompute;
     }
     out.runs.push_back(std::move(r));
@@ -151,8 +151,8 @@ nlohmann::json speculation_bench_json(const RunDescription& d, const Speculation
     nlohmann::json j = {{"name", run.name},
                         {"world", world_kind_name(b.world)},
                         {"territories", b.territories},
-                        {"anticipation", run.config.anticipation},
-                        {"rollback", run.config.anticipation > 0 ? rollback_name(run.config.rollback) : "none"},
+                        {"anticipation", run.config.runtime.anticipation},
+                        {"rollback", run.config.runtime.anticipation > 0 ? rollback_name(run.config.runtime.rollback) : "none"},
                         {"wall_seconds", b.wall_seconds},
                         {"wall_seconds_all", run.walls},
                         {"ratio_vs_baseline", ratio(baseline, b.wall_seconds)},
@@ -203,8 +203,8 @@ nlohmann::json speculation_bench_json(const RunDescription& d, const Speculation
       {"territories", d.config.territories},
       {"partition", d.config.partition},
       {"anticipation", config.anticipation},
-      {"checkpoint_every", config.run.checkpoint_every},
-      {"eager_bets", config.run.eager_bets},
+      {"checkpoint_every", config.run.runtime.checkpoint_every},
+      {"eager_bets", config.run.runtime.eager_bets},
       {"slow_world0_ms", config.run.slow_world0_ms},
       {"repeat", config.repeat},
       {"baseline", "stock btDiscreteDynamicsWorld, one world, same scene, same process"},

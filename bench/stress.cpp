@@ -320,7 +320,7 @@ std::pair<bool, std::string> run_on_slabs(StressResult& r, const Scene& scene, c
   bool same = true;
   for (int k : {1, 2, 4, 8}) {
     PartitionedOptions options;
-    options.solver_threads = c.solver_threads;
+    options.runtime.solver_threads = c.solver_threads;
     PartitionedWorld w(scene, make_partition("grid:" + std::to_string(k) + "x1x1", scene, k, grid), options);
     const std::int64_t a = wall_ns();
     for (int t = 0; t < c.steps; ++t) {

@@ -79,7 +79,7 @@ int run_idle(IdleOptions& o) {
   for (int r = 0; r < o.repeat; ++r)
     for (IdleRun* run : {&on, &off}) {
       RunConfig c = base;
-      c.idle_territories = run == &on;
+      c.runtime.idle_territories = run == &on;
       RunResult res = run_scene(scene, c);
       if (r == 0 || cpu_ms_per_step(res.world_metrics.at(0)) < cpu_ms_per_step(run->result.world_metrics.at(0)))
         run->result = std::move(res);

@@ -152,27 +152,27 @@ Command add_lb_command(CLI::App& app) {
   cmd->add_option("--partition", o->experiment.run.partition, "The first map: kmeans | rcb | grid:AxBxC | file (default: grid:Kx1x1, strips along x)");
   cmd->add_option("--threads", o->experiment.run.threads, "Threads stepping the worlds (0: one per world)")
       ->capture_default_str();
-  cmd->add_option("--solver-threads", o->experiment.run.solver_threads,
+  cmd->add_option("--solver-threads", o->experiment.run.runtime.solver_threads,
                   "Threads that solve the colours of a large island (a pool shared by the worlds; "
                   "docs/coloured-solve.md)")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
-  cmd->add_option("--solver-guests", o->experiment.run.solver_guests,
+  cmd->add_option("--solver-guests", o->experiment.run.runtime.solver_guests,
                   "One thread per world: world threads waiting for a message that take tasks of another world's "
                   "solve meanwhile, their CPU counted as their world's (-1: the cores the run leaves free; 0: none)")
       ->check(CLI::Range(-1, 256))
       ->capture_default_str();
   cmd->add_option("--policies", o->policies, "Comma-separated policies: none, diffusive, rcb, churn")
       ->capture_default_str();
-  add_balance_options(*cmd, o->experiment.run.balance);
-  cmd->add_option("--anticipation", o->experiment.run.anticipation, "Speculation: steps past the commit horizon")
+  add_balance_options(*cmd, o->experiment.run.runtime.balance);
+  cmd->add_option("--anticipation", o->experiment.run.runtime.anticipation, "Speculation: steps past the commit horizon")
       ->check(CLI::Range(0, 1 << 20))
       ->capture_default_str();
   cmd->add_option("--sync-test", o->experiment.run.sync_test, "SyncTest depth (0: off)")
       ->check(CLI::Range(0, 1 << 20))
       ->capture_default_str();
-  cmd->add_flag("--validate", o->experiment.run.validate, "Check ownership and pair holders after every step");
-  cmd->add_flag("--pin", o->experiment.run.pin, "Pin world threads to cores");
+  cmd->add_flag("--validate", o->experiment.run.runtime.validate, "Check ownership and pair holders after every step");
+  cmd->add_flag("--pin", o->experiment.run.runtime.pin, "Pin world threads to cores");
   cmd->add_option("--repeat", o->experiment.repeat, "Interleaved repeats; the fastest of each policy is kept")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();

@@ -29,7 +29,7 @@ int run_sleepers(SleepersOptions& o) {
   const nlohmann::json j = sleepers_bench_json({"sleepers", o.params, &scene, o.bench.run}, o.bench, r);
   std::fprintf(stderr, "sleepers bench: %zu sleepers, %zu active, %d steps, parking %s, least thread CPU of %d\n",
                j["sleepers"].get<std::size_t>(), j["active"].get<std::size_t>(), o.steps,
-               o.bench.run.parking ? "on" : "off", o.bench.repeat);
+               o.bench.run.runtime.parking ? "on" : "off", o.bench.repeat);
   std::fprintf(stderr, "  %-18s %12s %12s %9s  %s\n", "run", "cpu_ms/step", "wall_ms/step", "asleep", "state_hash");
   for (const nlohmann::json& run : j["runs"])
     std::fprintf(stderr, "  %-18s %12.3f %12.3f %9zu  %s\n", run["name"].get<std::string>().c_str(),
@@ -67,7 +67,7 @@ Command add_sleepers_command(CLI::App& bench) {
   cmd->add_option("--territories", o->bench.run.territories, "Territories of the SODA runs")
       ->check(CLI::Range(1, 1 << 16))
       ->capture_default_str();
-  cmd->add_flag("--no-parking{false}", o->bench.run.parking,
+  cmd->add_flag("--no-parking{false}", o->bench.run.runtime.parking,
                 "SODA keeps sleeping islands inside Bullet's world (the comparison without parking)");
   cmd->add_option("--repeat", o->bench.repeat, "Interleaved repeats; the least thread CPU of each run is kept")
       ->check(CLI::Range(1, 1000))

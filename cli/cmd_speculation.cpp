@@ -129,16 +129,16 @@ Command add_speculation_command(CLI::App& bench) {
   cmd->add_option("--threads", o->bench.run.threads, "Threads of the partitioned runs (0: one per world)")
       ->capture_default_str();
   cmd->add_flag("--serialise", o->bench.run.serialise, "Messages between worlds through bytes");
-  cmd->add_flag("--pin", o->bench.run.pin, "Pin world threads to cores");
+  cmd->add_flag("--pin", o->bench.run.runtime.pin, "Pin world threads to cores");
   cmd->add_option("--anticipation", o->bench.anticipation,
                   "Scene steps a world may run past the commit horizon in the speculative runs")
       ->check(CLI::Range(1, 1 << 20))
       ->capture_default_str();
-  cmd->add_option("--checkpoint-every", o->bench.run.checkpoint_every,
+  cmd->add_option("--checkpoint-every", o->bench.run.runtime.checkpoint_every,
                   "Internal steps between the states a world keeps to roll back to")
       ->check(CLI::Range(1, 1 << 20))
       ->capture_default_str();
-  cmd->add_flag("--eager-bets", o->bench.run.eager_bets,
+  cmd->add_flag("--eager-bets", o->bench.run.runtime.eager_bets,
                 "Bet also on neighbours whose newest ghosts were not empty in the speculative runs");
   cmd->add_option("--slow-world0", o->bench.run.slow_world0_ms,
                   "Milliseconds world 0's thread sleeps after each step in the partitioned runs (a slow world)")

@@ -66,7 +66,7 @@ SimulationConfig serve_simulation_config(const RunConfig& c) {
   refuse(!c.sleeping, "runs with sleeping off");
   refuse(!c.record_path.empty(), "--record at the same time (record first, then 'soda view FILE')");
   SimulationConfig s = soda::simulation_config(c);
-  s.anticipation = c.territories > 1 ? c.anticipation : 0;
+  s.runtime.anticipation = c.territories > 1 ? c.runtime.anticipation : 0;
   return s;
 }
 

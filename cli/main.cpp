@@ -94,18 +94,18 @@ void add_run_options(CLI::App& cmd, Options& o) {
                  "Threads stepping the worlds: 0 or >= territories: one per world; 1: all worlds round-robin on "
                  "one thread; in between: a pool")
       ->capture_default_str();
-  cmd.add_flag("--validate", o.config.validate,
+  cmd.add_flag("--validate", o.config.runtime.validate,
                "Check after every step: one owner per body, one holder per contact pair, Bullet object counts "
                "(territories > 1; slow; a violation stops the run naming step, bodies and worlds)");
   cmd.add_flag("--serialise", o.config.serialise,
                "Send every message between worlds through bytes, as a process boundary would (territories > 1)");
-  cmd.add_flag("--pin", o.config.pin, "Pin world threads to cores (one thread per world)");
-  cmd.add_option("--solver-threads", o.config.solver_threads,
+  cmd.add_flag("--pin", o.config.runtime.pin, "Pin world threads to cores (one thread per world)");
+  cmd.add_option("--solver-threads", o.config.runtime.solver_threads,
                  "Threads that solve the colours of a large island (the stepping thread plus helpers shared by "
                  "all worlds; results are identical for every value; canonical world only); docs/coloured-solve.md")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
-  cmd.add_option("--solver-guests", o.config.solver_guests,
+  cmd.add_option("--solver-guests", o.config.runtime.solver_guests,
                  "Territories > 1, one thread per world: how many world threads waiting for a message may take "
                  "tasks of another world's solve meanwhile (-1: the cores the run leaves free; 0: none; results "
                  "are identical for every value); docs/coloured-solve.md")
@@ -122,30 +122,30 @@ void add_run_options(CLI::App& cmd, Options& o) {
                  "the step and bodies) | heal (roll back and re-simulate the bad step with substeps); "
                  "docs/watchdog.md")
       ->capture_default_str();
-  cmd.add_option("--heal-substeps", o.config.watchdog.heal_substeps,
+  cmd.add_option("--heal-substeps", o.config.runtime.watchdog.heal_substeps,
                  "--watchdog heal: substeps of a re-simulated step")
       ->capture_default_str();
   cmd.add_option("--solver-defaults", o.solver_defaults,
                  "soda (the defaults) | bullet (Bullet's own solver settings, one canonical world only: to "
                  "measure what the defaults cost); docs/stress.md")
       ->capture_default_str();
-  cmd.add_flag("--no-parking{false}", o.config.parking,
+  cmd.add_flag("--no-parking{false}", o.config.runtime.parking,
                "Keep sleeping islands inside Bullet's world (the canonical world's, or every territory "
                "world's) instead of parking them outside it (same state hash; docs/skip.md)");
-  cmd.add_flag("--no-idle-skip{false}", o.config.idle_territories,
+  cmd.add_flag("--no-idle-skip{false}", o.config.runtime.idle_territories,
                "K > 1: every world runs every stage of every step, idle territories too (same state hash; "
                "docs/skip.md)");
   cmd.add_option("--sync-test", o.config.sync_test,
                  "SyncTest: after every step roll every world back this many steps, re-run them and require "
                  "bit-identical state (0: off; costs that many extra steps per step)")
       ->capture_default_str();
-  cmd.add_option("--anticipation", o.config.anticipation,
+  cmd.add_option("--anticipation", o.config.runtime.anticipation,
                  "Speculation: scene steps a world may run past the commit horizon, betting that its neighbours "
                  "send it nothing (0: lockstep; results are identical for every value; territories > 1; not with "
                  "--watchdog heal); docs/rollback.md")
       ->check(CLI::Range(0, std::numeric_limits<int>::max()))
       ->capture_default_str();
-  cmd.add_option("--reach-speed", o.config.reach_speed,
+  cmd.add_option("--reach-speed", o.config.runtime.reach_speed,
                  "Speed (m/s) the worlds' neighbourhoods are sized for: every world talks to the worlds owning a "
                  "cell its bodies' halos and migrations can reach at this speed (0: the scene's fastest initial "
                  "speed plus a fall through its height); a faster body stops the run naming it; "
@@ -158,20 +158,20 @@ void add_run_options(CLI::App& cmd, Options& o) {
                  "too; the baseline)")
       ->check(CLI::IsMember({"propagate", "recompute"}))
       ->capture_default_str();
-  cmd.add_option("--checkpoint-every", o.config.checkpoint_every,
+  cmd.add_option("--checkpoint-every", o.config.runtime.checkpoint_every,
                  "Speculation: internal steps between the states a world keeps to roll back to (1: every step, "
                  "and re-run steps replay the islands that come out unchanged; a rollback restores the one at "
                  "or before the step and re-runs the rest)")
       ->check(CLI::Range(1, 1 << 20))
       ->capture_default_str();
-  cmd.add_flag("--eager-bets", o.config.eager_bets,
+  cmd.add_flag("--eager-bets", o.config.runtime.eager_bets,
                "Speculation: bet also on neighbours whose newest ghosts were not empty (more bets and rollbacks; "
                "by default a world waits for a busy border)");
-  cmd.add_option("--lb", o.config.balance.policy,
+  cmd.add_option("--lb", o.config.runtime.balance.policy,
                  "Load balancing by cell cession (territories > 1): none | diffusive | rcb | churn (random cells, "
                  "to exercise the machinery); results are identical under every policy; docs/loadbalance.md")
       ->capture_default_str();
-  soda::cli::add_balance_options(cmd, o.config.balance);
+  soda::cli::add_balance_options(cmd, o.config.runtime.balance);
   cmd.add_option("--json", o.json_path, "Write results as JSON to this path ('-': stdout)");
 }
 
@@ -201,13 +201,13 @@ void resolve_run_config(Options& o) {
   if (o.world == "canonical") o.config.world = soda::WorldKind::Canonical;
   else if (o.world == "stock") o.config.world = soda::WorldKind::Stock;
   else throw std::invalid_argument("--world must be 'canonical' or 'stock', got '" + o.world + "'");
-  o.config.watchdog.response = soda::parse_watchdog_response(o.watchdog);
+  o.config.runtime.watchdog.response = soda::parse_watchdog_response(o.watchdog);
   if (o.solver_defaults == "soda") o.config.solver_defaults = soda::SolverDefaults::Soda;
   else if (o.solver_defaults == "bullet") o.config.solver_defaults = soda::SolverDefaults::Bullet;
   else throw std::invalid_argument("--solver-defaults must be 'soda' or 'bullet', got '" + o.solver_defaults + "'");
-  o.config.rollback = o.rollback == "recompute" ? soda::PartitionedOptions::Rollback::Recompute
+  o.config.runtime.rollback = o.rollback == "recompute" ? soda::PartitionedOptions::Rollback::Recompute
                                                 : soda::PartitionedOptions::Rollback::Propagate;
-  if (o.config.watchdog.heal_substeps < 1) throw std::invalid_argument("--heal-substeps must be >= 1");
+  if (o.config.runtime.watchdog.heal_substeps < 1) throw std::invalid_argument("--heal-substeps must be >= 1");
 }
 
 void print_summary(const soda::RunResult& r) {

@@ -92,7 +92,7 @@ int main(int argc, char** argv) {
     }
     const soda::Scene scene = level();
     soda::SimulationConfig config{.territories = 4, .buffer_capacity = 32, .past_inputs = true};
-    config.anticipation = 8;
+    config.runtime.anticipation = 8;
     soda::Simulation sim(scene, config);
     soda::SceneReader reader = sim.add_reader();  // before start: it sees frame 0
     if (!stepping) sim.start(seconds);  // free-running: the worlds run ahead of the screen

@@ -88,7 +88,7 @@ int main(int argc, char** argv) {
     const soda::Scene scene = soda::make_scene("cube-pile", {n, 1});
 
     soda::SimulationConfig game_config{.territories = 2, .buffer_capacity = 16};
-    game_config.anticipation = 8;
+    game_config.runtime.anticipation = 8;
     soda::Simulation game(scene, game_config);
     play(game, scene);
     game.advance_to(kSaveAt);

@@ -27,7 +27,7 @@ int main(int argc, char** argv) {
 
     {  // What if the first box were pushed? (thrown away afterwards)
       soda::SimulationConfig what_if{.territories = 4};
-      what_if.anticipation = 8;
+      what_if.runtime.anticipation = 8;
       soda::Simulation trial(at_two, what_if);
       trial.apply_impulse(2.0, scene.bodies[1].id, soda::Vec3(0, 30, 0));
       trial.advance_to(4.0);

@@ -157,13 +157,13 @@ BalanceTotals balance_totals(const std::vector<BalanceRecord>& log) {
 
 void PartitionedWorld::init_balance() {
   if (options_.balance_policy) {
-    BalanceOptions checked = options_.balance;  // the knobs are checked even when the policy is given
+    BalanceOptions checked = options_.runtime.balance;  // the knobs are checked even when the policy is given
     checked.policy = "none";
     make_balance_policy(checked);
     policy_ = options_.balance_policy;
   } else {
-    std::unique_ptr<BalancePolicy> made = make_balance_policy(options_.balance);
-    if (options_.balance.policy != "none") policy_ = std::move(made);
+    std::unique_ptr<BalancePolicy> made = make_balance_policy(options_.runtime.balance);
+    if (options_.runtime.balance.policy != "none") policy_ = std::move(made);
   }
   balanced_through_ = first_step_ = steps_done_;
 }
@@ -172,12 +172,12 @@ const TerritoryMap& PartitionedWorld::map() const { return in_->map; }
 
 std::int64_t PartitionedWorld::next_balance_step() const {
   if (!policy_) return std::numeric_limits<std::int64_t>::max();
-  const std::int64_t p = options_.balance.period;
+  const std::int64_t p = options_.runtime.balance.period;
   return (steps_done_ / p + 1) * p;
 }
 
 bool PartitionedWorld::balance_due() const {
-  return policy_ && steps_done_ > balanced_through_ && steps_done_ % options_.balance.period == 0;
+  return policy_ && steps_done_ > balanced_through_ && steps_done_ % options_.runtime.balance.period == 0;
 }
 
 // Every world stands at steps_done_ (step() ran them to it).
@@ -298,7 +298,7 @@ void PartitionedWorld::rebuild(const WorldSnapshot& state, const TerritoryMap& m
   substeps_ = state.settings.substeps;
   steps_done_ = state.steps_done;
   std::optional<Scene> scene;
-  if (options_.validate) scene = scene_of(state);
+  if (options_.runtime.validate) scene = scene_of(state);
   build(scene ? &*scene : nullptr, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(state, w, map); });
 }
 
@@ -337,7 +337,7 @@ std::int64_t PartitionedWorld::cede(const WorldSnapshot& state, const TerritoryM
   for (std::size_t w = 0; w < old.size(); ++w)
     if (!changed[w]) fresh[w] = std::move(old[w]);
   std::optional<Scene> scene;
-  if (options_.validate) scene = scene_of(state);
+  if (options_.runtime.validate) scene = scene_of(state);
   build(scene ? &*scene : nullptr, map, [&](WorldId w) { return std::move(fresh[static_cast<std::size_t>(w)]); });
   return helper_ns.load();
 }

@@ -117,7 +117,7 @@ MemoryEstimate estimate_run_memory(const Scene& scene, const RunConfig& config, 
   const std::uint64_t dynamic = scene.dynamic_count();
   const std::uint64_t statics = scene.static_count();
   const bool partitioned = config.territories > 1 || config.sync_test > 0 ||
-                           config.watchdog.response == WatchdogResponse::Heal;
+                           config.runtime.watchdog.response == WatchdogResponse::Heal;
   const auto worlds = static_cast<std::uint64_t>(std::max(1, config.territories));
   // Every world holds every static; ghosts only where there are borders.
   const double ghosts = worlds > 1 ? kGhostShare * static_cast<double>(dynamic) : 0.0;
@@ -129,10 +129,10 @@ MemoryEstimate estimate_run_memory(const Scene& scene, const RunConfig& config, 
     // heal (lockstep: the horizon is at most a few steps behind).
     const std::uint64_t substeps = static_cast<std::uint64_t>(std::max(1, scene.settings.substeps));
     std::uint64_t kept = 0;
-    if (config.anticipation > 0)
-      kept = static_cast<std::uint64_t>(config.anticipation) * substeps /
-                 static_cast<std::uint64_t>(std::max(1, config.checkpoint_every)) + 2;
-    else if (config.watchdog.response == WatchdogResponse::Heal)
+    if (config.runtime.anticipation > 0)
+      kept = static_cast<std::uint64_t>(config.runtime.anticipation) * substeps /
+                 static_cast<std::uint64_t>(std::max(1, config.runtime.checkpoint_every)) + 2;
+    else if (config.runtime.watchdog.response == WatchdogResponse::Heal)
       kept = 3;
     // SyncTest keeps the whole scene's state for its window of steps.
     if (config.sync_test > 0) kept += static_cast<std::uint64_t>(config.sync_test) + 1;

@@ -28,8 +28,8 @@ struct PartitionedWorld::Internals {
   TerritoryMap map;  // the map in force (a world kept by a cession may hold an older copy: balance_step.cpp)
   std::unique_ptr<WorldGraph> graph;
   std::unique_ptr<Transport> transport;
-  std::unique_ptr<Validator> validator;                 // null unless PartitionedOptions::validate
-  std::shared_ptr<SolverPool> solver_pool;              // null unless PartitionedOptions::solver_threads > 1
+  std::unique_ptr<Validator> validator;                 // null unless RuntimeOptions::validate
+  std::shared_ptr<SolverPool> solver_pool;              // null unless RuntimeOptions::solver_threads > 1
   std::vector<std::unique_ptr<TerritoryWorld>> worlds;  // by id; a rewind or rollback may replace one
   std::shared_ptr<CommitHorizon> horizon;  // shared with a Simulation's readers
   std::unique_ptr<RollbackBoard> board;                 // speculation: rollbacks of every world

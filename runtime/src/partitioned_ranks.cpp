@@ -61,23 +61,23 @@ void PartitionedWorld::check_group_options() const {
     throw std::invalid_argument("PartitionedWorld over ranks (MPI, docs/mpi.md): " + what +
                                 " is not supported yet");
   };
-  if (options_.validate) refuse("validation");
-  if (options_.watchdog.response == WatchdogResponse::Heal) refuse("the watchdog's heal");
-  if (options_.balance.policy != "none" || options_.balance_policy) refuse("load balancing");
-  if (options_.solver_threads > 1) refuse("a solver pool (solver_threads > 1)");
+  if (options_.runtime.validate) refuse("validation");
+  if (options_.runtime.watchdog.response == WatchdogResponse::Heal) refuse("the watchdog's heal");
+  if (options_.runtime.balance.policy != "none" || options_.balance_policy) refuse("load balancing");
+  if (options_.runtime.solver_threads > 1) refuse("a solver pool (solver_threads > 1)");
 }
 
 // The scheduler's threads step this rank's worlds; the caller's thread (the
 // one that initialised MPI) moves messages between ranks meanwhile.
 void PartitionedWorld::run_on_ranks(std::int64_t internal_target) {
   ProcessGroup& group = *options_.group;
-  if (options_.anticipation > 0) group.set_horizon_goal(internal_target);
+  if (options_.runtime.anticipation > 0) group.set_horizon_goal(internal_target);
   Scheduler::Options o;
   // Round-robin on one thread cannot tell a deadlock from a message still
   // on its way from another rank: one pool worker instead.
   o.schedule = options_.schedule == Schedule::Sequential ? Schedule::Pool : options_.schedule;
   o.threads = options_.schedule == Schedule::Sequential ? 1 : options_.threads;
-  o.pin = options_.pin;
+  o.pin = options_.runtime.pin;
   for (WorldId w = 0; w < world_count(); ++w) o.local.push_back(steps_world(w));
   Scheduler scheduler(std::move(o), in_->task_list(), *in_->transport, nullptr,
                       [&group](WorldId w, std::exception_ptr error) {

@@ -85,19 +85,19 @@ void add_counts(WorldMetrics& t, const WorldMetrics& m) {
   t.solver_threads = std::max(t.solver_threads, m.solver_threads);
 }
 
-// PartitionedOptions::solver_guests resolved: -1, the cores the world
+// RuntimeOptions::solver_guests resolved: -1, the cores the world
 // threads leave free while one waits (one thread per world only; never over
 // ranks, whose transport has no wake hook for a serving thread).
 int solver_guest_slots(const PartitionedOptions& o, int k) {
-  if (o.solver_guests < -1) throw std::invalid_argument("PartitionedWorld: solver_guests must be >= -1");
+  if (o.runtime.solver_guests < -1) throw std::invalid_argument("PartitionedWorld: solver_guests must be >= -1");
   if (o.schedule != Schedule::ThreadPerWorld || o.group || k < 2) return 0;
-  if (o.solver_guests >= 0) return std::min(o.solver_guests, k - 1);
+  if (o.runtime.solver_guests >= 0) return std::min(o.runtime.solver_guests, k - 1);
   // More world threads than cores: a waiting world's core runs another
   // world; a guest spinning for jobs would take it (hotspot 400, K = 8 on
   // 2 cores: wall time 1.36 -> 1.68 s with one guest, docs/coloured-solve.md).
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   if (k > cores) return 0;
-  return std::max(0, std::min(k - 1, cores - o.solver_threads));
+  return std::max(0, std::min(k - 1, cores - o.runtime.solver_threads));
 }
 
 }  // namespace
@@ -125,12 +125,12 @@ PartitionedWorld::PartitionedWorld(const WorldSnapshot& state, TerritoryMap map,
 
 // The reach covers the scene, the bodies its inputs add and added_extent.
 TerritoryMap PartitionedWorld::map_for_run(const Scene& scene, const TerritoryMap& map) {
-  double added = options_.added_extent;
+  double added = options_.runtime.added_extent;
   for (const UserInput& in : options_.inputs)
     if (in.kind == UserInput::Kind::AddBody) added = std::max(added, 2.0 * in.body.shape.bounding_radius());
-  reach_speed_ = run_reach_speed(scene, options_.reach_speed);
+  reach_speed_ = run_reach_speed(scene, options_.runtime.reach_speed);
   settings_ = scene.settings;
-  return map_with_reach(scene, map, options_.reach_speed, added);
+  return map_with_reach(scene, map, options_.runtime.reach_speed, added);
 }
 
 std::string PartitionedWorld::add_refusal(const Body& body) const {
@@ -186,7 +186,7 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
     throw std::invalid_argument("PartitionedWorld: the pool schedule needs threads >= 1");
   if (substeps_ < 1) throw std::invalid_argument("PartitionedWorld: substeps must be >= 1");
   const int k = map.world_count();
-  if (options_.watchdog.heal_substeps < 1 || options_.watchdog.max_heals < 0)
+  if (options_.runtime.watchdog.heal_substeps < 1 || options_.runtime.watchdog.max_heals < 0)
     throw std::invalid_argument("PartitionedWorld: watchdog heal_substeps must be >= 1 and max_heals >= 0");
   if (!fault_fired_) fault_fired_ = std::make_shared<std::atomic<bool>>(false);
   if (in_) retire();
@@ -202,21 +202,21 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
     in.transport = options_.group->make_transport(k, std::move(in.transport));
   }
   if (hooks.fuzz_seed) in.transport = make_fuzzing_transport(std::move(in.transport), hooks.fuzz_seed);
-  if (options_.validate && !scene) throw std::logic_error("PartitionedWorld::build: validation needs the scene");
-  in.validator = options_.validate ? std::make_unique<Validator>(*scene, k) : nullptr;
+  if (options_.runtime.validate && !scene) throw std::logic_error("PartitionedWorld::build: validation needs the scene");
+  in.validator = options_.runtime.validate ? std::make_unique<Validator>(*scene, k) : nullptr;
   // The inputs still to come (those of earlier steps are in the scene).
   if (in.validator && inputs_)
     for (const UserInput& input : inputs_->from(steps_done_)) in.validator->expect(input, substeps_);
-  if (options_.solver_threads < 1) throw std::invalid_argument("PartitionedWorld: solver_threads must be >= 1");
+  if (options_.runtime.solver_threads < 1) throw std::invalid_argument("PartitionedWorld: solver_threads must be >= 1");
   const int guests = solver_guest_slots(options_, k);
-  if (options_.solver_threads > 1 || guests > 0)
-    in.solver_pool = std::make_shared<SolverPool>(options_.solver_threads, guests);
+  if (options_.runtime.solver_threads > 1 || guests > 0)
+    in.solver_pool = std::make_shared<SolverPool>(options_.runtime.solver_threads, guests);
   for (WorldId w = 0; w < k; ++w) {
     in.worlds.push_back(make_world(w));
     in.worlds.back()->set_solver_pool(in.solver_pool);
-    in.worlds.back()->set_parking(options_.parking);
+    in.worlds.back()->set_parking(options_.runtime.parking);
   }
-  const bool heal = options_.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
+  const bool heal = options_.runtime.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
   std::unique_ptr<SharedMemoryHorizon> horizon;
   if (options_.group) {
     std::vector<bool> local;  // over ranks: this rank's worlds (the ranks compute GVT together)
@@ -239,24 +239,24 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   in.horizon->set_wake_hook(wake);
   if (hooks.fuzz_seed && !fuzz_) fuzz_ = std::make_shared<FuzzRandom>(hooks.fuzz_seed ^ 0x5A5A5A5A5A5A5A5Aull);
   Process::Safety safety;
-  safety.watchdog = &options_.watchdog;
+  safety.watchdog = &options_.runtime.watchdog;
   safety.fault = hooks.inject_fault;
   safety.fault_fired = fault_fired_.get();
   safety.horizon = in.horizon.get();
   safety.keep_states = heal;
   safety.fuzz = fuzz_.get();
-  safety.anticipation = options_.anticipation * substeps_;
-  if (options_.checkpoint_every < 1) throw std::invalid_argument("PartitionedWorld: checkpoint_every must be >= 1");
-  safety.checkpoint_every = options_.checkpoint_every;
-  safety.recompute = options_.rollback == PartitionedOptions::Rollback::Recompute;
-  safety.eager_bets = options_.eager_bets;
-  safety.skip_idle = options_.idle_territories;
+  safety.anticipation = options_.runtime.anticipation * substeps_;
+  if (options_.runtime.checkpoint_every < 1) throw std::invalid_argument("PartitionedWorld: checkpoint_every must be >= 1");
+  safety.checkpoint_every = options_.runtime.checkpoint_every;
+  safety.recompute = options_.runtime.rollback == PartitionedOptions::Rollback::Recompute;
+  safety.eager_bets = options_.runtime.eager_bets;
+  safety.skip_idle = options_.runtime.idle_territories;
   safety.verify_replay = hooks.verify_replay;
   in.board = std::make_unique<RollbackBoard>(k, *in.horizon, wake);
   safety.board = in.board.get();
-  if (options_.group && options_.anticipation > 0) options_.group->share_rollbacks(shared_horizon, *in.board);
-  if (options_.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");
-  if (options_.anticipation > 0 && options_.watchdog.response == WatchdogResponse::Heal)
+  if (options_.group && options_.runtime.anticipation > 0) options_.group->share_rollbacks(shared_horizon, *in.board);
+  if (options_.runtime.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");
+  if (options_.runtime.anticipation > 0 && options_.runtime.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument(
         "PartitionedWorld: speculation (anticipation > 0) and the watchdog's Heal cannot be combined yet");
   auto statics = std::make_shared<const std::vector<BodySnapshot>>(in.worlds.front()->static_snapshots());
@@ -317,9 +317,9 @@ void PartitionedWorld::step(int n) {
       }
       run_to(std::min(heal_at_ > 0 ? heal_at_ - 1 : goal, next_balance_step()));
     } catch (const WatchdogError& e) {
-      if (options_.watchdog.response != WatchdogResponse::Heal) throw;
-      if (heal_attempts_ >= options_.watchdog.max_heals)
-        throw WatchdogError(e.step(), e.world(), e.findings(), options_.watchdog.limits,
+      if (options_.runtime.watchdog.response != WatchdogResponse::Heal) throw;
+      if (heal_attempts_ >= options_.runtime.watchdog.max_heals)
+        throw WatchdogError(e.step(), e.world(), e.findings(), options_.runtime.watchdog.limits,
                             "self-heal gave up after " + std::to_string(heal_attempts_) + " heals");
       ++heal_attempts_;
       restore_before(e);
@@ -339,7 +339,7 @@ void PartitionedWorld::run_to(std::int64_t scene_step) {
   Scheduler::Options o;
   o.schedule = options_.schedule;
   o.threads = options_.threads;
-  o.pin = options_.pin;
+  o.pin = options_.runtime.pin;
   o.guest_pool = in_->solver_pool.get();
   Scheduler(std::move(o), in_->task_list(), *in_->transport, nullptr).run();
   steps_done_ = scene_step;
@@ -375,20 +375,20 @@ void PartitionedWorld::restore_before(const WatchdogError& error) {
     whole = in_->kept_snapshot(r, base_substeps_);
   }
   if (!whole)
-    throw WatchdogError(error.step(), error.world(), error.findings(), options_.watchdog.limits,
+    throw WatchdogError(error.step(), error.world(), error.findings(), options_.runtime.watchdog.limits,
                         "self-heal found no step every world keeps");
   restore(std::move(*whole));
   sync_states_.clear();
   heal_at_ = bad;
   spdlog::warn("watchdog: {}; rolling back to step {} to re-simulate step {} with {} substeps", error.what(), r,
-               heal_at_, options_.watchdog.heal_substeps);
+               heal_at_, options_.runtime.watchdog.heal_substeps);
 }
 
 // At the boundary before the bad step: that one step as heal_substeps
 // substeps of every world, then the usual step size again.
 void PartitionedWorld::resimulate_with_substeps() {
   WorldSnapshot at = snapshot();
-  at.settings.substeps = base_substeps_ * options_.watchdog.heal_substeps;
+  at.settings.substeps = base_substeps_ * options_.runtime.watchdog.heal_substeps;
   restore(std::move(at));
   run_to(steps_done_ + 1);
   WorldSnapshot after = snapshot();

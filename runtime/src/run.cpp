@@ -52,7 +52,7 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
   r.bodies = scene.bodies.size();
   r.dynamic_bodies = scene.dynamic_count();
   r.steps = config.steps;
-  if constexpr (std::is_same_v<W, CanonicalWorld>) world.set_parking(config.parking);
+  if constexpr (std::is_same_v<W, CanonicalWorld>) world.set_parking(config.runtime.parking);
   std::vector<std::int64_t> step_ns;
   step_ns.reserve(static_cast<std::size_t>(config.steps));
   const std::int64_t process_cpu0 = process_cpu_ns();
@@ -66,9 +66,9 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
     if constexpr (std::is_same_v<W, CanonicalWorld>) {
       r.coloured_islands += world.last_step_stats().coloured_islands;
       r.substepped_islands += world.last_step_stats().substepped_islands;
-      if (config.watchdog.response != WatchdogResponse::Off) {
-        std::vector<WatchdogFinding> findings = world.watchdog_findings(config.watchdog.limits);
-        if (!findings.empty()) throw WatchdogError(s + 1, kNoWorld, std::move(findings), config.watchdog.limits);
+      if (config.runtime.watchdog.response != WatchdogResponse::Off) {
+        std::vector<WatchdogFinding> findings = world.watchdog_findings(config.runtime.watchdog.limits);
+        if (!findings.empty()) throw WatchdogError(s + 1, kNoWorld, std::move(findings), config.runtime.watchdog.limits);
       }
     }
     step_ns.push_back(b - a);
@@ -102,18 +102,18 @@ template <class W, class... Args>
 RunResult build_run_destroy(const Scene& scene, const RunConfig& config, const Stamp& start, Args&&... args) {
   auto world = std::make_unique<W>(std::forward<Args>(args)...);
   if constexpr (std::is_same_v<W, CanonicalWorld>) {
-    if (config.solver_threads > 1) world->set_solver_pool(std::make_shared<SolverPool>(config.solver_threads));
+    if (config.runtime.solver_threads > 1) world->set_solver_pool(std::make_shared<SolverPool>(config.runtime.solver_threads));
     world->set_solver_defaults(config.solver_defaults);
   }
   const Stamp built;
   std::size_t bodies0 = 0, pairs0 = 0;
   if constexpr (std::is_same_v<W, CanonicalWorld>) {
-    if (config.validate) bodies0 = world->body_count(), pairs0 = world->contact_state().size();
+    if (config.runtime.validate) bodies0 = world->body_count(), pairs0 = world->contact_state().size();
   }
   RunResult r = run_world(*world, scene, config);
-  r.solver_threads = config.solver_threads;
+  r.solver_threads = config.runtime.solver_threads;
   if constexpr (std::is_same_v<W, CanonicalWorld>) {
-    if (config.validate) {
+    if (config.runtime.validate) {
       r.bodies_at_start = bodies0;
       r.contact_pairs_at_start = pairs0;
       r.bodies_at_end = world->body_count();
@@ -179,8 +179,8 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.steps = config.steps;
   r.territories = config.territories;
   r.partition = config.partition;
-  r.anticipation = config.anticipation;
-  r.rollback = config.rollback;
+  r.anticipation = config.runtime.anticipation;
+  r.rollback = config.runtime.rollback;
   const TerritoryMap map = make_partition(config.partition, scene, config.territories, GridOptions{});
   const int k = map.world_count();
   PartitionedOptions options;
@@ -197,23 +197,11 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   }
   r.schedule = schedule_name(options.schedule);
   options.serialise = config.serialise;
-  options.validate = config.validate;
-  options.pin = config.pin;
-  options.watchdog = config.watchdog;
+  options.runtime = config.runtime;
   options.sync_test = config.sync_test;
-  options.anticipation = config.anticipation;
-  options.checkpoint_every = config.checkpoint_every;
-  options.rollback = config.rollback;
-  options.eager_bets = config.eager_bets;
-  options.idle_territories = config.idle_territories;
-  options.parking = config.parking;
-  options.reach_speed = config.reach_speed;
-  options.balance = config.balance;
   if (config.inputs) options.inputs = *config.inputs;
-  options.solver_threads = config.solver_threads;
-  options.solver_guests = config.solver_guests;
   options.group = config.group;
-  r.solver_threads = config.solver_threads;
+  r.solver_threads = config.runtime.solver_threads;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
   step_ends.reserve(static_cast<std::size_t>(config.steps));
   std::int64_t t0 = 0;
@@ -247,7 +235,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   const Stamp built;
   r.setup_seconds = built.wall_since(start);
   r.setup_cpu_seconds = built.cpu_since(start);
-  if (config.validate) {  // snapshot() also throws if two worlds own one body
+  if (config.runtime.validate) {  // snapshot() also throws if two worlds own one body
     const WorldSnapshot s = world.snapshot();
     r.bodies_at_start = s.bodies.size();
     r.contact_pairs_at_start = s.manifolds.size();
@@ -281,7 +269,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   for (const WorldMetrics& m : r.world_metrics) r.coloured_islands += m.coloured_islands;
   for (const WorldMetrics& m : r.world_metrics) r.guest_tasks += m.guest_tasks;
   for (const WorldMetrics& m : r.world_metrics) r.substepped_islands += m.substepped_islands;
-  if (config.validate) {
+  if (config.runtime.validate) {
     const WorldSnapshot s = world.snapshot();
     r.bodies_at_end = s.bodies.size();
     r.contact_pairs_at_end = s.manifolds.size();
@@ -361,25 +349,25 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   if (config.steps < 0) throw std::invalid_argument("--steps must be >= 0");
   if (config.territories < 1) throw std::invalid_argument("--territories must be >= 1");
   if (config.threads < 0) throw std::invalid_argument("--threads must be >= 0");
-  if (config.solver_threads < 1)
-    throw std::invalid_argument("--solver-threads must be >= 1, got " + std::to_string(config.solver_threads));
-  if (config.solver_threads > 1 && config.world == WorldKind::Stock)
+  if (config.runtime.solver_threads < 1)
+    throw std::invalid_argument("--solver-threads must be >= 1, got " + std::to_string(config.runtime.solver_threads));
+  if (config.runtime.solver_threads > 1 && config.world == WorldKind::Stock)
     throw std::invalid_argument("--solver-threads > 1 runs the canonical world only (not --world stock)");
   if (config.sync_test < 0) throw std::invalid_argument("--sync-test must be >= 0");
   if (!(config.slow_world0_ms >= 0) || config.slow_world0_ms > 1000)
     throw std::invalid_argument("--slow-world0 must be in [0, 1000] ms");
-  if (config.checkpoint_every < 1)
-    throw std::invalid_argument("--checkpoint-every must be >= 1, got " + std::to_string(config.checkpoint_every));
-  if (config.anticipation < 0)
+  if (config.runtime.checkpoint_every < 1)
+    throw std::invalid_argument("--checkpoint-every must be >= 1, got " + std::to_string(config.runtime.checkpoint_every));
+  if (config.runtime.anticipation < 0)
     throw std::invalid_argument("--anticipation must be >= 0 (scene steps a world may run past the commit "
-                                "horizon; 0: lockstep), got " + std::to_string(config.anticipation));
-  if (config.anticipation > 0 && config.watchdog.response == WatchdogResponse::Heal)
+                                "horizon; 0: lockstep), got " + std::to_string(config.runtime.anticipation));
+  if (config.runtime.anticipation > 0 && config.runtime.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument("--anticipation > 0 cannot be combined with --watchdog heal (speculation is not "
                                 "supported with self-heal): use --watchdog stop or off, or --anticipation 0");
-  make_balance_policy(config.balance);  // BalanceError (std::invalid_argument) for bad options
+  make_balance_policy(config.runtime.balance);  // BalanceError (std::invalid_argument) for bad options
   if (config.solver_defaults != SolverDefaults::Soda &&
       (config.world != WorldKind::Canonical || config.territories > 1 || config.sync_test > 0 || config.inputs ||
-       config.watchdog.response == WatchdogResponse::Heal || !config.record_path.empty() || config.group ||
+       config.runtime.watchdog.response == WatchdogResponse::Heal || !config.record_path.empty() || config.group ||
        through_simulation_only(config)))
     throw std::invalid_argument("--solver-defaults bullet runs one canonical world only (not with --world stock, "
                                 "--territories > 1, --sync-test, --watchdog heal, inputs, --record, checkpoints "
@@ -399,7 +387,7 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   }
   if (through_simulation_only(config) || (config.inputs && inputs_through_simulation(config)))
     return run_with_inputs(scene, config);
-  if (config.territories > 1 || config.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0 ||
+  if (config.territories > 1 || config.runtime.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0 ||
       config.inputs)
     return run_partitioned(scene, config);
   const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), config.shuffle_seed);

@@ -89,24 +89,13 @@ SimulationConfig simulation_config(const RunConfig& config) {
   sc.territories = config.territories;
   sc.partition = config.partition;
   sc.threads = config.threads;
-  sc.pin = config.pin;
   sc.serialise = config.serialise;
-  sc.validate = config.validate;
-  sc.anticipation = config.anticipation;
-  sc.solver_threads = config.solver_threads;
-  sc.rollback = config.rollback;
-  sc.checkpoint_every = config.checkpoint_every;
-  sc.eager_bets = config.eager_bets;
-  sc.idle_territories = config.idle_territories;
-  sc.parking = config.parking;
-  sc.reach_speed = config.reach_speed;
-  sc.watchdog = config.watchdog;
-  sc.balance = config.balance;  // a Simulation refuses any policy but "none"
+  sc.runtime = config.runtime;  // a Simulation refuses load balancing and heal
   // The worlds' reach has room for the largest body the inputs add.
   if (config.inputs)
     for (const UserInput& in : *config.inputs)
       if (in.kind == UserInput::Kind::AddBody)
-        sc.added_extent = std::max(sc.added_extent, 2.0 * in.body.shape.bounding_radius());
+        sc.runtime.added_extent = std::max(sc.runtime.added_extent, 2.0 * in.body.shape.bounding_radius());
   return sc;
 }
 
@@ -115,8 +104,8 @@ namespace {
 // --inputs to the PartitionedWorld instead.
 const char* feature_a_simulation_lacks(const RunConfig& config) {
   if (config.sync_test > 0) return "--sync-test";
-  if (config.balance.policy != "none") return "load balancing (--lb): its map is fixed";
-  if (config.watchdog.response == WatchdogResponse::Heal) return "--watchdog heal";
+  if (config.runtime.balance.policy != "none") return "load balancing (--lb): its map is fixed";
+  if (config.runtime.watchdog.response == WatchdogResponse::Heal) return "--watchdog heal";
   return nullptr;
 }
 }  // namespace
@@ -157,8 +146,8 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   if (config.resume)
     for (const UserInput& in : config.resume->inputs)
       if (in.kind == UserInput::Kind::AddBody)
-        sc.added_extent = std::max(sc.added_extent, 2.0 * in.body.shape.bounding_radius());
-  sc.buffer_capacity = std::max<std::size_t>(sc.buffer_capacity, static_cast<std::size_t>(config.anticipation) + 3);
+        sc.runtime.added_extent = std::max(sc.runtime.added_extent, 2.0 * in.body.shape.bounding_radius());
+  sc.buffer_capacity = std::max<std::size_t>(sc.buffer_capacity, static_cast<std::size_t>(config.runtime.anticipation) + 3);
   // Progress and step times from world 0's thread (re-runs after a rollback
   // included).
   std::vector<std::int64_t> step_ends;
@@ -204,8 +193,8 @@ RunResult run_with_inputs(const Scene& scene, const RunConfig& config) {
   r.partition = config.partition;
   r.schedule = schedule_name(sim.schedule());
   r.threads = sim.thread_count();
-  r.anticipation = config.anticipation;
-  r.rollback = config.rollback;
+  r.anticipation = config.runtime.anticipation;
+  r.rollback = config.runtime.rollback;
   t0 = wall_ns();
   next_progress = t0 + static_cast<std::int64_t>(config.progress_seconds * 1e9);
   if (reader) record(sim, *reader, scene, *map, config, r);

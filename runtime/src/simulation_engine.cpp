@@ -25,34 +25,23 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
                                                      : Schedule::Pool;
   o.threads = o.schedule == Schedule::Pool ? c.threads : 0;
   o.serialise = c.serialise;
-  o.validate = c.validate;
-  o.pin = c.pin;
   o.keep_states = c.past_inputs;
-  o.anticipation = c.anticipation;
-  o.rollback = c.rollback;
-  o.checkpoint_every = c.checkpoint_every;
-  o.eager_bets = c.eager_bets;
-  o.idle_territories = c.idle_territories;
-  o.parking = c.parking;
-  o.watchdog = c.watchdog;
-  if (c.watchdog.response == WatchdogResponse::Heal)
+  o.runtime = c.runtime;
+  if (c.runtime.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument("SimulationConfig: watchdog heal is not supported by a Simulation (off or stop)");
-  o.reach_speed = c.reach_speed;
-  o.added_extent = c.added_extent;
-  if (c.balance.policy != "none")
+  if (c.runtime.balance.policy != "none")
     throw std::invalid_argument(
-        "SimulationConfig: load balancing (policy '" + c.balance.policy +
+        "SimulationConfig: load balancing (policy '" + c.runtime.balance.policy +
         "') is not supported by a Simulation yet: a cession is applied at a balance step where every world "
         "stands, and a Simulation's worlds run freely (use PartitionedWorld::step, or `soda run` without "
         "--inputs; docs/loadbalance.md)");
-  o.solver_threads = c.solver_threads;
-  if (c.past_inputs && c.validate)
+  if (c.past_inputs && c.runtime.validate)
     throw std::invalid_argument("SimulationConfig: past_inputs with validate is not supported (the validator "
                                 "cannot follow a rollback yet)");
-  if (c.anticipation < 0) throw std::invalid_argument("SimulationConfig: anticipation must be >= 0");
-  if (c.anticipation > 0 && c.buffer_capacity < static_cast<std::size_t>(c.anticipation) + 3)
+  if (c.runtime.anticipation < 0) throw std::invalid_argument("SimulationConfig: anticipation must be >= 0");
+  if (c.runtime.anticipation > 0 && c.buffer_capacity < static_cast<std::size_t>(c.runtime.anticipation) + 3)
     throw std::invalid_argument("SimulationConfig: buffer_capacity (" + std::to_string(c.buffer_capacity) +
-                                ") must be >= anticipation + 3 (" + std::to_string(c.anticipation + 3) +
+                                ") must be >= anticipation + 3 (" + std::to_string(c.runtime.anticipation + 3) +
                                 "): entries above the commit horizon cannot be freed, and a full buffer of "
                                 "them would stop the world that wrote them");
   return o;
@@ -100,7 +89,7 @@ void SimulationEngine::set_up(const Scene& scene, const PartitionedOptions& opti
   // Frames a rollback may still rewrite are not served; with past inputs
   // readers hold the horizon at the frame they show (simulation_core.h).
   core->horizon = parts().horizon;
-  core->gate = config_.anticipation > 0 || config_.past_inputs;
+  core->gate = config_.runtime.anticipation > 0 || config_.past_inputs;
   core->reader_pins = config_.past_inputs;
   // As the horizon rises, so do the buffers' commit steps (a world blocked
   // for room cannot raise its own), and readers waiting for a final frame
@@ -212,7 +201,7 @@ void SimulationEngine::wait_idle(const char* caller) const {
                            ": the worlds run without a limit (start() without end time); stop() first");
   // Speculation: parked at the limit is not final until the commit horizon
   // reaches it (no rollback can come any more).
-  if (config_.anticipation > 0) core->control.wait_published(core->control.limit() / substeps_);
+  if (config_.runtime.anticipation > 0) core->control.wait_published(core->control.limit() / substeps_);
   core->control.wait_all_parked();
 }
 
@@ -237,7 +226,7 @@ void SimulationEngine::launch_locked() {
   Scheduler::Options o;
   o.schedule = schedule;
   o.threads = threads;
-  o.pin = config_.pin;
+  o.pin = config_.runtime.pin;
   o.name = "Simulation";
   o.guest_pool = parts().solver_pool.get();
   scheduler_ = std::make_unique<Scheduler>(std::move(o), parts().task_list(), *parts().transport, &core->control,
@@ -288,7 +277,7 @@ void SimulationEngine::input(UserInput in) {
     std::int64_t step;
     ~Unpin() { h.unpin(step); }
   } unpin{horizon, in.step * substeps_};
-  if (config_.anticipation > 0) {
+  if (config_.runtime.anticipation > 0) {
     // Speculation: a rollback of every world to the input's step, on the
     // rollback board (docs/rollback.md): each world that has passed it
     // restores it on its own thread and re-runs with the input; nobody is

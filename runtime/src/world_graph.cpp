@@ -132,7 +132,7 @@ std::string reach_refusal(const Body& body, const SceneSettings& settings, const
   msg << "the body is " << 2.0 * body.shape.bounding_radius() << " m across (bounding-sphere diameter) and this run's "
       << "worlds reach bodies up to about " << largest << " m across (the largest of the scene it started with, "
       << "at a reach speed of " << speed << " m/s); give the run room for it from the start "
-      << "(SimulationConfig::added_extent, soda run sizes it from --inputs) or a higher reach speed";
+      << "(SimulationConfig::runtime.added_extent, soda run sizes it from --inputs) or a higher reach speed";
   return msg.str();
 }
 

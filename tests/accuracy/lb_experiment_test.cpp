@@ -44,7 +44,7 @@ TEST(LbExperiment, EveryPolicyEndsOnOneHashAndTheFilesHoldEveryStep) {
   config.run.partition = "grid:2x1x1";
   config.run.threads = 1;
   config.run.progress_seconds = 0;
-  config.run.balance.period = 10;
+  config.run.runtime.balance.period = 10;
   config.policies = {"none", "churn"};
   config.baseline = false;
   const LbExperimentResult r = run_lb_experiment(scene, config);
@@ -54,7 +54,7 @@ TEST(LbExperiment, EveryPolicyEndsOnOneHashAndTheFilesHoldEveryStep) {
   // Every policy against one territory, run apart from the experiment.
   RunConfig one = config.run;
   one.territories = 1;
-  one.balance = {};
+  one.runtime.balance = {};
   const std::uint64_t one_hash = run_scene(scene, one).state_hash;
   EXPECT_EQ(hash_hex(r.one_territory_hash), hash_hex(one_hash));
   EXPECT_TRUE(r.equals_one_territory);

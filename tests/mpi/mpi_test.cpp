@@ -105,8 +105,8 @@ TEST(Mpi, SerialisedAndFuzzedMessagesGiveTheOneWorldHash) {
 // and lost bets as the scenes allow.
 PartitionedOptions speculating(int anticipation = 8) {
   PartitionedOptions o = threads_per_world();
-  o.anticipation = anticipation;
-  o.eager_bets = true;
+  o.runtime.anticipation = anticipation;
+  o.runtime.eager_bets = true;
   return o;
 }
 
@@ -132,7 +132,7 @@ TEST(Mpi, SpeculationGivesTheOneWorldHash) {
 // the board over ranks (rank 0 numbers it, every rank restores).
 TEST(Mpi, RollbacksOfEveryWorldAcrossRanks) {
   PartitionedOptions o = speculating();
-  o.rollback = PartitionedOptions::Rollback::Recompute;
+  o.runtime.rollback = PartitionedOptions::Rollback::Recompute;
   SpeculationSums sums;
   add(sums, expect_reference_hash({"border-shuttle", 40, "grid:4x1x1", 4, 80}, o));
   add(sums, expect_reference_hash({"cube-pile", 100, "kmeans", 4, 60}, o));
@@ -147,7 +147,7 @@ TEST(Mpi, SpeculationOnFewerRanksThanTerritories) {
   expect_reference_hash({"falling-cubes", 150, "kmeans", 6, 50}, pool);
   PartitionedOptions one = speculating(64);
   one.schedule = Schedule::Sequential;  // one pool worker per rank
-  one.checkpoint_every = 1;
+  one.runtime.checkpoint_every = 1;
   expect_reference_hash({"border-shuttle", 40, "grid:5x1x1", 5, 60}, one);
 }
 
@@ -157,7 +157,7 @@ TEST(Mpi, SpeculationFuzzedGivesTheOneWorldHash) {
   for (std::uint64_t seed : {3u, 4u}) {
     PartitionedOptions o = speculating(seed == 3 ? 8 : 64);
     o.serialise = seed == 4;
-    o.checkpoint_every = seed == 3 ? 8 : 1;
+    o.runtime.checkpoint_every = seed == 3 ? 8 : 1;
     detail::edit_testing_hooks(o).fuzz_seed = seed;
     expect_reference_hash({"border-shuttle", 40, "grid:4x1x1", 4, 60}, o);
     expect_reference_hash({"cube-pile", 80, "kmeans", 4, 40}, o);
@@ -183,7 +183,7 @@ TEST(Mpi, SyncTestGivesTheOneWorldHash) {
 void expect_failure_stops_every_rank(PartitionedOptions o) {
   const Scene s = test::scene("cube-pile", 100);
   const TerritoryMap map = make_partition("kmeans", s, 4, GridOptions{});
-  o.watchdog.response = WatchdogResponse::Stop;
+  o.runtime.watchdog.response = WatchdogResponse::Stop;
   o.group = g_group;
   // A body of the world on the last rank: its rank fails, the others are told.
   BodyId body = 0;

@@ -180,7 +180,7 @@ INSTANTIATE_TEST_SUITE_P(Territories, RecordInputs, ::testing::Values(1, 4));
 TEST(RecordRefuses, WhatASimulationDoesNotRun) {
   const Scene scene = make_scene("falling-cubes", {20, 1});
   RunConfig c = config(2, "/tmp/soda-never-written.replay");
-  c.balance.policy = "diffusive";
+  c.runtime.balance.policy = "diffusive";
   EXPECT_THROW(run_scene(scene, c), std::invalid_argument);
   c = config(1, "/tmp/soda-never-written.replay");
   c.world = WorldKind::Stock;

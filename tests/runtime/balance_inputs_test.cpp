@@ -49,7 +49,7 @@ const RainReference& rain_reference() {
     const std::vector<UserInput> inputs = scene_inputs("rain", rain_params());
     ref.api = simulation_hash(s, inputs, kRainSteps, 1);
     PartitionedOptions o;
-    o.validate = true;
+    o.runtime.validate = true;
     o.inputs = inputs;
     PartitionedWorld one(s, make_partition("kmeans", s, 1, GridOptions{}), o);
     one.step(kRainSteps);
@@ -75,12 +75,12 @@ TEST_P(RainBalance, HashEqualsTheApiReplayAndOneTerritory) {
       make_partition("grid:" + std::to_string(c.territories) + "x1x1", s, c.territories, GridOptions{});
   PartitionedOptions o;
   o.schedule = Schedule::ThreadPerWorld;
-  o.validate = true;
-  o.anticipation = c.anticipation;
+  o.runtime.validate = true;
+  o.runtime.anticipation = c.anticipation;
   o.sync_test = 1;
-  o.balance.policy = c.policy;
-  o.balance.period = 10;
-  o.balance.seed = 7;
+  o.runtime.balance.policy = c.policy;
+  o.runtime.balance.period = 10;
+  o.runtime.balance.seed = 7;
   o.inputs = inputs;
   PartitionedWorld world(s, map, o);
   world.step(kRainSteps);
@@ -157,8 +157,8 @@ TEST(PartitionedInputs, EveryKindGivesTheApiHash) {
     for (int anticipation : {0, 8}) {
       PartitionedOptions o;
       o.schedule = Schedule::ThreadPerWorld;
-      o.validate = true;
-      o.anticipation = anticipation;
+      o.runtime.validate = true;
+      o.runtime.anticipation = anticipation;
       o.inputs = inputs;
       PartitionedWorld world(s, make_partition("kmeans", s, k, GridOptions{}), o);
       world.step(steps);

@@ -23,7 +23,7 @@ SceneParams params() { return SceneParams{kN, 1, false}; }
 
 PartitionedOptions options(const std::string& scene) {
   PartitionedOptions o;
-  o.validate = true;
+  o.runtime.validate = true;
   o.inputs = scene_inputs(scene, params());  // rain's later waves; empty for the others
   return o;
 }
@@ -83,12 +83,12 @@ TEST_P(LoadSceneBalance, HashEqualsOneTerritory) {
   const TerritoryMap map = make_partition(grid, s, c.territories, GridOptions{});
   PartitionedOptions o = options(c.scene);
   o.schedule = Schedule::ThreadPerWorld;
-  o.anticipation = c.anticipation;
+  o.runtime.anticipation = c.anticipation;
   o.sync_test = 1;
-  o.balance.policy = c.policy;
-  o.balance.period = kPeriod;
-  o.balance.seed = 3;
-  if (std::string(c.policy) != "none") o.balance_policy = std::make_shared<CountedLoad>(o.balance);
+  o.runtime.balance.policy = c.policy;
+  o.runtime.balance.period = kPeriod;
+  o.runtime.balance.seed = 3;
+  if (std::string(c.policy) != "none") o.balance_policy = std::make_shared<CountedLoad>(o.runtime.balance);
   PartitionedWorld world(s, map, o);
   world.step(kSteps);
   EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(one_territory(c.scene)));

@@ -46,14 +46,14 @@ std::uint64_t one_territory_hash(const Scene& s, const std::string& key, int ste
 PartitionedOptions churn_options(const Case& c, std::uint64_t seed = 7) {
   PartitionedOptions o;
   o.schedule = Schedule::ThreadPerWorld;
-  o.validate = true;
+  o.runtime.validate = true;
   o.serialise = true;
-  o.anticipation = c.anticipation;
+  o.runtime.anticipation = c.anticipation;
   o.sync_test = c.sync_test;
-  o.balance.policy = "churn";
-  o.balance.period = c.period;
-  o.balance.seed = seed;
-  o.balance.max_cells_per_move = 3;
+  o.runtime.balance.policy = "churn";
+  o.runtime.balance.period = c.period;
+  o.runtime.balance.seed = seed;
+  o.runtime.balance.max_cells_per_move = 3;
   return o;
 }
 
@@ -121,7 +121,7 @@ TEST(BalanceCession, WorldsAwayFromTheMovedCellsKeepTheirBulletWorlds) {
     const Scene s = test::scene(c.scene, c.n);
     const TerritoryMap map = make_partition(partition_of(c), s, c.territories, GridOptions{});
     PartitionedOptions o = churn_options(c);
-    o.balance.max_cells_per_move = 1;
+    o.runtime.balance.max_cells_per_move = 1;
     PartitionedWorld world(s, map, o);
     int kept = 0, rebuilt = 0;
     for (int i = 0; i < c.steps; ++i) {
@@ -150,7 +150,7 @@ TEST(BalanceLog, StepLoadsAddUpAcrossRebuilds) {
   const Scene s = test::scene(c.scene, c.n);
   const TerritoryMap map = make_partition("kmeans", s, c.territories, GridOptions{});
   PartitionedOptions o = churn_options(c);
-  o.validate = false;
+  o.runtime.validate = false;
   PartitionedWorld world(s, map, o);
   world.step(25);
   world.step(15);
@@ -247,9 +247,9 @@ TEST_P(Famine, AWorldWithoutCellsKeepsRunningAndComesBack) {
   auto policy = std::make_shared<FamineThenFeast>(2, 40);
   PartitionedOptions o;
   o.schedule = Schedule::ThreadPerWorld;
-  o.validate = true;
-  o.anticipation = anticipation;
-  o.balance.period = 10;
+  o.runtime.validate = true;
+  o.runtime.anticipation = anticipation;
+  o.runtime.balance.period = 10;
   o.balance_policy = policy;
   PartitionedWorld world(s, map, o);
   world.step(30);  // starved at step 10; steps 11..30 with no cells
@@ -285,7 +285,7 @@ class WrongOwner final : public BalancePolicy {
 TEST(BalanceContract, AMoveFromAWorldThatDoesNotOwnTheCellIsRefused) {
   const Scene s = test::scene("falling-cubes", 100);
   PartitionedOptions o;
-  o.balance.period = 5;
+  o.runtime.balance.period = 5;
   o.balance_policy = std::make_shared<WrongOwner>();
   PartitionedWorld world(s, make_partition("kmeans", s, 3, GridOptions{}), o);
   try {
@@ -301,11 +301,11 @@ TEST(BalanceOptions, BadValuesAreRefusedAtConstruction) {
   const Scene s = test::scene("falling-cubes", 50);
   const TerritoryMap map = make_partition("kmeans", s, 2, GridOptions{});
   PartitionedOptions o;
-  o.balance.policy = "churn";
-  o.balance.period = 0;
+  o.runtime.balance.policy = "churn";
+  o.runtime.balance.period = 0;
   EXPECT_THROW(PartitionedWorld(s, map, o), BalanceError);
-  o.balance.period = 5;
-  o.balance.policy = "no-such-policy";
+  o.runtime.balance.period = 5;
+  o.runtime.balance.policy = "no-such-policy";
   EXPECT_THROW(PartitionedWorld(s, map, o), BalanceError);
 }
 
@@ -313,7 +313,7 @@ TEST(BalanceOptions, ASimulationRefusesAPolicyItCannotApply) {
   const Scene s = test::scene("falling-cubes", 50);
   SimulationConfig c;
   c.territories = 2;
-  c.balance.policy = "churn";
+  c.runtime.balance.policy = "churn";
   try {
     Simulation sim(s, c);
     FAIL() << "expected std::invalid_argument";

@@ -34,7 +34,7 @@ TEST_P(BigBodies, EqualTheOneWorldHash) {
   static const std::uint64_t reference = test::reference_hash(s, kSteps);
   const TerritoryMap map = make_partition("kmeans", s, c.territories, GridOptions{});
   PartitionedOptions o;
-  o.anticipation = c.anticipation;
+  o.runtime.anticipation = c.anticipation;
   o.sync_test = c.sync_test;
   if (c.territories > 1) {
     o.schedule = Schedule::Pool;
@@ -96,7 +96,7 @@ TEST(BigBodiesInput, TooLargeForTheReachIsRefusedUnlessGivenRoom) {
       EXPECT_NE(what.find("added_extent"), std::string::npos) << what;
     }
     SimulationConfig roomy{.territories = k};
-    roomy.added_extent = 2.0 * ship.shape.bounding_radius();
+    roomy.runtime.added_extent = 2.0 * ship.shape.bounding_radius();
     Simulation big(s, roomy);
     EXPECT_EQ(big.add_body(big.time_of(10), ship), ship.id);
     EXPECT_TRUE(big.advance_to(big.time_of(40)));

@@ -19,7 +19,7 @@ struct Outcome {
 Outcome run(const std::string& name, int n, const std::string& partition, int k, const GridOptions& grid, int steps) {
   const Scene s = test::scene(name, n);
   const TerritoryMap map = make_partition(partition, s, k, grid);
-  PartitionedWorld world(s, map, PartitionedOptions{.validate = true});
+  PartitionedWorld world(s, map, PartitionedOptions{.runtime = {.validate = true}});
   world.step(steps);
   Outcome o{test::reference_hash(s, steps), world.state_hash(), test::total(world.metrics())};
   std::printf("[ %s %s %s K=%d ] %d steps: one world %s, partitioned %s; %s\n", name.c_str(), kPrecisionName,
@@ -93,7 +93,7 @@ TEST(BorderScenes, TheRootIsTheWorldWithTheLargestShare) {
   g.box = CellBox{{-4, 0, -1}, {1, 0, 0}};
   const Scene s = test::scene("chain", 16);
   const TerritoryMap map = make_partition("grid:2x1x1", s, 2, g);
-  PartitionedWorld world(s, map, PartitionedOptions{.validate = true});
+  PartitionedWorld world(s, map, PartitionedOptions{.runtime = {.validate = true}});
   world.step(120);
   const std::uint64_t reference = test::reference_hash(s, 120);
   EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(reference));

@@ -133,8 +133,8 @@ void expect_one_world_hash(const Scene& s, int steps, const char* what) {
     for (int k : {1, 2, 4, 8}) {
 #endif
       PartitionedOptions o;
-      o.validate = mode.anticipation == 0;
-      o.anticipation = mode.anticipation;
+      o.runtime.validate = mode.anticipation == 0;
+      o.runtime.anticipation = mode.anticipation;
       o.sync_test = mode.sync_test;
       const TerritoryMap map = make_partition("grid:" + std::to_string(k) + "x1x1", s, k, slab_grid());
       PartitionedWorld world(s, map, o);
@@ -180,7 +180,7 @@ TEST(Ccd, HeadOnFastSpheresMeetAcrossABorder) {
 TEST(Ccd, ASweepBeyondTheNeighboursIsRefused) {
   const Scene s = test::scene("bullet-vs-wall", 500);
   PartitionedOptions o;
-  o.reach_speed = 50.0;
+  o.runtime.reach_speed = 50.0;
   PartitionedWorld world(s, make_partition("grid:8x1x1", s, 8, slab_grid()), o);
   try {
     world.step(kSteps);

@@ -74,7 +74,7 @@ void give_late_input(Simulation& sim, const Ids& ids) {
 
 SimulationConfig speculating(int territories) {
   SimulationConfig c{.territories = territories, .buffer_capacity = 16};
-  c.anticipation = 8;
+  c.runtime.anticipation = 8;
   return c;
 }
 
@@ -130,7 +130,7 @@ TEST_P(CheckpointResume, GoesOnToTheUninterruptedHash) {
 
   SimulationConfig config{.territories = c.territories, .partition = c.partition, .threads = c.threads,
                           .buffer_capacity = 16};
-  config.anticipation = c.anticipation;
+  config.runtime.anticipation = c.anticipation;
   Simulation b = Simulation::resume(s.path, config);  // only the file
   EXPECT_EQ(b.steps_done(), kSaveAt);
   EXPECT_EQ(b.world_count(), c.territories);

@@ -69,20 +69,20 @@ TEST(ColouredSolve, CubePileEveryTerritoryCountAndSolverThreadCount) {
       PartitionedOptions o;
       o.schedule = schedules[i % 3];
       o.threads = 2;
-      o.anticipation = i % 2 ? 8 : 0;
-      o.solver_threads = threads;
+      o.runtime.anticipation = i % 2 ? 8 : 0;
+      o.runtime.solver_threads = threads;
       // A waiting world's thread as a guest of the pool: explicit, so that
       // the threads counted below do not depend on the machine's cores.
-      o.solver_guests = o.schedule == Schedule::ThreadPerWorld && k > 1 ? 1 : 0;
+      o.runtime.solver_guests = o.schedule == Schedule::ThreadPerWorld && k > 1 ? 1 : 0;
       ++i;
       const Outcome r = run(s, map, o);
       std::printf("[ cube-pile %d %s K=%d ] %s, anticipation %d, solver threads %d: %s (one world %s), %llu "
                   "coloured islands, up to %d threads\n",
-                  kBodies, kPrecisionName, k, schedule_name(o.schedule), o.anticipation, threads,
+                  kBodies, kPrecisionName, k, schedule_name(o.schedule), o.runtime.anticipation, threads,
                   hash_hex(r.hash).c_str(), hash_hex(reference).c_str(),
                   static_cast<unsigned long long>(r.total.coloured_islands), r.total.solver_threads);
       EXPECT_EQ(hash_hex(r.hash), hash_hex(reference)) << "K=" << k << ", solver threads " << threads;
-      expect_coloured(r, k, threads + o.solver_guests);
+      expect_coloured(r, k, threads + o.runtime.solver_guests);
     }
   }
 }
@@ -110,9 +110,9 @@ TEST(ColouredSolve, WaitingWorldsServeTheRootsSolve) {
   for (const Config& c : configs) {
     PartitionedOptions o;
     o.schedule = Schedule::ThreadPerWorld;
-    o.anticipation = c.anticipation;
-    o.solver_threads = c.solver_threads;
-    o.solver_guests = c.guests;
+    o.runtime.anticipation = c.anticipation;
+    o.runtime.solver_threads = c.solver_threads;
+    o.runtime.solver_guests = c.guests;
     PartitionedWorld w(s, make_partition("kmeans", s, c.k, GridOptions{}), o);
     w.step(kSteps);
     const std::vector<WorldMetrics> metrics = w.metrics();
@@ -138,7 +138,7 @@ TEST(ColouredSolve, SolverGuestsMustNotBeBelowMinusOne) {
   const Scene s = test::scene("cube-pile", 20);
   PartitionedOptions o;
   o.schedule = Schedule::ThreadPerWorld;
-  o.solver_guests = -2;
+  o.runtime.solver_guests = -2;
   EXPECT_THROW(PartitionedWorld(s, make_partition("kmeans", s, 2, GridOptions{}), o), std::invalid_argument);
 }
 
@@ -153,8 +153,8 @@ TEST(ColouredSolve, BorderScenesAndFallingCubesWithSolverThreads) {
     for (int threads : {3, 8}) {
       PartitionedOptions o;
       o.schedule = Schedule::ThreadPerWorld;
-      o.anticipation = 8;
-      o.solver_threads = threads;
+      o.runtime.anticipation = 8;
+      o.runtime.solver_threads = threads;
       const Outcome r = run(s, test::map_of(c, s), o);
       std::printf("[ %s %s %s K=%d ] solver threads %d: %s (one world %s), %llu coloured islands\n", c.scene,
                   kPrecisionName, c.partition, c.territories, threads, hash_hex(r.hash).c_str(),
@@ -170,7 +170,7 @@ TEST(ColouredSolve, SyncTestWithSolverThreads) {
   const Scene s = test::scene("cube-pile", kBodies);
   PartitionedOptions o;
   o.sync_test = 8;
-  o.solver_threads = 3;
+  o.runtime.solver_threads = 3;
   PartitionedWorld w(s, make_partition("rcb", s, 3, GridOptions{}), o);
   w.step(kSteps);
   EXPECT_EQ(w.sync_rollbacks(), static_cast<std::uint64_t>(kSteps));
@@ -195,12 +195,12 @@ TEST(ColouredSolve, FuzzedWithSolverThreads) {
     PartitionedOptions o;
     o.schedule = seed % 2 ? Schedule::ThreadPerWorld : Schedule::Pool;
     o.threads = 2;
-    o.solver_threads = solver_threads[(seed / 3) % 3];
-    o.validate = true;
+    o.runtime.solver_threads = solver_threads[(seed / 3) % 3];
+    o.runtime.validate = true;
     detail::edit_testing_hooks(o).fuzz_seed = static_cast<std::uint64_t>(seed);
     const Outcome r = run(s, make_partition("kmeans", s, k, GridOptions{}), o);
     EXPECT_EQ(hash_hex(r.hash), hash_hex(reference))
-        << "seed " << seed << ", K=" << k << ", solver threads " << o.solver_threads;
+        << "seed " << seed << ", K=" << k << ", solver threads " << o.runtime.solver_threads;
     EXPECT_GT(r.total.coloured_islands, 0u);
   }
 }
@@ -273,8 +273,8 @@ TEST(ColouredSolve, StepStagesOnThePoolEveryThreadCount) {
     for (int threads : {1, 2}) {
       PartitionedOptions o;
       o.schedule = Schedule::ThreadPerWorld;
-      o.solver_threads = threads;
-      o.solver_guests = threads - 1;
+      o.runtime.solver_threads = threads;
+      o.runtime.solver_guests = threads - 1;
       PartitionedWorld w(s, make_partition("kmeans", s, 2, GridOptions{}), o);
       w.step(kStageSteps);
       EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(reference)) << name << ", K=2, solver threads " << threads;
@@ -295,7 +295,7 @@ TEST(ColouredSolve, HeapOneTerritoryEqualsK) {
 #endif
   for (int k : ks) {
     PartitionedOptions o;
-    o.solver_threads = 2;
+    o.runtime.solver_threads = 2;
     PartitionedWorld w(s, make_partition("kmeans", s, k, GridOptions{}), o);
     w.step(kHeapSteps);
     std::printf("[ heap %d %s K=%d ] %s (one world %s)\n", kHeapBodies, kPrecisionName, k,
@@ -307,7 +307,7 @@ TEST(ColouredSolve, HeapOneTerritoryEqualsK) {
 TEST(ColouredSolve, SolverThreadsMustBePositive) {
   const Scene s = test::scene("cube-pile", 20);
   PartitionedOptions o;
-  o.solver_threads = 0;
+  o.runtime.solver_threads = 0;
   EXPECT_THROW(PartitionedWorld(s, make_partition("kmeans", s, 2, GridOptions{}), o), std::invalid_argument);
 }
 

@@ -33,7 +33,7 @@ TEST_P(Decomposition, MatchesOneWorld) {
   const Scene s = test::scene(c.scene, kBodies);
   const TerritoryMap map = make_partition(c.partition, s, c.territories, GridOptions{});
   ASSERT_EQ(map.world_count(), c.territories);
-  PartitionedWorld world(s, map, PartitionedOptions{.validate = true});
+  PartitionedWorld world(s, map, PartitionedOptions{.runtime = {.validate = true}});
   world.step(kSteps);
   const std::uint64_t reference = test::reference_hash(s, kSteps);
   const WorldMetrics t = test::total(world.metrics());

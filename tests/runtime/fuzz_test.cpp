@@ -32,7 +32,7 @@ TEST(Fuzz, SeededPausesInThreadsAndMessagesNeverChangeTheResult) {
     o.schedule = seed % 2 ? Schedule::ThreadPerWorld : Schedule::Pool;
     o.threads = 2;
     detail::edit_testing_hooks(o).fuzz_seed = static_cast<std::uint64_t>(seed);
-    o.validate = true;
+    o.runtime.validate = true;
     pool_runs += o.schedule == Schedule::Pool;
     PartitionedWorld world(s, map, o);
     world.step(kSteps);

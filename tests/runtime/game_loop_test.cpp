@@ -125,7 +125,7 @@ TEST_P(GameLoop, EveryFrameWhileBodiesComeAndGoEqualsOneTerritory) {
 
   Progress progress;
   SimulationConfig config{.territories = territories, .threads = threads, .buffer_capacity = 16, .past_inputs = true};
-  config.anticipation = anticipation;
+  config.runtime.anticipation = anticipation;
   config.after_step = progress.hook();
   Simulation sim(s, config);
   SceneReader reader = sim.add_reader();

@@ -70,9 +70,9 @@ RunConfig config(int territories, const std::string& partition, const Case& c, b
   r.partition = partition;
   r.threads = 1;
   r.serialise = true;
-  r.anticipation = c.anticipation;
+  r.runtime.anticipation = c.anticipation;
   r.sync_test = c.sync_test;
-  r.idle_territories = idle;
+  r.runtime.idle_territories = idle;
   return r;
 }
 
@@ -137,7 +137,7 @@ TEST_P(IdleTerritories, AnInputWakesAnIdleTerritory) {
   RunConfig on = config(8, "grid:8x1x1", c, true);
   on.inputs = one.inputs;
   RunConfig off = on;
-  off.idle_territories = false;
+  off.runtime.idle_territories = false;
   const RunResult reference = run_scene(s, one);
   const RunResult r_on = run_scene(s, on);
   const RunResult r_off = run_scene(s, off);

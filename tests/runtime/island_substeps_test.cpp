@@ -31,7 +31,7 @@ TEST(IslandSubsteps, CubePileOneHashForEveryTerritoryCount) {
   for (int k : {1, 2, 4}) {
     PartitionedOptions o;
     o.schedule = Schedule::ThreadPerWorld;
-    o.anticipation = 8;
+    o.runtime.anticipation = 8;
     PartitionedWorld w(s, make_partition("kmeans", s, k, GridOptions{}), o);
     w.step(kSteps);
     const WorldMetrics t = test::total(w.metrics());

@@ -176,7 +176,7 @@ TEST(TerritoryParking, EveryStepEqualsTheWorldsWithoutParking) {
     const int k = std::string(partition) == "grid:2x1x1" ? 2 : 4;
     const TerritoryMap map = make_partition(partition, s, k, GridOptions{});
     PartitionedOptions off_options;
-    off_options.parking = false;
+    off_options.runtime.parking = false;
     PartitionedWorld on(s, map, PartitionedOptions{});
     PartitionedWorld off(s, map, off_options);
     const std::size_t built = parked_in(on);
@@ -237,7 +237,7 @@ TEST(TerritoryParking, InputsToParkedBodiesAsWithoutParking) {
   PartitionedOptions on_options, off_options;
   on_options.inputs = inputs;
   off_options.inputs = inputs;
-  off_options.parking = false;
+  off_options.runtime.parking = false;
   PartitionedWorld on(s, map, on_options);
   PartitionedWorld off(s, map, off_options);
   const std::size_t built = parked_in(on);
@@ -284,18 +284,18 @@ TEST_P(ParkingVsPartitioned, SameHashAsOneTerritoryWithParking) {
   one.steps = kSteps;
   one.progress_seconds = 0;
   RunConfig no_parking = one;
-  no_parking.parking = false;
+  no_parking.runtime.parking = false;
   RunConfig k = one;
   k.territories = c.territories;
   k.threads = 1;
-  k.anticipation = c.anticipation;
+  k.runtime.anticipation = c.anticipation;
   k.sync_test = c.sync_test;
   if (c.churn) {
-    k.balance.policy = "churn";
-    k.balance.period = 20;
+    k.runtime.balance.policy = "churn";
+    k.runtime.balance.period = 20;
   }
   RunConfig k_unparked = k;
-  k_unparked.parking = false;
+  k_unparked.runtime.parking = false;
   const RunResult parked = run_scene(s, one);
   const RunResult unparked = run_scene(s, no_parking);
   const RunResult partitioned = run_scene(s, k);

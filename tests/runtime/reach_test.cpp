@@ -51,8 +51,8 @@ TEST(Reach, FastBallAcrossThinTerritoriesMatchesOneTerritory) {
       for (Schedule schedule : kSchedules) {
         PartitionedOptions o;
         o.schedule = schedule;
-        o.anticipation = anticipation;
-        o.validate = true;
+        o.runtime.anticipation = anticipation;
+        o.runtime.validate = true;
         PartitionedWorld world(s, map, o);
         world.step(c.steps);
         const WorldMetrics t = test::total(world.metrics());
@@ -102,7 +102,7 @@ TEST(Reach, TooSmallAReachIsRefusedNamingTheBodyAndTheRemedy) {
   for (const ReachCase& c : kCases) {
     const Scene s = test::scene("thrown-ball", c.speed);
     PartitionedOptions o;
-    o.reach_speed = 1.0;  // covers 1 m/s: one cell
+    o.runtime.reach_speed = 1.0;  // covers 1 m/s: one cell
     PartitionedWorld world(s, make_partition(c.partition, s, c.territories, grid_of(c)), o);
     EXPECT_EQ(world.world(0).map().reach(), 1);
     try {
@@ -130,7 +130,7 @@ TEST(Reach, SlowScenesKeepAdjacentNeighbours) {
 TEST(Reach, ANegativeReachSpeedIsRefused) {
   const Scene s = test::scene("thrown-ball", 40);
   PartitionedOptions o;
-  o.reach_speed = -1;
+  o.runtime.reach_speed = -1;
   EXPECT_THROW(PartitionedWorld(s, make_partition("grid:2x1x1", s, 2, GridOptions{}), o), std::invalid_argument);
 }
 

@@ -92,8 +92,8 @@ QueryRun reference(const Scene& s) {
 QueryRun running(const Scene& s, const TerritoryMap& map, int anticipation) {
   QueryRun r;
   SimulationConfig config{.buffer_capacity = 24};
-  config.anticipation = anticipation;
-  config.eager_bets = anticipation > 0;
+  config.runtime.anticipation = anticipation;
+  config.runtime.eager_bets = anticipation > 0;
   Simulation sim(s, map, config);
   SceneQuery q = sim.add_query();
   sim.start(sim.time_of(kSteps));

@@ -25,9 +25,9 @@ struct Frames {
 // time), and the buffers' memory after the last step.
 Frames read_all(const Scene& s, int steps, int territories, int anticipation, bool delta) {
   SimulationConfig config{.territories = territories, .buffer_capacity = 16};
-  config.anticipation = anticipation;
-  config.checkpoint_every = 1;
-  config.eager_bets = anticipation > 0;
+  config.runtime.anticipation = anticipation;
+  config.runtime.checkpoint_every = 1;
+  config.runtime.eager_bets = anticipation > 0;
   config.delta_entries = delta;
   Simulation sim(s, config);
   SceneReader reader = sim.add_reader();

@@ -57,7 +57,7 @@ TEST_P(SimulationSnapshotRestore, GoesOnToTheUninterruptedHash) {
   const std::uint64_t uninterrupted = a.state_hash();
 
   SimulationConfig config{.territories = c.territories, .threads = c.threads, .buffer_capacity = 16};
-  config.anticipation = c.anticipation;
+  config.runtime.anticipation = c.anticipation;
   Simulation b(snap, config);
   EXPECT_EQ(b.steps_done(), kSnapshotAt);
   EXPECT_EQ(b.published_step(), kSnapshotAt);

@@ -1,4 +1,4 @@
-// Speculation under a Simulation (SimulationConfig::anticipation,
+// Speculation under a Simulation (RuntimeOptions::anticipation,
 // docs/rollback.md): worlds run ahead of the commit horizon and publish
 // speculative entries; rollbacks republish them with new revisions. Readers,
 // advance_to and the readouts only ever see committed steps, so every frame
@@ -35,9 +35,9 @@ TEST_P(SpeculativeSimulation, FramesAndHashEqualOneTerritory) {
   const test::Reference ref = test::reference_run(s, kSteps);
   const TerritoryMap map = make_partition("grid:8x1x1", s, 8, GridOptions{});
   SimulationConfig config{.threads = GetParam(), .buffer_capacity = 16};
-  config.anticipation = 8;
-  config.checkpoint_every = 1;
-  config.eager_bets = true;
+  config.runtime.anticipation = 8;
+  config.runtime.checkpoint_every = 1;
+  config.runtime.eager_bets = true;
   Simulation sim(s, map, config);
   std::atomic<int> bad_frames{0};
   std::thread reader([&, r = sim.add_reader()]() mutable {
@@ -92,8 +92,8 @@ TEST(SimulationSpeculation, LateSpawnInATerritoryThatIsAheadMatchesOneTerritory)
 
   test::SpawnGate gate(8, /*hold=*/false);
   SimulationConfig config{.threads = 1, .buffer_capacity = 64, .past_inputs = true};
-  config.anticipation = 16;
-  config.eager_bets = true;
+  config.runtime.anticipation = 16;
+  config.runtime.eager_bets = true;
   config.after_step = gate.hook();
   Simulation sim(s, map, config);
   sim.start(sim.time_of(kSteps));
@@ -112,7 +112,7 @@ INSTANTIATE_TEST_SUITE_P(SimulationSpeculation, SpeculativeSimulation, ::testing
 TEST(SimulationSpeculation, BufferTooSmallForTheAnticipationIsRefused) {
   const Scene s = test::scene("falling-cubes", 40);
   SimulationConfig config{.territories = 2, .buffer_capacity = 8};
-  config.anticipation = 6;
+  config.runtime.anticipation = 6;
   try {
     Simulation sim(s, config);
     ADD_FAILURE() << "accepted";

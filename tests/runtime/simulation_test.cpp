@@ -116,7 +116,7 @@ TEST(Simulation, SolverThreadsKeepTheOneWorldHash) {
   const Scene s = test::scene("cube-pile", 200);
   SimulationConfig config;
   config.territories = 2;
-  config.solver_threads = 2;
+  config.runtime.solver_threads = 2;
   Simulation sim(s, config);
   ASSERT_TRUE(sim.advance_to(sim.time_of(60)));
   EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(test::reference_hash(s, 60)));

@@ -171,7 +171,7 @@ TEST(SimulationThreads, PartitionErrorReachesTheCaller) {
   g.cell_size = 2.0;
   g.box = CellBox{{-4, 0, -1}, {3, 0, 0}};
   for (int threads : {0, 3, 1}) {
-    Simulation sim(s, make_partition("grid:8x1x1", s, 8, g), SimulationConfig{.threads = threads, .reach_speed = 3});
+    Simulation sim(s, make_partition("grid:8x1x1", s, 8, g), SimulationConfig{.threads = threads, .runtime = {.reach_speed = 3}});
     try {
       sim.run_for(1.0);
       ADD_FAILURE() << "no error with " << name_of(threads);
@@ -190,13 +190,13 @@ TEST(SimulationThreads, PinningKeepsTheHash) {
   const Scene s = test::scene("cube-pile", 100);
   const std::uint64_t reference = test::reference_hash(s, kSteps);
   for (int threads : {0, 2}) {
-    Simulation sim(s, SimulationConfig{.territories = 4, .threads = threads, .pin = true});
+    Simulation sim(s, SimulationConfig{.territories = 4, .threads = threads, .runtime = {.pin = true}});
     ASSERT_TRUE(sim.advance_to(sim.time_of(kSteps)));
     EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(reference)) << name_of(threads);
   }
   const TerritoryMap map = make_partition("kmeans", s, 4, GridOptions{});
-  for (PartitionedOptions o : {PartitionedOptions{.schedule = Schedule::ThreadPerWorld, .pin = true},
-                               PartitionedOptions{.schedule = Schedule::Pool, .threads = 2, .pin = true}}) {
+  for (PartitionedOptions o : {PartitionedOptions{.schedule = Schedule::ThreadPerWorld, .runtime = {.pin = true}},
+                               PartitionedOptions{.schedule = Schedule::Pool, .threads = 2, .runtime = {.pin = true}}}) {
     PartitionedWorld w(s, map, o);
     w.step(kSteps);
     EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(reference)) << schedule_name(o.schedule);

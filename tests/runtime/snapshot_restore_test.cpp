@@ -52,7 +52,7 @@ TEST_P(SnapshotRestore, ContinuesAsTheUninterruptedRun) {
   const WorldSnapshot at = reference.snapshot();
 
   const TerritoryMap map = make_partition(c.partition, s, c.territories, grid_of(c));
-  PartitionedWorld run(s, map, PartitionedOptions{.validate = true});
+  PartitionedWorld run(s, map, PartitionedOptions{.runtime = {.validate = true}});
   run.step(kBefore);
   const WorldSnapshot part = run.snapshot();
   ASSERT_EQ(part.steps_done, kBefore);
@@ -68,7 +68,7 @@ TEST_P(SnapshotRestore, ContinuesAsTheUninterruptedRun) {
 
   // The partitioned snapshot, restored onto another map.
   const TerritoryMap other = make_partition(c.restore_partition, s, c.restore_territories, grid_of(c));
-  PartitionedWorld restored(part, other, PartitionedOptions{.validate = true});
+  PartitionedWorld restored(part, other, PartitionedOptions{.runtime = {.validate = true}});
   EXPECT_EQ(restored.steps_done(), kBefore);
   restored.step(kAfter);
   EXPECT_EQ(hash_hex(restored.state_hash()), hash_hex(expected));
@@ -80,7 +80,7 @@ TEST_P(SnapshotRestore, ContinuesAsTheUninterruptedRun) {
   EXPECT_EQ(hash_hex(one.state_hash()), hash_hex(expected));
 
   // The one-world snapshot on K territories.
-  PartitionedWorld from_one(at, map, PartitionedOptions{.validate = true});
+  PartitionedWorld from_one(at, map, PartitionedOptions{.runtime = {.validate = true}});
   from_one.step(kAfter);
   EXPECT_EQ(hash_hex(from_one.state_hash()), hash_hex(expected));
   std::printf("[ %s %s %s K=%d -> %s K=%d ] %zu manifolds carried; %s\n", c.scene, kPrecisionName, c.partition,

@@ -22,7 +22,7 @@ soda::RunConfig soak_config(int territories) {
   c.territories = territories;
   c.partition = "grid:32x1x1";
   c.threads = 1;
-  c.validate = true;
+  c.runtime.validate = true;
   c.progress_seconds = 0;
   return c;
 }
@@ -87,8 +87,8 @@ TEST(MemoryEstimate, GrowsWithBodiesTerritoriesAndKeptStates) {
   EXPECT_GT(b.world_bytes, 3 * a.world_bytes);
   EXPECT_EQ(a.kept_state_bytes, 0u);
   c.territories = 4;
-  c.anticipation = 16;
-  c.checkpoint_every = 1;
+  c.runtime.anticipation = 16;
+  c.runtime.checkpoint_every = 1;
   const soda::MemoryEstimate k = soda::estimate_run_memory(small, c, 4);
   EXPECT_GT(k.world_bytes, a.world_bytes);  // statics per world, ghosts
   EXPECT_GT(k.kept_state_bytes, 0u);

@@ -91,14 +91,14 @@ TEST(Speculation, FuzzedFastBodiesAcrossManyTerritoriesNeverLoseAState) {
     o.schedule = seed % 2 ? Schedule::ThreadPerWorld : Schedule::Pool;
     o.threads = 2;
     detail::edit_testing_hooks(o).fuzz_seed = static_cast<std::uint64_t>(seed) + 1000;  // not the seeds of the other fuzz tests
-    o.validate = true;
-    o.anticipation = std::vector<int>{64, 64, 8, 32}[static_cast<std::size_t>(seed / 3) % 4];
-    o.eager_bets = seed % 4 != 0;
-    o.checkpoint_every = seed % 5 < 3 ? 1 : 8;
-    o.rollback = seed % 7 == 0 ? PartitionedOptions::Rollback::Recompute : PartitionedOptions::Rollback::Propagate;
+    o.runtime.validate = true;
+    o.runtime.anticipation = std::vector<int>{64, 64, 8, 32}[static_cast<std::size_t>(seed / 3) % 4];
+    o.runtime.eager_bets = seed % 4 != 0;
+    o.runtime.checkpoint_every = seed % 5 < 3 ? 1 : 8;
+    o.runtime.rollback = seed % 7 == 0 ? PartitionedOptions::Rollback::Recompute : PartitionedOptions::Rollback::Propagate;
     const std::string what = "seed " + std::to_string(seed) + ": " + c.name + ", anticipation " +
-                             std::to_string(o.anticipation) + ", checkpoint_every " +
-                             std::to_string(o.checkpoint_every) + (o.eager_bets ? ", eager, " : ", cautious, ") +
+                             std::to_string(o.runtime.anticipation) + ", checkpoint_every " +
+                             std::to_string(o.runtime.checkpoint_every) + (o.runtime.eager_bets ? ", eager, " : ", cautious, ") +
                              schedule_name(o.schedule);
     PartitionedWorld world(s, map_of(c, s), o);
     try {

@@ -1,4 +1,4 @@
-// Speculation (PartitionedOptions::anticipation, docs/rollback.md): worlds
+// Speculation (RuntimeOptions::anticipation, docs/rollback.md): worlds
 // bet on empty neighbour messages and run ahead; lost bets and changed
 // messages are repaired by Rollback and Propagate. Every run must end on the
 // one-territory hash, whatever the anticipation, schedule, fuzzing or
@@ -88,9 +88,9 @@ TEST(Speculation, EveryAnticipationMatchesOneTerritory) {
         const Scene s = test::scene(c.scene, c.n);
         PartitionedOptions o;
         o.schedule = run.schedule;
-        o.anticipation = anticipation;
-        o.eager_bets = run.eager_bets;
-        o.validate = true;
+        o.runtime.anticipation = anticipation;
+        o.runtime.eager_bets = run.eager_bets;
+        o.runtime.validate = true;
         PartitionedWorld world(s, test::map_of(c, s), o);
         world.step(kSteps);
         const WorldMetrics t = totals(world);
@@ -156,11 +156,11 @@ TEST(Speculation, FuzzedThreadsAndDeliveryNeverChangeTheResult) {
     o.schedule = seed % 2 ? Schedule::ThreadPerWorld : Schedule::Pool;
     o.threads = 2;
     detail::edit_testing_hooks(o).fuzz_seed = static_cast<std::uint64_t>(seed);
-    o.validate = true;
-    o.anticipation = std::vector<int>{1, 8, 64}[static_cast<std::size_t>(seed / 2) % 3];
-    o.rollback = seed % 5 == 0 ? PartitionedOptions::Rollback::Recompute : PartitionedOptions::Rollback::Propagate;
-    o.eager_bets = seed % 3 != 0;
-    o.checkpoint_every = seed % 4 == 1 || seed % 4 == 2 ? 1 : 8;
+    o.runtime.validate = true;
+    o.runtime.anticipation = std::vector<int>{1, 8, 64}[static_cast<std::size_t>(seed / 2) % 3];
+    o.runtime.rollback = seed % 5 == 0 ? PartitionedOptions::Rollback::Recompute : PartitionedOptions::Rollback::Propagate;
+    o.runtime.eager_bets = seed % 3 != 0;
+    o.runtime.checkpoint_every = seed % 4 == 1 || seed % 4 == 2 ? 1 : 8;
     detail::edit_testing_hooks(o).verify_replay = seed % 2 == 0 || std::getenv("SODA_SPEC_VERIFY");
     PartitionedWorld world(s, test::map_of(c, s), o);
     world.step(kSteps);
@@ -170,7 +170,7 @@ TEST(Speculation, FuzzedThreadsAndDeliveryNeverChangeTheResult) {
     rollbacks += t.rollbacks;
     rejoined += t.steps_rejoined;
     EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(reference(c)))
-        << "seed " << seed << ": " << c.scene << " K=" << c.territories << " anticipation " << o.anticipation << " "
+        << "seed " << seed << ": " << c.scene << " K=" << c.territories << " anticipation " << o.runtime.anticipation << " "
         << schedule_name(o.schedule);
   }
   std::printf("%d fuzzed speculative runs: %llu bets, %llu rollbacks, %llu steps rejoined, %llu bodies replayed, "
@@ -192,7 +192,7 @@ TEST(Speculation, SyncTestOfSpeculativeRuns) {
     const Scene s = test::scene(c.scene, c.n);
     PartitionedOptions o;
     o.schedule = Schedule::ThreadPerWorld;
-    o.anticipation = 8;
+    o.runtime.anticipation = 8;
     o.sync_test = 4;
     PartitionedWorld world(s, test::map_of(c, s), o);
     world.step(kSteps);
@@ -210,7 +210,7 @@ TEST(Speculation, HorizonReachesTheTargetAndStatesAreFreed) {
   const Scene s = test::scene(c.scene, c.n);
   PartitionedOptions o;
   o.schedule = Schedule::ThreadPerWorld;
-  o.anticipation = 64;
+  o.runtime.anticipation = 64;
   PartitionedWorld world(s, test::map_of(c, s), o);
   world.step(kSteps);
   for (const WorldMetrics& m : world.metrics()) {
@@ -219,8 +219,8 @@ TEST(Speculation, HorizonReachesTheTargetAndStatesAreFreed) {
     EXPECT_EQ(m.lead.size(), static_cast<std::size_t>(m.steps + m.steps_rolled_back - m.steps_rejoined))
         << "world " << m.world;
     EXPECT_LE(m.steps_rejoined, m.steps_rolled_back) << "world " << m.world;
-    EXPECT_LE(m.kept_states_max, static_cast<std::size_t>(o.anticipation + 2)) << "world " << m.world;
-    EXPECT_LE(m.lead_max, o.anticipation) << "world " << m.world;
+    EXPECT_LE(m.kept_states_max, static_cast<std::size_t>(o.runtime.anticipation + 2)) << "world " << m.world;
+    EXPECT_LE(m.lead_max, o.runtime.anticipation) << "world " << m.world;
   }
 }
 
@@ -243,12 +243,12 @@ struct StripRun {
 StripRun run_strip(const Scene& s, PartitionedOptions::Rollback mode, bool eager_bets, bool verify_replay = false,
                    Schedule schedule = Schedule::Sequential) {
   PartitionedOptions o;
-  o.eager_bets = eager_bets;
+  o.runtime.eager_bets = eager_bets;
   detail::edit_testing_hooks(o).verify_replay = verify_replay;
   o.schedule = schedule;
-  o.anticipation = 16;
-  o.checkpoint_every = 1;  // a rollback re-runs only from the changed step
-  o.rollback = mode;
+  o.runtime.anticipation = 16;
+  o.runtime.checkpoint_every = 1;  // a rollback re-runs only from the changed step
+  o.runtime.rollback = mode;
   PartitionedWorld world(s, make_partition("grid:8x1x1", s, 8, GridOptions{}), o);
   world.step(kSteps * 2);
   StripRun r;

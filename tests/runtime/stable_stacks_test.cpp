@@ -60,7 +60,7 @@ void expect_stands_on_every_map(const std::string& name, int n, int steps) {
   // worlds), then cut along its height.
   for (const auto& [partition, k] : {std::pair<std::string, int>{"grid:2x1x2", 4}, {"grid:1x4x1", 4}}) {
     const TerritoryMap map = make_partition(partition, s, k, border_grid());
-    PartitionedWorld world(s, map, PartitionedOptions{.validate = true});
+    PartitionedWorld world(s, map, PartitionedOptions{.runtime = {.validate = true}});
     world.step(steps);
     EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(one.state_hash())) << name << " " << partition;
     if (world.state_hash() != one.state_hash()) ADD_FAILURE() << test::first_divergence(s, map, steps);

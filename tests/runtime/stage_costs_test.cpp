@@ -63,7 +63,7 @@ TEST(StageCosts, CountRollbacks) {
   const Scene s = test::scene("falling-cubes", 200);
   const TerritoryMap map = make_partition("kmeans", s, 4, GridOptions{});
   PartitionedWorld world(
-      s, map, PartitionedOptions{.schedule = Schedule::ThreadPerWorld, .anticipation = 8, .eager_bets = true});
+      s, map, PartitionedOptions{.schedule = Schedule::ThreadPerWorld, .runtime = {.anticipation = 8, .eager_bets = true}});
   world.step(60);
   for (const WorldMetrics& m : world.metrics()) expect_consistent(m);
   EXPECT_GT(test::total(world.metrics()).stages[at(Stage::Checkpoint)].items, 0u);

@@ -64,7 +64,7 @@ TEST(SyncTest, CatchesAnEventThatDoesNotHappenAgain) {
   const Scene s = test::scene("cube-pile", 120);
   const TerritoryMap map = make_partition("kmeans", s, 2, GridOptions{});
   PartitionedOptions o{.sync_test = 2};
-  o.watchdog.response = WatchdogResponse::Off;
+  o.runtime.watchdog.response = WatchdogResponse::Off;
   BodyId body = 0;
   for (const Body& b : s.bodies)
     if (!b.is_static) body = b.id;

@@ -32,7 +32,7 @@ void expect_schedules_agree(const std::string& scene, int n, const std::string& 
   const RunOutcome sequential = run(s, map, {});
   const RunOutcome per_world = run(s, map, {.schedule = Schedule::ThreadPerWorld});
   const RunOutcome pool2 = run(s, map, {.schedule = Schedule::Pool, .threads = 2});
-  const RunOutcome pool3 = run(s, map, {.schedule = Schedule::Pool, .threads = 3, .validate = true});
+  const RunOutcome pool3 = run(s, map, {.schedule = Schedule::Pool, .threads = 3, .runtime = {.validate = true}});
   std::printf("[ %s %s %s K=%d ] one world %s; sequential %s, thread per world %s (blocked %.3f s), pool of 2 %s, "
               "pool of 3 + validation %s; %s\n",
               scene.c_str(), kPrecisionName, partition.c_str(), k, hash_hex(reference).c_str(),
@@ -79,9 +79,9 @@ TEST(Schedules, AnErrorInOneWorldStopsEveryWorld) {
   g.cell_size = 2.0;
   g.box = CellBox{{-4, 0, -1}, {3, 0, 0}};
   const TerritoryMap map = make_partition("grid:8x1x1", s, 8, g);
-  for (PartitionedOptions o : {PartitionedOptions{.reach_speed = 3},
-                               PartitionedOptions{.schedule = Schedule::ThreadPerWorld, .reach_speed = 3},
-                               PartitionedOptions{.schedule = Schedule::Pool, .threads = 3, .reach_speed = 3}}) {
+  for (PartitionedOptions o : {PartitionedOptions{.runtime = {.reach_speed = 3}},
+                               PartitionedOptions{.schedule = Schedule::ThreadPerWorld, .runtime = {.reach_speed = 3}},
+                               PartitionedOptions{.schedule = Schedule::Pool, .threads = 3, .runtime = {.reach_speed = 3}}}) {
     PartitionedWorld w(s, map, o);
     try {
       w.step(20);

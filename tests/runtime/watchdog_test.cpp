@@ -34,8 +34,8 @@ PartitionedOptions options(WatchdogResponse response, BodyId body, Schedule sche
   PartitionedOptions o;
   o.schedule = schedule;
   o.threads = schedule == Schedule::Pool ? 2 : 0;
-  o.validate = true;
-  o.watchdog.response = response;
+  o.runtime.validate = true;
+  o.runtime.watchdog.response = response;
   detail::edit_testing_hooks(o).inject_fault = {kBadStep, body};
   return o;
 }
@@ -105,7 +105,7 @@ TEST_P(WatchdogHeal, RollsBackResimulatesAndMatchesOneWorld) {
   EXPECT_EQ(world.steps_done(), kSteps);
   ASSERT_EQ(world.heals(), 1);
   EXPECT_EQ(world.healed_steps().front(), kBadStep);
-  const std::uint64_t expected = healed_reference(s, PartitionedOptions{}.watchdog.heal_substeps);
+  const std::uint64_t expected = healed_reference(s, PartitionedOptions{}.runtime.watchdog.heal_substeps);
   EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(expected));
   // Not the run without a heal: the bad step really was re-simulated.
   EXPECT_NE(world.state_hash(), test::reference_hash(s, kSteps));
@@ -147,7 +147,7 @@ constexpr int kRealSteps = 60;
 TEST(Watchdog, StopFindsTheRealBlowUpAtTheStepAfterIt) {
   const Scene s = heavy_on_light();
   PartitionedOptions o;
-  o.watchdog.response = WatchdogResponse::Stop;
+  o.runtime.watchdog.response = WatchdogResponse::Stop;
   PartitionedWorld world(s, make_partition("kmeans", s, 1, GridOptions{}), o);
   try {
     world.step(kRealSteps);
@@ -167,7 +167,7 @@ TEST(Watchdog, HealsARealBlowUpAndStaysWithinBounds) {
   CanonicalWorld w(s);
   w.step();
   WorldSnapshot at = w.snapshot();
-  at.settings.substeps *= PartitionedOptions{}.watchdog.heal_substeps;
+  at.settings.substeps *= PartitionedOptions{}.runtime.watchdog.heal_substeps;
   auto fine = std::make_unique<CanonicalWorld>(at);
   fine->step();
   WorldSnapshot after = fine->snapshot();
@@ -179,8 +179,8 @@ TEST(Watchdog, HealsARealBlowUpAndStaysWithinBounds) {
   }
   for (int territories : {1, 2}) {
     PartitionedOptions o;
-    o.watchdog.response = WatchdogResponse::Heal;
-    o.validate = true;
+    o.runtime.watchdog.response = WatchdogResponse::Heal;
+    o.runtime.validate = true;
     PartitionedWorld world(s, make_partition("grid:" + std::to_string(territories) + "x1x1", s, territories,
                                              GridOptions{}),
                            o);
@@ -204,7 +204,7 @@ TEST(Watchdog, HealsEveryBlowUpOfAStepTooLongForEveryPartition) {
   std::uint64_t hash = 0;
   for (int territories : {1, 4}) {
     PartitionedOptions o;
-    o.watchdog.response = WatchdogResponse::Heal;
+    o.runtime.watchdog.response = WatchdogResponse::Heal;
     o.schedule = territories > 1 ? Schedule::ThreadPerWorld : Schedule::Sequential;
     PartitionedWorld world(s, make_partition("kmeans", s, territories, GridOptions{}), o);
     world.step(120);
@@ -226,8 +226,8 @@ TEST(Watchdog, HealGivesUpWithAClearErrorWhenTheStepStaysBad) {
   const TerritoryMap map = make_partition("kmeans", s, 2, GridOptions{});
   PartitionedOptions o = options(WatchdogResponse::Heal, victim(s));
   detail::edit_testing_hooks(o).inject_fault = {};
-  o.watchdog.limits.max_penetration = -1.0;  // any contact point at all is "too deep"
-  o.watchdog.max_heals = 2;
+  o.runtime.watchdog.limits.max_penetration = -1.0;  // any contact point at all is "too deep"
+  o.runtime.watchdog.max_heals = 2;
   PartitionedWorld world(s, map, o);
   try {
     world.step(kSteps);

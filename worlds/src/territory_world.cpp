@@ -36,7 +36,7 @@ std::string beyond_reach(WorldId world, std::int64_t step, BodyId body, double s
       << what << " cell " << to_string(cell) << " of world " << other
       << ", which is not a neighbour: this run's neighbours reach " << map.reach() << " cell(s) of "
       << map.grid().cell_size() << " m, sized for a slower scene; set the reach speed "
-      << "(PartitionedOptions::reach_speed, soda run --reach-speed) to at least " << std::ceil(speed * 1.25)
+      << "(RuntimeOptions::reach_speed, soda run --reach-speed) to at least " << std::ceil(speed * 1.25)
       << " m/s (docs/partitioned-step.md, \"Reach beyond adjacent cells\")";
   return msg.str();
 }

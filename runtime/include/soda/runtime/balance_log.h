@@ -14,7 +14,7 @@
 
 namespace soda {
 
-/// One balance step (PartitionedOptions::balance): what the policy decided
+/// One balance step (RuntimeOptions::balance): what the policy decided
 /// and what deciding and applying it cost. CPU times are the driving
 /// thread's (every world is stopped meanwhile, so wall time is about the
 /// same); seconds.

@@ -30,6 +30,7 @@
 #include "soda/loadbalance/policy.h"
 #include "soda/runtime/balance_log.h"
 #include "soda/runtime/message_traffic.h"
+#include "soda/runtime/runtime_options.h"
 #include "soda/runtime/stage.h"
 #include "soda/runtime/world_graph.h"
 #include "soda/scene/input_file.h"
@@ -59,7 +60,11 @@ struct PartitionedOptions {
   Schedule schedule = Schedule::Sequential;
   int threads = 0;         // Pool only: worker threads (>= 1)
   bool serialise = true;   // every message through bytes (message_codec.h); false: values
-  bool validate = false;   // check ownership and pair holders after every step (slow)
+  /// The knobs every way of running a scene shares (runtime_options.h):
+  /// speculation, parking, idle territories, reach, the solver pool, the
+  /// watchdog, validation, pinning, load balancing.
+  RuntimeOptions runtime = {};
+  using Rollback = RuntimeOptions::Rollback;
   /// SyncTest (as GGPO's): after every scene step t, restore every world
   /// from the whole scene's state at step t - sync_test (kept in memory),
   /// re-run those steps and require the bodies' and the contacts' state at
@@ -67,107 +72,20 @@ struct PartitionedOptions {
   /// check of restore and of determinism; costs sync_test extra steps per
   /// step. 0: off.
   int sync_test = 0;
-  /// Pin the stepping threads to cores: ThreadPerWorld, world i's thread;
-  /// Pool, worker i; on CPU (i mod the CPUs this process may use). A failure
-  /// to pin is a logged warning. Sequential runs on the caller's thread and
-  /// never pins it.
-  bool pin = false;
   /// Called by world 0's thread after each of its scene steps (its step count).
   std::function<void(std::int64_t)> progress = {};
-  /// After every step each world checks its bodies and contacts
-  /// (watchdog.h). Heal: each world keeps its state at every step boundary
-  /// back to the commit horizon (the cost of a snapshot per step), and a bad
-  /// step is rolled back and re-simulated with substeps (docs/watchdog.md).
-  WatchdogConfig watchdog = {};
   /// Each world keeps its state at every step boundary from the commit
   /// horizon to its clock (what a rollback restores; a snapshot per step).
   /// Implied by the watchdog's Heal response.
   bool keep_states = false;
-  /// Speculation (docs/rollback.md): a world may run up to `anticipation`
-  /// scene steps past the commit horizon, betting that a neighbour it sent
-  /// no ghosts at a step sends it no ghosts and no migrants at that step; a
-  /// lost bet, or a neighbour's message that differs from the one it used,
-  /// rolls the world back to that step (it keeps its state at every step
-  /// from the commit horizon on). Results are bit-identical to anticipation
-  /// 0 (lockstep with the neighbours, no bets). Not with the watchdog's Heal.
-  int anticipation = 0;
-  /// What a rollback makes the neighbours do (speculation only).
-  enum class Rollback {
-    /// Rollback and Propagate: a neighbour re-runs only if a message it used
-    /// changes (re-sent messages are compared with the ones used; merged
-    /// islands are re-merged), so a rollback stays where the change is.
-    Propagate,
-    /// Discard and recompute (the baseline to measure against): every
-    /// neighbour that used any message of a rolled-back step rolls back too.
-    Recompute,
-  };
-  Rollback rollback = Rollback::Propagate;
-  /// Speculation: a world keeps its state every `checkpoint_every` internal
-  /// steps; a rollback restores the checkpoint at or before the step and
-  /// re-runs the rest. 1: every step, so a rollback re-runs only what
-  /// changed and stays local more often (a re-run over a step with merged
-  /// islands is a rollback of every world), and re-run steps replay the
-  /// islands that come out unchanged instead of solving them (with a larger
-  /// value only the step a rollback interrupted is replayed;
-  /// docs/rollback.md). A state every step costs about 12 % of per-world
-  /// CPU on alternating-load. >= 1.
-  int checkpoint_every = 8;
-  /// Speculation: also bet on a neighbour whose newest ghosts to arrive were
-  /// not empty. Off (the default), a world waits for such a neighbour's
-  /// messages: a border that has just become busy mostly stays busy, and
-  /// betting on each following step lost a bet and re-ran the world each
-  /// time (falling-cubes 100 over a 1x8 strip with a slow world 0: 1078
-  /// rollbacks eager, 8 not; docs/rollback.md). On: as many bets and
-  /// rollbacks as possible (tests of the rollback machinery use it).
-  bool eager_bets = false;
-  /// Idle territories (docs/skip.md): a world whose owned bodies are
-  /// all settled asleep (or that has none), that holds no ghost and sent
-  /// none, skips its Bullet stages at a step no neighbour sends it a ghost
-  /// for: it sends its (empty) Ghosts and Migrants and advances its clock.
-  /// A ghost arriving wakes it for that step (under speculation, a late one
-  /// through the usual rollback). Exact: the state hash is the same on and
-  /// off (tests/runtime/idle_territories_test.cpp). False: every world runs
-  /// every stage of every step (for comparison and measurement).
-  bool idle_territories = true;
-  /// Parking (docs/skip.md): each world parks its settled sleeping
-  /// islands that lie inside its own cells outside its Bullet world
-  /// (TerritoryWorld::set_parking); a parked island comes back when an
-  /// active body or ghost touches it, or an input names one of its bodies.
-  /// Exact: the state hash is the same on and off
-  /// (tests/runtime/parking_test.cpp). False: sleepers stay in Bullet.
-  bool parking = true;
   /// Internal: the knobs only tests set (an injected fault, fuzzing, the
   /// solve-everywhere protocol variant, replay verification); set through
   /// runtime/src/testing_hooks.h. Leave empty.
   std::shared_ptr<const detail::TestingHooks> testing = {};
-  /// Reach (docs/partitioned-step.md, "Reach beyond adjacent cells"): the
-  /// worlds' neighbourhoods are widened to every world owning a cell within
-  /// reach_cells(scene, cell size, speed) cells of their territory
-  /// (worlds/reach.h), so that the halo and the migration of a body up to
-  /// this speed (m/s) only reach neighbours. 0: scene_reach_speed(scene)
-  /// (its fastest initial speed plus a fall through its height); slow scenes
-  /// keep adjacent worlds only. A body that outruns it stops the run with a
-  /// PartitionError naming the body, its speed and the speed to set here.
-  /// Results never depend on it. >= 0.
-  double reach_speed = 0;
-  /// Metres: the bounding-sphere diameter of the largest body an input may
-  /// add (the reach is sized for it too: reach.h). 0: the largest of the
-  /// scene and of `inputs`. A larger added body is refused, naming its size
-  /// and the largest the run takes. Results never depend on it. >= 0.
-  double added_extent = 0;
-  /// Load balancing (docs/loadbalance.md): every balance.period scene steps
-  /// step() stops every world at that step (the *balance step*: nothing is
-  /// speculated beyond it), shows the policy what the worlds measured over
-  /// the period (LoadView), gives the cells it names to their new owners
-  /// and rebuilds the worlds the moves change for the new map from the whole
-  /// scene's state there (the others keep theirs). Results never depend on it (bit-identical under every policy);
-  /// speed does. Policy "none" (the default) has no balance steps at all.
-  /// Checked by make_balance_policy: bad values throw BalanceError (a
-  /// std::invalid_argument) from the constructor.
-  BalanceOptions balance = {};
-  /// A policy to use instead of make_balance_policy(balance) (tests,
-  /// experiments); balance.period still sets the balance steps. Called from
-  /// step()'s thread only; give one PartitionedWorld its own.
+  /// A policy to use instead of make_balance_policy(runtime.balance)
+  /// (tests, experiments); runtime.balance.period still sets the balance
+  /// steps. Called from step()'s thread only; give one PartitionedWorld its
+  /// own.
   std::shared_ptr<BalancePolicy> balance_policy = {};
   /// User inputs known before the run (scene/input_file.h, docs/inputs.md):
   /// each applied at its scene step boundary (after step `step`, before
@@ -181,21 +99,6 @@ struct PartitionedOptions {
   /// std::invalid_argument from the constructor naming it (its index,
   /// describe()) and what is wrong. Validation follows the inputs.
   std::vector<UserInput> inputs = {};
-  /// Threads that solve the colours of a large island (docs/coloured-solve.md):
-  /// one pool of solver_threads - 1 helper threads shared by every world of
-  /// this PartitionedWorld, joined by the thread of the world solving; a
-  /// world that finds it busy solves alone. Results never depend on it.
-  /// 1: no pool (unless guests, below). >= 1.
-  int solver_threads = 1;
-  /// Guests of that pool (SolverPool::serve): with Schedule::ThreadPerWorld,
-  /// the thread of a world waiting for a message (a merged island's root
-  /// solving it, say) takes tasks of the pool's jobs meanwhile, at most this
-  /// many at once; their time inside its jobs counts as their own world's work (stage
-  /// solve). -1: automatic, the cores a run leaves free: none if K >
-  /// hardware threads (a waiting world's core runs another world), else
-  /// min(K - 1, hardware threads - solver_threads), at least 0. 0: none.
-  /// Results never depend on it. Other schedules and ranks: none.
-  int solver_guests = -1;
   /// Ranks (process_group.h; docs/mpi.md): this process steps only the
   /// worlds group->rank_of() gives its rank, and messages to other ranks'
   /// worlds go through the group. Every rank builds the same world from the
@@ -268,8 +171,8 @@ struct WorldMetrics {
   /// rounds per step and merge-tree depths (message_traffic.h), over the
   /// finished internal steps.
   MessageTraffic traffic = {};
-  std::uint64_t idle_steps = 0;              // internal steps skipped idle (PartitionedOptions::idle_territories)
-  // Speculation (PartitionedOptions::anticipation):
+  std::uint64_t idle_steps = 0;              // internal steps skipped idle (RuntimeOptions::idle_territories)
+  // Speculation (RuntimeOptions::anticipation):
   std::uint64_t bets = 0;                    // neighbour messages assumed empty before they arrived
   std::uint64_t bets_lost = 0;               // ... that were not empty
   std::uint64_t rollbacks = 0;               // times this world restored an earlier step
@@ -286,7 +189,7 @@ struct WorldMetrics {
   std::uint64_t substepped_islands = 0;      // islands solved in substeps, re-solves included (docs/stress.md)
   int solver_threads = 0;                    // most threads a coloured island could use
   /// Tasks of other worlds' solves this world's thread ran while it waited
-  /// for a message (PartitionedOptions::solver_guests); the time inside them is
+  /// for a message (RuntimeOptions::solver_guests); the time inside them is
   /// in stages[solve].
   std::uint64_t guest_tasks = 0;
 };

@@ -42,8 +42,17 @@ struct RunConfig {
   int threads = 0;                   // K > 1: 0 or >= K: one thread per world; 1: one thread
                                      // (round-robin); 2 .. K-1: a pool of that many threads
   bool serialise = false;            // K > 1: messages through bytes (as the tests do)
-  bool validate = false;             // K > 1: check ownership and holders every step (slow)
-  bool pin = false;                  // K > 1: pin world threads (pool workers) to cores
+  /// The knobs every way of running a scene shares (runtime_options.h). With
+  /// one territory: parking, solver_threads (the canonical world's pool),
+  /// validate (bodies and contacts counted at the start and end) and the
+  /// watchdog apply to the canonical world (neither to stock Bullet, the
+  /// baseline, which refuses solver_threads > 1); the watchdog's Heal runs
+  /// every territory count, 1 included, through the partitioned runtime;
+  /// anticipation and reach have no neighbour to act on; load balancing is
+  /// checked (BalanceError) but has nothing to balance. With inputs and load
+  /// balancing the PartitionedWorld applies the inputs
+  /// (inputs_via_simulation).
+  RuntimeOptions runtime = {};
   /// 0: insert bodies in scene order; else every world (each territory's
   /// too) inserts its bodies in the order insertion_order gives.
   std::uint64_t shuffle_seed = 0;
@@ -53,42 +62,14 @@ struct RunConfig {
   /// step meanwhile; docs/bullet-globals.md). For benchmarks that compare
   /// worlds whose islands, hence sleepers, differ (`ratio_vs_baseline_awake`).
   bool sleeping = true;
-  /// Park settled sleeping islands outside Bullet's world: the canonical
-  /// world's (CanonicalWorld::set_parking) with one territory, every
-  /// territory world's (PartitionedOptions::parking) with more;
-  /// docs/skip.md. Exact: the state hash is the same on and off.
-  /// `--no-parking` turns it off. No effect on stock Bullet.
-  bool parking = true;
   /// One territory, canonical world: the solver settings it steps with
   /// (CanonicalWorld::set_solver_defaults). Bullet: Bullet's own solver
   /// settings (`--solver-defaults bullet`), to measure what the defaults cost (`soda bench defaults`); refused
   /// with K > 1, the stock world and every path through the partitioned
   /// runtime (--sync-test, --watchdog heal, inputs, --record, ranks).
   SolverDefaults solver_defaults = SolverDefaults::Soda;
-  /// K > 1: idle territories skip their Bullet stages
-  /// (PartitionedOptions::idle_territories; docs/skip.md). Exact.
-  /// `--no-idle-skip` turns it off.
-  bool idle_territories = true;
   double progress_seconds = 1.0;     // progress line period (<= 0: none)
-  /// Checked after every step (watchdog.h; not the stock world, the
-  /// baseline). Heal runs every territory count, 1 included, through the
-  /// partitioned runtime, which keeps a state per step to roll back to.
-  WatchdogConfig watchdog = {};
   int sync_test = 0;                 // > 0: SyncTest (PartitionedOptions::sync_test); runs any K partitioned
-  /// K > 1: scene steps a world may run past the commit horizon, betting on
-  /// its neighbours' messages (PartitionedOptions::anticipation; 0: lockstep).
-  /// Results are bit-identical for every value. With K = 1 there is no
-  /// neighbour to bet on: accepted, no effect. Not with watchdog Heal.
-  int anticipation = 0;
-  /// What a lost bet makes the neighbours do (PartitionedOptions::rollback).
-  PartitionedOptions::Rollback rollback = PartitionedOptions::Rollback::Propagate;
-  /// Internal steps between kept states (PartitionedOptions::checkpoint_every).
-  int checkpoint_every = 8;
-  /// Bet on busy borders too (PartitionedOptions::eager_bets).
-  bool eager_bets = false;
-  /// K > 1: speed (m/s) the worlds' neighbourhoods are sized for
-  /// (PartitionedOptions::reach_speed; 0: from the scene). >= 0.
-  double reach_speed = 0;
   /// K > 1, experiments: world 0's thread sleeps this long after each of
   /// its steps (a slow world, as in the thesis' strip with world 0 slowed
   /// down). 0: none.
@@ -108,12 +89,6 @@ struct RunConfig {
   /// PartitionedWorld (`soda lb`: every policy, "none" included, measured
   /// by the same runtime, with its per-step loads).
   bool inputs_via_simulation = true;
-  /// K > 1: load balancing (PartitionedOptions::balance; `--lb`,
-  /// docs/loadbalance.md). Checked for every K (BalanceError, a
-  /// std::invalid_argument); with one territory there is nothing to balance
-  /// (accepted, no balance step). With inputs, the PartitionedWorld applies
-  /// them (inputs_via_simulation).
-  BalanceOptions balance = {};
   /// Not empty: write a replay file there (docs/replay-format.md) of every
   /// committed frame, steps 0 .. steps, read through a SceneReader while
   /// the worlds run: the run goes through a Simulation (canonical world; not
@@ -137,13 +112,6 @@ struct RunConfig {
   /// and anticipation; inputs, if given, are added to the checkpoint's own.
   std::shared_ptr<const SimulationSnapshot> resume;
   std::string resume_source = "checkpoint";  // names it in messages (the file)
-  /// Threads that solve the colours of a large island (docs/coloured-solve.md):
-  /// K = 1, the canonical world's pool; K > 1, PartitionedOptions::solver_threads.
-  /// Results never depend on it. 1: none. >= 1. Not with the stock world.
-  int solver_threads = 1;
-  /// K > 1, one thread per world: PartitionedOptions::solver_guests (-1:
-  /// automatic; 0: none).
-  int solver_guests = -1;
   /// Ranks (MPI: docs/mpi.md; PartitionedOptions::group): the worlds are
   /// spread over the group's processes, every rank running run_scene with
   /// the same config; rank 0's result is the whole scene's (state hash,
@@ -189,7 +157,7 @@ struct RunResult {
   // Partitioned runs (territories > 1) only:
   std::string partition;            // the spec used
   std::string schedule;             // sequential | thread-per-world | pool
-  int anticipation = 0;             // RunConfig::anticipation
+  int anticipation = 0;             // RuntimeOptions::anticipation
   int reach_cells = 1;              // cells the worlds' neighbourhoods reach (map_with_reach)
   PartitionedOptions::Rollback rollback = PartitionedOptions::Rollback::Propagate;
   int threads = 1;                  // threads that stepped the worlds
@@ -211,7 +179,7 @@ struct RunResult {
   std::int64_t checkpoint_step = -1;
   std::uint64_t checkpoint_bytes = 0;
   std::int64_t resumed_at = -1;
-  int solver_threads = 1;                   // RunConfig::solver_threads
+  int solver_threads = 1;                   // RuntimeOptions::solver_threads
   std::uint64_t coloured_islands = 0;       // islands solved coloured, summed over steps (and worlds)
   std::uint64_t guest_tasks = 0;            // K > 1: WorldMetrics::guest_tasks summed over worlds
   std::uint64_t substepped_islands = 0;     // islands solved in substeps (docs/stress.md), summed over steps (and worlds)

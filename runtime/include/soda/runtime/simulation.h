@@ -62,7 +62,6 @@ struct SimulationConfig {
   GridOptions grid = {};             // cell size, origin, box of the partition
   int threads = 0;                   // 0 or >= K: a thread per world; 1: one thread for all
                                      // worlds (round-robin); 2 .. K-1: a pool of that many
-  bool pin = false;                  // pin world threads (pool workers) to cores, i mod #CPUs
   std::size_t buffer_capacity = 64;  // entries per world's transform buffer (>= 2): how far a
                                      // world may run ahead of the slowest reader, in steps
   /// Transform buffers store each step as the poses that changed since a
@@ -71,7 +70,6 @@ struct SimulationConfig {
   /// either way; false stores every pose of every step.
   bool delta_entries = true;
   bool serialise = false;            // every message between worlds through bytes
-  bool validate = false;             // check ownership and pair holders every step (slow)
   /// Called by a world's thread after each of its scene steps (world id,
   /// scene step), before the step's entry is published. An exception thrown
   /// here fails that world, as a physics error would. Keep it short.
@@ -82,48 +80,21 @@ struct SimulationConfig {
   /// an input rolls every world back to its step. Every SceneReader holds
   /// the horizon at the frame it last used, so an input at the frame on
   /// screen is always accepted (docs/embedding.md, "The game loop"). Off:
-  /// input only at steps no world has begun. Not with `validate`.
+  /// input only at steps no world has begun. Not with runtime.validate.
   bool past_inputs = false;
-  /// Speculation (PartitionedOptions::anticipation, docs/rollback.md): a
-  /// world may run up to this many scene steps past the commit horizon,
-  /// betting on its neighbours' messages. A lost bet rolls it back; entries
-  /// it published for the rolled-back steps are republished with a new
-  /// revision (readers may see an entry, then a newer revision of its step).
-  /// published_step(), advance_to() and the readouts count only committed
-  /// steps (at or below the commit horizon), so they never return a state
-  /// that can still change. With past_inputs an input at a past step is a
-  /// rollback of every world to it (no hold). 0: lockstep.
-  int anticipation = 0;
-  /// Speculation: PartitionedOptions::rollback, checkpoint_every (1 with
-  /// past_inputs, which keeps every step) and eager_bets.
-  PartitionedOptions::Rollback rollback = PartitionedOptions::Rollback::Propagate;
-  int checkpoint_every = 8;
-  bool eager_bets = false;
-  /// Idle territories skip their Bullet stages
-  /// (PartitionedOptions::idle_territories; docs/skip.md). Exact.
-  bool idle_territories = true;
-  /// Territory worlds park their settled sleeping islands outside Bullet
-  /// (PartitionedOptions::parking; docs/skip.md). Exact.
-  bool parking = true;
-  /// After every step each world checks its bodies and contacts
-  /// (watchdog.h): off or stop (a WatchdogError is the cause of the
-  /// SimulationError); heal is not supported by a Simulation.
-  WatchdogConfig watchdog = {};
-  /// Speed (m/s) the worlds' neighbourhoods are sized for
-  /// (PartitionedOptions::reach_speed; 0: from the scene).
-  double reach_speed = 0;
-  /// Metres: the bounding-sphere diameter of the largest body add_body may
-  /// add (PartitionedOptions::added_extent; 0: the scene's largest). A larger
-  /// one is refused, naming its size and the largest the run takes.
-  double added_extent = 0;
-  /// Load balancing: only policy "none" (the default) for now. A
-  /// Simulation's worlds run freely and are never all stopped at one step,
-  /// and the cession (PartitionedOptions::balance) is applied at such a
-  /// step: any other policy throws std::invalid_argument (docs/loadbalance.md).
-  BalanceOptions balance = {};
-  /// Threads that solve the colours of a large island
-  /// (PartitionedOptions::solver_threads, docs/coloured-solve.md). >= 1.
-  int solver_threads = 1;
+  /// The knobs every way of running a scene shares (runtime_options.h).
+  /// Under a Simulation: with speculation (runtime.anticipation > 0) a lost
+  /// bet republishes the entries of the rolled-back steps with a new
+  /// revision (readers may see an entry, then a newer revision of its
+  /// step); published_step(), advance_to() and the readouts count only
+  /// committed steps (at or below the commit horizon), so they never return
+  /// a state that can still change; with past_inputs an input at a past
+  /// step is a rollback of every world to it (no hold), and every step is a
+  /// checkpoint. The watchdog: off or stop (a WatchdogError is the cause of
+  /// the SimulationError); heal is refused. Load balancing: only policy
+  /// "none": a Simulation's worlds run freely and are never all stopped at
+  /// one step, where a cession is applied (docs/loadbalance.md).
+  RuntimeOptions runtime = {};
 };
 
 /// A world failed. world(): the world whose thread threw (kNoWorld if no
@@ -242,7 +213,7 @@ class Simulation {
   // world has passed needs config.past_inputs: every world is held at one
   // boundary, rolled back to the input's step and runs again (entries of
   // later steps are republished with a new revision); with speculation
-  // (config.anticipation) it is posted as a rollback of every world that
+  // (config.runtime.anticipation) it is posted as a rollback of every world that
   // each takes on its own thread, nobody held. An input older than
   // the commit horizon (commit_horizon_step()) is refused. Errors:
   // std::invalid_argument naming the body and the step (unknown or reused
