@@ -242,39 +242,16 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
     }
     nlohmann::json worlds = nlohmann::json::array();
     for (const WorldMetrics& m : r.world_metrics) {
+      // Every counter under its field name (for_each_counter), then what
+      // is derived from them.
       nlohmann::json row = {{"world", m.world},
-                        {"cpu_seconds", m.cpu_seconds},
-                        {"cpu_step_mean_ms", m.cpu_step_mean_ms},
-                        {"cpu_step_max_ms", m.cpu_step_max_ms},
-                        {"thread_cpu_seconds", m.thread_cpu_seconds},
-                        {"blocked_seconds", m.blocked_seconds},
-                        {"owned_bodies", m.owned_bodies},
-                        {"ghosts", m.ghosts},
-                        {"neighbours", m.neighbours},
-                        {"border_bodies", m.border_bodies},
-                        {"ghosts_sent", m.ghosts_sent},
-                        {"ghosts_received", m.ghosts_received},
-                        {"halos_culled", m.halos_culled},
-                        {"manifolds_attached", m.manifolds_attached},
-                        {"manifolds_seeded", m.manifolds_seeded},
-                        {"manifolds_returned", m.manifolds_returned},
-                        {"migrations_out", m.migrations_out},
-                        {"migrations_in", m.migrations_in},
-                        {"local_islands", m.local_islands},
-                        {"border_fragments", m.border_fragments},
-                        {"merged_islands", m.merged_islands},
-                        {"islands_solved", m.islands_solved},
-                        {"merged_island_bodies", m.merged_island_bodies},
-                        {"merged_island_bodies_in_place", m.merged_island_bodies_in_place},
-                        {"merged_island_worlds_mean",
-                         m.merged_islands ? static_cast<double>(m.merged_island_worlds_sum) /
-                                                static_cast<double>(m.merged_islands)
-                                          : 0.0},
-                        {"merged_island_worlds_max", m.merged_island_worlds_max},
-                        {"relay_messages_sent", m.relay_messages_sent},
-                        {"relay_messages_received", m.relay_messages_received},
-                        {"fragments_relayed", m.fragments_relayed},
-                        {"messages_sent", m.messages_sent}};
+                            {"cpu_step_mean_ms", m.cpu_step_mean_ms},
+                            {"cpu_step_max_ms", m.cpu_step_max_ms},
+                            {"merged_island_worlds_mean",
+                             m.merged_islands ? static_cast<double>(m.merged_island_worlds_sum) /
+                                                    static_cast<double>(m.merged_islands)
+                                              : 0.0}};
+      for_each_counter(m, [&](const char* name, const auto& value, CounterFold) { row[name] = value; });
       row.update(speculation_json(m));
       row["stages"] = stages_json(m);
       row["traffic"] = traffic_json(m);

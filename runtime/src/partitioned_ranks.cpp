@@ -34,20 +34,13 @@ T take(const std::vector<std::uint8_t>& in, std::size_t& at) {
   return take_plain<T>(in, at, kReadout);
 }
 
-// The counters of WorldMetrics that add up across worlds; the per-step
-// series (cpu_step_ms, lead) stay on the rank that measured them.
-template <class F>
-void each_scalar(WorldMetrics& m, F&& f) {
-  f(m.world), f(m.steps), f(m.cpu_seconds), f(m.stages), f(m.thread_cpu_seconds), f(m.cpu_step_mean_ms);
-  f(m.cpu_step_max_ms), f(m.blocked_seconds), f(m.owned_bodies), f(m.ghosts), f(m.neighbours);
-  f(m.border_bodies), f(m.ghosts_sent), f(m.ghosts_received), f(m.manifolds_attached), f(m.manifolds_seeded);
-  f(m.manifolds_returned), f(m.migrations_out), f(m.migrations_in), f(m.local_islands), f(m.border_fragments);
-  f(m.merged_islands), f(m.islands_solved), f(m.merged_island_bodies), f(m.merged_island_bodies_in_place);
-  f(m.merged_island_worlds_sum);
-  f(m.merged_island_worlds_max), f(m.relay_messages_sent), f(m.relay_messages_received), f(m.fragments_relayed);
-  f(m.messages_sent), f(m.coloured_islands), f(m.substepped_islands), f(m.solver_threads);
-  f(m.bets), f(m.bets_lost), f(m.rollbacks), f(m.steps_rolled_back), f(m.steps_rejoined), f(m.bodies_resolved);
-  f(m.bodies_replayed), f(m.rollback_cpu_seconds), f(m.lead_max), f(m.lead_mean), f(m.kept_states_max);
+// A world's metrics as they travel to rank 0: every counter
+// (for_each_counter) and the per-step means and maxima; the per-step series
+// (cpu_step_ms, lead) and the traffic stay on the rank that measured them.
+template <class M, class F>
+void each_scalar(M& m, F&& f) {
+  f(m.world), f(m.steps), f(m.stages), f(m.cpu_step_mean_ms), f(m.cpu_step_max_ms), f(m.lead_mean);
+  for_each_counter(m, [&](const char*, auto& value, CounterFold) { f(value); });
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "input_ledger.h"
 #include "input_queue.h"
 #include "message_tally.h"
+#include "metrics_sums.h"
 #include "partitioned_internals.h"
 #include "soda/runtime/process_group.h"
 #include "soda/worlds/world_snapshot.h"
@@ -29,61 +30,6 @@ const char* schedule_name(Schedule schedule) {
 }
 
 namespace {
-
-// Adds what `m` counted to `t`: counters and times summed, maxima kept.
-void add_counts(WorldMetrics& t, const WorldMetrics& m) {
-  t.cpu_seconds += m.cpu_seconds;
-  t.thread_cpu_seconds += m.thread_cpu_seconds;
-  for (std::size_t i = 0; i < kStageCount; ++i) {
-    t.stages[i].cpu_seconds += m.stages[i].cpu_seconds;
-    t.stages[i].wait_seconds += m.stages[i].wait_seconds;
-    t.stages[i].items += m.stages[i].items;
-    t.stages[i].messages += m.stages[i].messages;
-    t.stages[i].bytes += m.stages[i].bytes;
-  }
-  t.cpu_step_max_ms = std::max(t.cpu_step_max_ms, m.cpu_step_max_ms);
-  t.blocked_seconds += m.blocked_seconds;
-  t.buffer_blocked_seconds += m.buffer_blocked_seconds;
-  t.entries_published += m.entries_published;
-  t.entries_dropped += m.entries_dropped;
-  t.border_bodies += m.border_bodies;
-  t.ghosts_sent += m.ghosts_sent;
-  t.ghosts_received += m.ghosts_received;
-  t.manifolds_attached += m.manifolds_attached;
-  t.manifolds_seeded += m.manifolds_seeded;
-  t.manifolds_returned += m.manifolds_returned;
-  t.migrations_out += m.migrations_out;
-  t.migrations_in += m.migrations_in;
-  t.local_islands += m.local_islands;
-  t.border_fragments += m.border_fragments;
-  t.merged_islands += m.merged_islands;
-  t.islands_solved += m.islands_solved;
-  t.merged_island_bodies += m.merged_island_bodies;
-  t.merged_island_bodies_in_place += m.merged_island_bodies_in_place;
-  t.merged_island_worlds_sum += m.merged_island_worlds_sum;
-  t.merged_island_worlds_max = std::max(t.merged_island_worlds_max, m.merged_island_worlds_max);
-  t.relay_messages_sent += m.relay_messages_sent;
-  t.relay_messages_received += m.relay_messages_received;
-  t.fragments_relayed += m.fragments_relayed;
-  t.messages_sent += m.messages_sent;
-  add_traffic(t.traffic, m.traffic);
-  t.idle_steps += m.idle_steps;
-  t.halos_culled += m.halos_culled;
-  t.bets += m.bets;
-  t.bets_lost += m.bets_lost;
-  t.rollbacks += m.rollbacks;
-  t.steps_rolled_back += m.steps_rolled_back;
-  t.steps_rejoined += m.steps_rejoined;
-  t.bodies_resolved += m.bodies_resolved;
-  t.bodies_replayed += m.bodies_replayed;
-  t.rollback_cpu_seconds += m.rollback_cpu_seconds;
-  t.lead_max = std::max(t.lead_max, m.lead_max);
-  t.kept_states_max = std::max(t.kept_states_max, m.kept_states_max);
-  t.coloured_islands += m.coloured_islands;
-  t.guest_tasks += m.guest_tasks;
-  t.substepped_islands += m.substepped_islands;
-  t.solver_threads = std::max(t.solver_threads, m.solver_threads);
-}
 
 // RuntimeOptions::solver_guests resolved: -1, the cores the world
 // threads leave free while one waits (one thread per world only; never over
@@ -171,7 +117,7 @@ std::vector<std::unique_ptr<TerritoryWorld>> PartitionedWorld::retire() {
   carried_.resize(in_->processes.size());
   for (std::size_t w = 0; w < in_->processes.size(); ++w) {
     const WorldMetrics m = in_->processes[w]->metrics();
-    add_counts(carried_[w], m);
+    add_replaced_run(carried_[w], m);
     carried_[w].cpu_step_ms.insert(carried_[w].cpu_step_ms.end(), m.cpu_step_ms.begin(), m.cpu_step_ms.end());
     carried_[w].lead.insert(carried_[w].lead.end(), m.lead.begin(), m.lead.end());
   }
@@ -444,10 +390,10 @@ std::vector<WorldMetrics> PartitionedWorld::metrics() const {
     WorldMetrics m = in_->processes[w]->metrics();
     if (w < carried_.size()) {
       const WorldMetrics& c = carried_[w];
-      add_counts(m, c);
+      add_replaced_run(m, c);
       m.cpu_step_ms.insert(m.cpu_step_ms.begin(), c.cpu_step_ms.begin(), c.cpu_step_ms.end());
       m.cpu_step_mean_ms = m.cpu_step_ms.empty() ? 0.0 : m.cpu_seconds * 1e3 / double(m.cpu_step_ms.size());
-      if (!c.lead.empty()) {  // lead_max: add_counts
+      if (!c.lead.empty()) {  // lead_max: add_replaced_run
         m.lead.insert(m.lead.begin(), c.lead.begin(), c.lead.end());
         double sum = 0;
         for (std::int32_t l : m.lead) sum += l;
@@ -457,24 +403,6 @@ std::vector<WorldMetrics> PartitionedWorld::metrics() const {
     out.push_back(std::move(m));
   }
   return options_.group ? gathered_metrics(std::move(out)) : out;
-}
-
-WorldMetrics total_metrics(const std::vector<WorldMetrics>& worlds) {
-  WorldMetrics t;
-  double lead_sum = 0;
-  std::int64_t steps = 0;
-  for (const WorldMetrics& m : worlds) {
-    add_counts(t, m);
-    t.steps = std::max(t.steps, m.steps);
-    t.owned_bodies += m.owned_bodies;
-    t.ghosts += m.ghosts;
-    t.neighbours += m.neighbours;
-    lead_sum += m.lead_mean * static_cast<double>(m.steps);
-    steps += m.steps;
-  }
-  t.cpu_step_max_ms = 0;
-  t.lead_mean = steps > 0 ? lead_sum / static_cast<double>(steps) : 0.0;  // weighted by each world's steps
-  return t;
 }
 
 std::uint64_t PartitionedWorld::messages_sent() const { return in_->transport->messages_sent(); }

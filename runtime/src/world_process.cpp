@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "metrics_sums.h"
 #include "run_control.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/scene_reader.h"
@@ -385,29 +386,13 @@ bool PartitionedWorld::Process::may_start() {
 
 void PartitionedWorld::Process::end_step() {
   const TerritoryCounters& c = s_.world->counters();
-  sums_.border_bodies += c.border_bodies;
-  sums_.halos_culled += c.halos_culled;
-  sums_.ghosts_sent += c.ghosts_sent;
-  sums_.ghosts_received += c.ghosts_received;
-  sums_.manifolds_attached += c.manifolds_attached;
-  sums_.manifolds_seeded += c.manifolds_seeded;
-  sums_.manifolds_returned += c.manifolds_returned;
-  sums_.migrations_out += c.migrations_out;
-  sums_.migrations_in += c.migrations_in;
-  sums_.local_islands += c.local_islands;
-  sums_.border_fragments += c.border_fragments;
-  sums_.merged_island_bodies += c.border_island_bodies;
-  sums_.merged_island_bodies_in_place += c.border_island_bodies_in_place;
-  sums_.islands_solved += c.border_islands;
-  sums_.coloured_islands += c.coloured_islands;
-  sums_.substepped_islands += c.substepped_islands;
-  sums_.solver_threads = std::max(sums_.solver_threads, c.solver_threads);
+  add_step_counters(sums_, c);
   clock_.count(Stage::Predict, c.owned_bodies);
   clock_.count(Stage::ExchangeGhosts, c.ghosts_received);
   clock_.count(Stage::Collide, c.held_manifolds);
   clock_.count(Stage::BuildIslands, c.local_islands);
   clock_.count(Stage::Glue, c.border_fragments);
-  clock_.count(Stage::Solve, c.border_islands);
+  clock_.count(Stage::Solve, c.islands_solved);
   clock_.count(Stage::Integrate, s_.world->owned_count() - s_.world->parked_count());  // parked bodies are not
   clock_.count(Stage::Migrate, c.migrations_in + c.migrations_out);
   ++s_.step;

@@ -24,7 +24,7 @@ void PartitionedWorld::Process::step_costs_done() {
     const std::int64_t lead = spec_ ? s_.step - safety_.horizon->gvt() : 0;
     step_log_.push_back(StepRecord{s_.step, step_ns, blocked_ns_ - step_start_blocked_ns_,
                                    static_cast<std::int32_t>(s_.world->owned_count()), static_cast<std::int32_t>(lead),
-                                   static_cast<std::int32_t>(c.local_islands + c.border_islands)});
+                                   static_cast<std::int32_t>(c.local_islands + c.islands_solved)});
   }
   step_start_blocked_ns_ = blocked_ns_;
 }

@@ -574,9 +574,9 @@ IslandResult TerritoryWorld::solve_border_island(const std::vector<const Fragmen
       r.deactivation_time = c.getDeactivationTime();
     }
   });
-  ++counters_.border_islands;
-  counters_.border_island_bodies += records.size();
-  counters_.border_island_bodies_in_place += in_place;
+  ++counters_.islands_solved;
+  counters_.merged_island_bodies += records.size();
+  counters_.merged_island_bodies_in_place += in_place;
   return result;
 }
 

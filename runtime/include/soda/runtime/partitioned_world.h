@@ -33,6 +33,7 @@
 #include "soda/runtime/runtime_options.h"
 #include "soda/runtime/stage.h"
 #include "soda/runtime/world_graph.h"
+#include "soda/runtime/world_metrics.h"
 #include "soda/scene/input_file.h"
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
@@ -120,85 +121,6 @@ class ValidationError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
-
-/// Per-world measurements over the steps run so far. Times in seconds.
-struct WorldMetrics {
-  WorldId world = 0;
-  std::int64_t steps = 0;              // internal steps
-  double cpu_seconds = 0;              // thread CPU time spent stepping this world (restores included)
-  /// Per stage (stage.h), over the finished internal steps: CPU time (summing
-  /// to cpu_seconds exactly), wall time waited, counts; indexed by Stage.
-  StageCosts stages = {};
-  /// CPU time of the world's thread from the world's first stage to its
-  /// last finished step, the scheduler's own work between stages included:
-  /// the check of cpu_seconds. Only when the world had a thread to itself
-  /// (Schedule::ThreadPerWorld); else 0.
-  double thread_cpu_seconds = 0;
-  double cpu_step_mean_ms = 0;         // per internal step
-  double cpu_step_max_ms = 0;
-  std::vector<double> cpu_step_ms;     // thread CPU time of every internal step, in order
-  double blocked_seconds = 0;          // wall time waiting for neighbours' messages
-  // Simulation only (simulation.h): its transform buffer.
-  double buffer_blocked_seconds = 0;   // wall time waiting for room (readers' back-pressure)
-  std::uint64_t entries_published = 0;
-  std::uint64_t entries_dropped = 0;   // found the buffer full while the run was being stopped
-  std::size_t owned_bodies = 0;        // at the end
-  std::size_t ghosts = 0;              // at the end
-  std::size_t neighbours = 0;
-  // Sums over steps (counters of TerritoryWorld and of the merge):
-  std::uint64_t border_bodies = 0;
-  std::uint64_t halos_culled = 0;            // owned bodies' halos not looked up (border culling, docs/skip.md)
-  std::uint64_t ghosts_sent = 0;
-  std::uint64_t ghosts_received = 0;
-  std::uint64_t manifolds_attached = 0;
-  std::uint64_t manifolds_seeded = 0;
-  std::uint64_t manifolds_returned = 0;
-  std::uint64_t migrations_out = 0;
-  std::uint64_t migrations_in = 0;
-  std::uint64_t local_islands = 0;
-  std::uint64_t border_fragments = 0;
-  std::uint64_t merged_islands = 0;          // border islands this world took part in
-  std::uint64_t islands_solved = 0;          // ... that it solved (as their root)
-  std::uint64_t merged_island_bodies = 0;    // bodies of the islands solved here
-  std::uint64_t merged_island_bodies_in_place = 0;  // ... of them its own, solved in place (no copy)
-  std::uint64_t merged_island_worlds_sum = 0;  // worlds per merged island, summed
-  std::uint64_t merged_island_worlds_max = 0;
-  std::uint64_t relay_messages_sent = 0;     // Fragments and Results messages
-  std::uint64_t relay_messages_received = 0;
-  std::uint64_t fragments_relayed = 0;       // other worlds' fragments passed on
-  std::uint64_t messages_sent = 0;           // all kinds
-  /// The same messages by destination and kind, with their encoded bytes,
-  /// rounds per step and merge-tree depths (message_traffic.h), over the
-  /// finished internal steps.
-  MessageTraffic traffic = {};
-  std::uint64_t idle_steps = 0;              // internal steps skipped idle (RuntimeOptions::idle_territories)
-  // Speculation (RuntimeOptions::anticipation):
-  std::uint64_t bets = 0;                    // neighbour messages assumed empty before they arrived
-  std::uint64_t bets_lost = 0;               // ... that were not empty
-  std::uint64_t rollbacks = 0;               // times this world restored an earlier step
-  std::uint64_t steps_rolled_back = 0;       // internal steps discarded by them, summed
-  std::uint64_t steps_rejoined = 0;          // ... of which taken back unchanged, not re-run (re-run rejoined)
-  std::uint64_t bodies_resolved = 0;         // bodies solved in steps re-run after rollbacks (owned x steps, less replayed)
-  std::uint64_t bodies_replayed = 0;         // bodies of re-run steps whose islands were replayed from the old run
-  double rollback_cpu_seconds = 0;           // thread CPU time of restores and re-run steps
-  std::int64_t lead_max = 0;                 // most internal steps ahead of the commit horizon
-  double lead_mean = 0;                      // mean of lead over finished internal steps
-  std::vector<std::int32_t> lead;            // clock - commit horizon at the end of every internal step
-  std::size_t kept_states_max = 0;           // most states kept at once (rollback buffer occupancy)
-  std::uint64_t coloured_islands = 0;        // islands solved coloured (docs/coloured-solve.md)
-  std::uint64_t substepped_islands = 0;      // islands solved in substeps, re-solves included (docs/stress.md)
-  int solver_threads = 0;                    // most threads a coloured island could use
-  /// Tasks of other worlds' solves this world's thread ran while it waited
-  /// for a message (RuntimeOptions::solver_guests); the time inside them is
-  /// in stages[solve].
-  std::uint64_t guest_tasks = 0;
-};
-
-/// The per-world metrics summed over worlds: counters, sizes, CPU and
-/// blocked times; merged_island_worlds_max and steps are maxima; the
-/// per-step series (cpu_step_ms) and the per-step means and maxima are left
-/// empty (they do not add up); traffic flows are merged by (to, kind).
-WorldMetrics total_metrics(const std::vector<WorldMetrics>& worlds);
 
 class PartitionedWorld {
  public:

@@ -49,6 +49,7 @@
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
 #include "soda/worlds/border_records.h"
+#include "soda/worlds/territory_counters.h"
 #include "soda/worlds/watchdog.h"
 
 class btPersistentManifold;
@@ -70,33 +71,6 @@ namespace soda {
 class PartitionError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
-};
-
-/// What one world did in one step (reset by predict()).
-struct TerritoryCounters {
-  std::size_t owned_bodies = 0;
-  std::size_t ghosts = 0;                 // ghosts present after apply_ghosts
-  std::size_t border_bodies = 0;          // owned bodies sent as ghosts
-  std::size_t halos_culled = 0;           // owned bodies whose halo's cells were not looked up (border culling)
-  std::size_t ghosts_sent = 0;            // ghost records, summed over neighbours
-  std::size_t ghosts_received = 0;
-  std::size_t manifolds_attached = 0;     // kept manifolds sent with ghosts
-  std::size_t manifolds_seeded = 0;       // held pairs written from a value before narrowphase
-  std::size_t manifolds_returned = 0;     // kept manifolds held elsewhere, back from a border island
-  std::size_t held_manifolds = 0;         // manifolds with points held here after collide
-  std::size_t local_islands = 0;          // awake islands solved in place (lone bodies included)
-  std::size_t border_fragments = 0;
-  std::size_t border_islands = 0;         // merged islands solved here
-  std::size_t border_island_bodies = 0;   // their bodies, summed
-  std::size_t border_island_bodies_in_place = 0;  // ... of them this world's own, solved in place (not copied)
-  std::size_t migrations_out = 0;
-  std::size_t migrations_in = 0;
-  std::size_t islands_replayed = 0;       // islands a replayed step did not solve (set_replay)
-  std::size_t bodies_replayed = 0;        // their bodies
-  std::size_t coloured_islands = 0;       // islands solved coloured here (docs/coloured-solve.md)
-  std::size_t substepped_islands = 0;     // islands (local and border) solved in substeps here (island_substeps.h)
-  std::size_t parked_bodies = 0;          // owned bodies parked outside Bullet's world at the step's end (set_parking)
-  int solver_threads = 0;                 // most threads a coloured island of this world could use, so far
 };
 
 /// The islands a world solved in place in one step (those of build_islands
