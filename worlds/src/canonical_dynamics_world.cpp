@@ -185,19 +185,10 @@ void CanonicalDynamicsWorld::integrateTransforms(btScalar time_step) {
   integrate_bodies(time_step);
 }
 
-int CanonicalDynamicsWorld::find(int i) {
-  while (parent_[i] != i) {
-    parent_[i] = parent_[parent_[i]];
-    i = parent_[i];
-  }
-  return i;
-}
-
-// Step 1 and 2: islands from manifolds that hold points.
+// Step 1 and 2: islands from manifolds that hold points (island_builder.h).
 void CanonicalDynamicsWorld::build_islands() {
   const int n = static_cast<int>(dynamic_bodies_.size());
-  parent_.resize(n);
-  std::iota(parent_.begin(), parent_.end(), 0);
+  islands_.reset(n);
   contact_manifolds_.clear();
   btDispatcher* dispatcher = getDispatcher();
   const int num_manifolds = dispatcher->getNumManifolds();
@@ -207,41 +198,25 @@ void CanonicalDynamicsWorld::build_islands() {
     contact_manifolds_.push_back(m);
     const btCollisionObject* a = m->getBody0();
     const btCollisionObject* b = m->getBody1();
-    if (a->mergesSimulationIslands() && b->mergesSimulationIslands()) {
-      const int ra = find(a->getUserIndex2());
-      const int rb = find(b->getUserIndex2());
-      if (ra != rb) parent_[std::max(ra, rb)] = std::min(ra, rb);  // root = smallest position
-    }
+    if (a->mergesSimulationIslands() && b->mergesSimulationIslands())
+      islands_.join(a->getUserIndex2(), b->getUserIndex2());  // positions: id order
   }
   stats_.contact_manifolds = contact_manifolds_.size();
-
-  // Roots are the smallest member, so numbering roots in id order numbers
-  // islands by their smallest body id.
-  island_of_.resize(n);
-  int islands = 0;
+  islands_.finish();
+  island_bodies_.resize(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
-    const int r = find(i);
-    island_of_[i] = (r == i) ? islands++ : island_of_[r];
-  }
-  island_begin_.assign(islands + 1, 0);
-  for (int i = 0; i < n; ++i) ++island_begin_[island_of_[i] + 1];
-  for (int k = 0; k < islands; ++k) island_begin_[k + 1] += island_begin_[k];
-  island_bodies_.resize(n);
-  std::vector<int> cursor(island_begin_.begin(), island_begin_.end() - 1);
-  for (int i = 0; i < n; ++i) {
-    btRigidBody* body = dynamic_bodies_[i];
-    body->setIslandTag(island_of_[i]);
+    btRigidBody* body = dynamic_bodies_[static_cast<std::size_t>(islands_.order()[static_cast<std::size_t>(i)])];
+    body->setIslandTag(islands_.island_of(body->getUserIndex2()));
     body->setCompanionId(-1);
-    island_bodies_[cursor[island_of_[i]]++] = body;
+    island_bodies_[static_cast<std::size_t>(i)] = body;
   }
-  stats_.islands = static_cast<std::size_t>(islands);
+  stats_.islands = static_cast<std::size_t>(islands_.island_count());
 }
 
 // Step 3: as btSimulationIslandManager::buildIslands.
 void CanonicalDynamicsWorld::decide_sleeping() {
-  const int islands = static_cast<int>(island_begin_.size()) - 1;
-  for (int k = 0; k < islands; ++k)
-    decide_island_sleeping(&island_bodies_[island_begin_[k]], island_begin_[k + 1] - island_begin_[k]);
+  for (int k = 0; k < islands_.island_count(); ++k)
+    decide_island_sleeping(&island_bodies_[static_cast<std::size_t>(islands_.begin(k))], islands_.size(k));
 }
 
 // Step 4a: as the manifold loop of buildIslands, then a canonical order.
@@ -260,21 +235,11 @@ void CanonicalDynamicsWorld::collect_island_manifolds() {
     if (!dispatcher->needsResponse(a, b)) continue;
     const int island = a->getIslandTag() >= 0 ? a->getIslandTag() : b->getIslandTag();
     if (island < 0) continue;
-    island_manifolds_.push_back({static_cast<std::uint32_t>(island), id_of(a), id_of(b), m});
+    island_manifolds_.add(island, {id_of(a), id_of(b)}, m);
   }
-  std::sort(island_manifolds_.begin(), island_manifolds_.end(),
-            [](const IslandManifold& x, const IslandManifold& y) {
-              if (x.island != y.island) return x.island < y.island;
-              if (x.id0 != y.id0) return x.id0 < y.id0;
-              return x.id1 < y.id1;
-            });
-  for (std::size_t i = 1; i < island_manifolds_.size(); ++i)
-    if (island_manifolds_[i].id0 == island_manifolds_[i - 1].id0 &&
-        island_manifolds_[i].id1 == island_manifolds_[i - 1].id1)
-      throw std::logic_error("CanonicalWorld: two manifolds for one pair (compound shapes are not supported)");
-  manifold_ptrs_.resize(island_manifolds_.size());
-  for (std::size_t i = 0; i < island_manifolds_.size(); ++i)
-    manifold_ptrs_[i] = island_manifolds_[i].manifold;
+  island_manifolds_.finish(islands_.island_count());
+  if (island_manifolds_.first_duplicate() >= 0)
+    throw std::logic_error("CanonicalWorld: two manifolds for one pair (compound shapes are not supported)");
 }
 
 // Step 4b: one solveGroup per awake island.
@@ -287,7 +252,7 @@ void CanonicalDynamicsWorld::collect_island_manifolds() {
 // An island touching a kinematic body stays here too: Bullet (built without
 // BT_THREADSAFE) writes a kinematic body's companion id while solving.
 void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
-  const int islands = static_cast<int>(island_begin_.size()) - 1;
+  const int islands = islands_.island_count();
   btDispatcher* dispatcher = getDispatcher();
   SolverPool* pool = stage_pool();
   lone_bodies_.clear();
@@ -296,14 +261,14 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
   stats_.awake_islands = stats_.sleeping_islands = stats_.solved_manifolds = stats_.substepped_islands = 0;
   stats_.substep_threads = 0;
   stats_.island_threads = 1;
-  std::size_t m = 0;
   for (int k = 0; k < islands; ++k) {
-    const std::size_t m_begin = m;
-    while (m < island_manifolds_.size() && island_manifolds_[m].island == static_cast<std::uint32_t>(k)) ++m;
-    const int body_begin = island_begin_[k];
-    const int body_count = island_begin_[k + 1] - body_begin;
+    const std::size_t m_begin = static_cast<std::size_t>(island_manifolds_.begin(k));
+    const std::size_t m = static_cast<std::size_t>(island_manifolds_.begin(k + 1));
+    const int body_begin = islands_.begin(k);
+    const int body_count = islands_.size(k);
     bool awake = false;
-    for (int j = body_begin; j < island_begin_[k + 1] && !awake; ++j) awake = island_bodies_[j]->isActive();
+    for (int j = body_begin; j < body_begin + body_count && !awake; ++j)
+      awake = island_bodies_[static_cast<std::size_t>(j)]->isActive();
     if (!awake) {
       ++stats_.sleeping_islands;
       continue;
@@ -319,7 +284,7 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
     bool small = pool != nullptr;
     int points = 0;
     for (std::size_t i = m_begin; i < m && small; ++i) {
-      const btPersistentManifold& pm = *manifold_ptrs_[i];
+      const btPersistentManifold& pm = *island_manifolds_.values()[i];
       points += pm.getNumContacts();
       small = points < kColouredMinContactRows && !pm.getBody0()->isKinematicObject() &&
               !pm.getBody1()->isKinematicObject();
@@ -332,7 +297,8 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
   auto solve = [&](btConstraintSolver& solver, const IslandJob& job, btContactSolverInfo& scratch,
                    SolverPool* island_pool) {
     btCollisionObject** bodies = &island_bodies_[static_cast<std::size_t>(job.body_begin)];
-    btPersistentManifold** manifolds = job.manifold_count ? &manifold_ptrs_[job.manifold_begin] : nullptr;
+    btPersistentManifold** manifolds =
+        job.manifold_count ? island_manifolds_.data() + job.manifold_begin : nullptr;
     int substeps = 1;
     const btContactSolverInfo& info =
         bullet_defaults_ ? solver_info

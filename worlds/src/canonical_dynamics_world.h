@@ -19,7 +19,8 @@
 //
 // IslandStage, every step:
 //  1. union-find over dynamic bodies (id order) joined by manifolds that hold
-//     contact points (and whose bodies both merge islands);
+//     contact points (and whose bodies both merge islands): IslandBuilder,
+//     shared with the territory world (island_builder.h);
 //  2. islands numbered by their smallest body id, bodies in id order;
 //  3. sleeping per island, as btSimulationIslandManager::buildIslands: all
 //     bodies want sleep -> ISLAND_SLEEPING; else sleepers are woken;
@@ -39,6 +40,7 @@
 #include <btBulletDynamicsCommon.h>
 
 #include "coloured_solver.h"
+#include "island_builder.h"
 #include "parking.h"
 #include "soda/worlds/canonical_world.h"
 
@@ -82,9 +84,9 @@ class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost 
   /// Parking's wake rule runs inside computeOverlappingPairs (null: none).
   void set_parking(Parking* parking) { parking_ = parking; }
   /// Islands of the last island stage: count, and island k's bodies (by id).
-  int island_count() const { return island_begin_.empty() ? 0 : static_cast<int>(island_begin_.size()) - 1; }
-  int island_size(int k) const { return island_begin_[k + 1] - island_begin_[k]; }
-  btCollisionObject* const* island_bodies(int k) const { return island_bodies_.data() + island_begin_[k]; }
+  int island_count() const { return islands_.island_count(); }
+  int island_size(int k) const { return islands_.size(k); }
+  btCollisionObject* const* island_bodies(int k) const { return island_bodies_.data() + islands_.begin(k); }
   /// The dynamic bodies in the world.
   const std::vector<btRigidBody*>& dynamic_bodies() const { return dynamic_bodies_; }
   /// ParkingHost: a parked body back (add_body).
@@ -109,7 +111,6 @@ class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost 
 
  private:
   void sort_dynamic_bodies();
-  int find(int i);
   void build_islands();
   void decide_sleeping();
   void collect_island_manifolds();
@@ -130,18 +131,10 @@ class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost 
   std::size_t sorted_count_ = 0;  // while !bodies_sorted_: its first ones, sorted by id
 
   // Per-step scratch, kept to avoid reallocation.
-  struct IslandManifold {
-    std::uint32_t island;
-    BodyId id0, id1;
-    btPersistentManifold* manifold;
-  };
-  std::vector<int> parent_;
+  IslandBuilder islands_;  // nodes: dynamic_bodies_ positions (id order)
   std::vector<btPersistentManifold*> contact_manifolds_;
-  std::vector<int> island_of_;                     // per dynamic body
-  std::vector<int> island_begin_;                  // CSR offsets into island_bodies_
-  std::vector<btCollisionObject*> island_bodies_;  // by island, then id
-  std::vector<IslandManifold> island_manifolds_;   // by island, then (id0, id1)
-  std::vector<btPersistentManifold*> manifold_ptrs_;
+  std::vector<btCollisionObject*> island_bodies_;         // by island, then id (islands_.begin)
+  IslandItems<btPersistentManifold*> island_manifolds_;  // awake islands' manifolds, by island, then (id0, id1)
   // solve_islands: the awake islands of a step, and solvers for the small
   // ones solved side by side on the pool (one per pool thread, taken by a
   // task for its islands and given back).

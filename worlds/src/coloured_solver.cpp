@@ -81,7 +81,13 @@ bool ColouredSolver::colour(const btContactSolverInfo& info) {
               &Run::rolling_end))
     return false;
 
-  // 2. Greedy colours in run order; the fixed body conflicts with nothing.
+  assign_colours();
+  return true;
+}
+
+// Step 2 of the header: greedy colours in run order; the fixed body
+// conflicts with nothing.
+void ColouredSolver::assign_colours() {
   const int fixed = m_fixedBodyId;
   body_colours_.assign(static_cast<std::size_t>(m_tmpSolverBodyPool.size()), 0ull);
   colour_of_run_.resize(runs_.size());
@@ -123,7 +129,6 @@ bool ColouredSolver::colour(const btContactSolverInfo& info) {
   stats_.overflow_runs += static_cast<std::size_t>(colour_begin_[static_cast<std::size_t>(colours) + 1] -
                                                    colour_begin_[static_cast<std::size_t>(colours)]);
   stats_.colours_max = std::max(stats_.colours_max, colours);
-  return true;
 }
 
 // The rows of `count` runs, in order, as Bullet's loops solve them.

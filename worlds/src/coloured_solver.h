@@ -167,6 +167,7 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
                         int frictions_per_contact, const btContactSolverInfo& info);
 
   bool colour(const btContactSolverInfo& info);
+  void assign_colours();
   Residual sweep(Sweep kind);
   void solve_runs(Sweep kind, const int* runs, int count, Residual& residual);
 

@@ -19,7 +19,7 @@
 
 namespace soda {
 bool TerritoryWorld::idle_ready() const {
-  if (gDisableDeactivation || halos_unknown_ || replay_.before || !ghosts_.empty() || !ghost_senders_.empty() || !outgoing_.empty() ||
+  if (gDisableDeactivation || halos_unknown_ || parts_->replay.armed() || !ghosts_.empty() || !ghost_senders_.empty() || !outgoing_.empty() ||
       !kept_.empty() || !parts_->speculative.empty())
     return false;
   if (quiet_ < 0) {

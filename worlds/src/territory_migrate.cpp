@@ -56,9 +56,9 @@ void TerritoryWorld::integrate() {
     }
     body.clearForces();
   }
-  if (replay_.before) {
-    if (!replay_.mid_step) finish_replay();
-    replay_ = StepReplay{};
+  if (parts_->replay.armed()) {
+    if (!parts_->replay.mid_step()) parts_->replay.finish(id_, steps_done_);
+    parts_->replay.clear();
   }
   park_settled_islands();
   counters_.parked_bodies = parked_.size();

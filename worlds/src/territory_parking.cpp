@@ -157,7 +157,6 @@ void TerritoryWorld::return_parked(btRigidBody* body) {
   last->parked_index = e.parked_index;
   parked_.pop_back();
   e.parked = false;
-  e.clean = false;  // predict() did not look at it this step (a replay solves its island)
   owned_.push_back(&e);
   lists_sorted_ = false;
   quiet_ = -1;

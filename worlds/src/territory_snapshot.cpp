@@ -63,7 +63,7 @@ void TerritoryWorld::part_snapshot(WorldSnapshot& out) const { snapshot_into(out
 // values of the step's start, some of them seeded into pairs held here
 // since: the live manifolds alone are the state as solved.
 bool TerritoryWorld::solved_state(LocalIslands& islands, WorldSnapshot& out) const {
-  if (replay_.before && !replay_.mid_step && !replayed_bodies_.empty()) return false;
+  if (parts_->replay.armed() && !parts_->replay.mid_step() && parts_->replay.pending()) return false;
   islands = local_islands_;
   snapshot_into(out, false);
   return true;

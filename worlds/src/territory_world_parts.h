@@ -2,7 +2,9 @@
 // territory_world.cpp (construction, predict, exchange_ghosts, readout),
 // territory_collide.cpp (collide: holder rule, seeding), territory_islands.cpp
 // (build_islands, border fragments, solve) and territory_migrate.cpp
-// (integrate, migrate).
+// (integrate, migrate); islands, the merged-island path and the island
+// replay are rooms of their own (island_builder.h, border_island_solver.h,
+// island_replay.h) that the world holds here.
 #pragma once
 
 #include <cstdint>
@@ -13,7 +15,10 @@
 #include <btBulletDynamicsCommon.h>
 
 #include "body_factory.h"
+#include "border_island_solver.h"
 #include "contact_threshold.h"
+#include "island_builder.h"
+#include "island_replay.h"
 #include "pair_cache.h"
 #include "parking.h"
 #include "coloured_solver.h"
@@ -42,7 +47,6 @@ struct TerritoryWorld::Entry {
   // cell owned here, so it is not looked up again. Empty until then.
   Vec3 safe_lo = Vec3::Constant(std::numeric_limits<double>::infinity());
   Vec3 safe_hi = Vec3::Constant(-std::numeric_limits<double>::infinity());
-  bool clean = false;              // owned, in a replayed step: state and contacts at its start as the old run's
   bool parked = false;             // owned, parked outside the Bullet world (TerritoryWorld::set_parking)
   std::size_t parked_slot = 0;     // parked: its island's slot in Parts::parking
   std::size_t parked_index = 0;    // parked: its index in TerritoryWorld::parked_
@@ -74,6 +78,18 @@ struct TerritoryWorld::ParkingLink final : ParkingHost {
   TerritoryWorld* world;
 };
 
+/// What a territory world shows its border-island solver.
+struct TerritoryWorld::BorderLink final : BorderIslandHost {
+  explicit BorderLink(TerritoryWorld* w) : world(w) {}
+  btCollisionObject* const* component_bodies(int component, int& count) const override;
+  btPersistentManifold* const* component_manifolds(int component, int& count) const override;
+  bool owns_body(const btCollisionObject* body) const override;
+  btCollisionObject* static_body(BodyId id) const override;
+  btRigidBody* owned_body(BodyId id) const override;
+  bool keeps_pair(BodyId id0, BodyId id1) const override;
+  TerritoryWorld* world;
+};
+
 /// Every Bullet object of one territory world is its own (pool allocators
 /// are not thread-safe), except that a world rebuilt from a snapshot may
 /// share the collision configuration (its pools) of the world it replaces.
@@ -83,7 +99,9 @@ struct TerritoryWorld::Parts {
   Parts(TerritoryWorld* owner, std::shared_ptr<btDefaultCollisionConfiguration> shared)
       : config(shared ? std::move(shared) : std::make_shared<btDefaultCollisionConfiguration>()),
         dispatcher(config.get(), owner),
-        parking_link(owner) {}
+        parking_link(owner),
+        border_link(owner),
+        border(owner->id(), border_link) {}
   ~Parts() { release_all_pairs(broadphase, dispatcher); }
   Parts(const Parts&) = delete;
   Parts& operator=(const Parts&) = delete;
@@ -97,26 +115,24 @@ struct TerritoryWorld::Parts {
   Parking parking{parking_link, world, broadphase, dispatcher};  // idle unless TerritoryWorld::set_parking(true)
   btManifoldArray scratch;  // near callback
   std::vector<btPersistentManifold*> speculative;  // held manifolds given a speculative point this step
-  // solve_border_island's copies of a merged island's manifolds, reused from
-  // step to step (each is reset to a fresh manifold's state before use).
-  std::vector<std::unique_ptr<btPersistentManifold>> manifold_copies;
   btContactSolverInfo island_info;  // an island's own settings (island_solver_settings.h)
+  // The step's islands (build_islands): nodes are the owned bodies and
+  // ghosts in id order (TerritoryWorld::nodes_), edges the manifolds with
+  // points; held: each island's manifolds, by (id0, id1).
+  IslandBuilder islands;
+  IslandItems<btPersistentManifold*> held;
+  BorderLink border_link;
+  BorderIslandSolver border;  // the merged-island path (solve_border_island)
+  IslandReplay replay;        // set_replay
 };
 
 /// A component of this world's contact graph that waits for glue (it holds
-/// a ghost or a body sent as a ghost); its nodes and manifolds are ranges of
-/// the CSR arrays (territory_islands.cpp).
+/// a ghost or a body sent as a ghost): island `index` of Parts::islands.
 struct TerritoryWorld::Component {
   int index = 0;                   // component number
   BodyId root = 0;                 // smallest id
   bool has_ghost = false;
   std::vector<LinkIn> links_in;
-};
-
-/// A body rebuilt from a BodyRecord for a border island solve.
-struct TerritoryWorld::Copy {
-  std::unique_ptr<btCollisionShape> shape;
-  std::unique_ptr<btRigidBody> body;
 };
 
 inline TerritoryWorld::Entry& entry_of(const btCollisionObject* object) {

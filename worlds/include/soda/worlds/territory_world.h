@@ -33,6 +33,13 @@
 //     manifolds by (id0, id1): local islands in place, border islands on
 //     copies built from their fragments.
 //
+// The world keeps the territory's state and the stage entry points; three
+// rooms of its own do the island work (worlds/src): IslandBuilder
+// (island_builder.h, islands and their canonical order, shared with the
+// canonical world), BorderIslandSolver (border_island_solver.h, the merged
+// island path: own fragment, solve, apply) and IslandReplay
+// (island_replay.h, what set_replay installs).
+//
 // Thread safety: none; one world is used by one thread at a time. Distinct
 // worlds share no writable state (each owns its Bullet objects).
 #pragma once
@@ -49,6 +56,7 @@
 #include "soda/scene/scene.h"
 #include "soda/worlds/body_state.h"
 #include "soda/worlds/border_records.h"
+#include "soda/worlds/step_replay.h"
 #include "soda/worlds/territory_counters.h"
 #include "soda/worlds/watchdog.h"
 
@@ -71,35 +79,6 @@ namespace soda {
 class PartitionError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
-};
-
-/// The islands a world solved in place in one step (those of build_islands
-/// and those no neighbour glued, lone bodies and sleeping islands included),
-/// each as its bodies' ids, ascending: island i is ids[begin[i], begin[i+1]).
-struct LocalIslands {
-  std::vector<BodyId> ids;
-  std::vector<std::uint32_t> begin{0};
-  std::size_t size() const { return begin.size() - 1; }
-  void clear() {
-    ids.clear();
-    begin.assign(1, 0);
-  }
-};
-
-/// Rollback and Propagate (docs/rollback.md): what the run a re-run repeats
-/// did at one step. The pointers must stay valid until integrate() returns.
-struct StepReplay {
-  const WorldSnapshot* before = nullptr;  // that run's part_snapshot() at the step's start
-  const WorldSnapshot* after = nullptr;   // and at its end (see mid_step)
-  const LocalIslands* islands = nullptr;  // the islands it solved in place in the step
-  /// `after` is a solved_state() taken in the middle of the step, after its
-  /// islands were solved and before integrate() (a step a rollback
-  /// interrupted): replayed islands take their state in it in place of
-  /// solving, and integrate() moves them on.
-  bool mid_step = false;
-  /// Solve the replayed islands anyway and throw std::logic_error if their
-  /// result is not `after`'s bit for bit (a check for tests).
-  bool verify = false;
 };
 
 /// Border culling (docs/skip.md): predict() looks up the cells of an owned
@@ -330,7 +309,7 @@ class TerritoryWorld {
   struct Entry;
   struct Parts;
   struct Component;
-  struct Copy;
+  struct BorderLink;
   class Dispatcher;
   struct ParkingLink;
 
@@ -343,9 +322,6 @@ class TerritoryWorld {
   Entry& insert_dynamic(const Body& description, const BodyDynamicState* state, bool owned, WorldId owner);
   void remove_entry(BodyId id);
   void sort_lists();
-  /// The component of `f` if it is one of this step's own fragments not
-  /// yet solved in place (and marks it taken), else -1.
-  int take_own_fragment(const Fragment& f);
   WorldId owner_of_origin(const Entry& e) const;
   /// Owner of the home cell of a body whose origin Bullet holds as `origin`.
   WorldId owner_of_origin(const btVector3& origin) const;
@@ -357,11 +333,12 @@ class TerritoryWorld {
   void seed_pair(void* pair, const ManifoldState& state);
   BodyRecord record_of(const Entry& e) const;
   void update_aabbs();
+  // predict (territory_predict.cpp).
+  void find_ghost_targets(Entry& e, bool cull);
+  void attach_kept_contacts();
   void solve_local(const std::vector<int>& components);
   void snapshot_into(WorldSnapshot& out, bool with_kept) const;
   void mark_clean();
-  bool replay_island(btCollisionObject** bodies, int body_count, std::size_t component);
-  void finish_replay();
   void export_manifolds_involving(const std::vector<const Entry*>& leaving,
                                   std::map<BodyId, MigrantBatch*>* payload_by_key);
   // Parking (territory_parking.cpp).
@@ -409,41 +386,14 @@ class TerritoryWorld {
   std::map<WorldId, std::vector<const Entry*>> outgoing_;
   std::map<BodyId, std::vector<ManifoldState>> attachments_;
   std::vector<WorldId> ghost_senders_;
-  // Per step: the contact graph's components (CSR, see territory_islands.cpp).
-  struct Held {
-    int component;
-    BodyId id0, id1;
-    btPersistentManifold* manifold;
-  };
+  // Per step: the contact graph (Parts::islands, Parts::held): its nodes
+  // and the objects of each island, in island order.
   std::vector<Entry*> nodes_;                  // owned + ghosts, ascending id
-  std::vector<int> parent_;
-  std::vector<int> component_of_;              // per node
-  std::vector<int> component_begin_;           // CSR over nodes_ (component order)
-  std::vector<btCollisionObject*> component_objects_;
-  std::vector<Held> held_;                     // by (component, id0, id1)
-  std::vector<btPersistentManifold*> held_ptrs_;
-  std::vector<int> held_begin_;                // CSR over held_
+  std::vector<btCollisionObject*> component_objects_;  // by island (Parts::islands.begin), then id
   std::vector<int> pending_of_;                // component -> index in components_ or -1
   std::vector<Component> components_;          // pending components only
   std::map<WorldId, GlueBatch> glue_out_;
-  // btPersistentManifold* of the manifolds held in border fragments, sorted
-  // by key after border_fragments (a flat vector: a std::map's node per
-  // manifold and its lookups were ~1.5 % of a partitioned cube-pile's CPU).
-  std::vector<std::pair<PairKey, void*>> held_by_key_;
-  // This step's fragments by (root, component): solve_border_island solves
-  // each in place at most once, and then notes its island in
-  // solved_in_place_ for apply_island_result.
-  std::vector<std::pair<BodyId, int>> own_fragments_;
-  std::vector<BodyId> solved_in_place_;
-  // Rollback and Propagate (set_replay): the step's replay, the old run's
-  // islands by smallest id, and what integrate() writes back.
-  StepReplay replay_;
-  std::vector<std::pair<BodyId, std::uint32_t>> replay_index_;
-  std::vector<std::pair<btCollisionObject*, const BodyDynamicState*>> replayed_bodies_;
-  std::vector<std::pair<btPersistentManifold*, const ManifoldState*>> replayed_manifolds_;
   LocalIslands local_islands_;
-  // Copies for border island solves, by id (shape + body), reused.
-  std::unordered_map<BodyId, std::unique_ptr<Copy>> copies_;
 };
 
 }  // namespace soda

@@ -1,0 +1,168 @@
+// IslandReplay (worlds/src/island_replay.h) on its own, with plain Bullet
+// bodies: which bodies are clean, which islands are replayed (invariant 1),
+// manifolds empty at the old run's end are emptied (invariant 2), and
+// verify compares without writing (invariant 3).
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "body_factory.h"
+#include "island_replay.h"
+#include "soda/worlds/bullet_bodies.h"
+#include "soda/worlds/value_codec.h"
+
+namespace soda {
+namespace {
+
+Body cube(BodyId id, double x) {
+  Body b;
+  b.id = id;
+  b.shape = Shape::box(Vec3(0.5, 0.5, 0.5));
+  b.mass = 1;
+  b.position = Vec3(x, 1, 0);
+  return b;
+}
+
+BodyDynamicState moved(BodyDynamicState s, btScalar dy) {
+  s.origin[1] += dy;
+  s.linear_velocity[1] = -dy;
+  return s;
+}
+
+// Four cubes, ids 1..4; the old run's islands {1, 2} and {3} and {4}; its
+// states before and after one step; a contact 1-2 in both.
+struct Fixture {
+  std::vector<std::unique_ptr<btCollisionShape>> shapes;
+  std::vector<std::unique_ptr<btRigidBody>> bodies;
+  std::vector<btRigidBody*> owned;
+  WorldSnapshot before, after;
+  LocalIslands islands;
+  std::unique_ptr<btPersistentManifold> contact;
+  ManifoldState contact_state;
+
+  Fixture() {
+    for (BodyId id = 1; id <= 4; ++id) {
+      const Body b = cube(id, 2.0 * id);
+      shapes.push_back(make_collision_shape(b.shape));
+      BodyDynamicState s;
+      {
+        auto probe = make_rigid_body(b, *shapes.back());
+        s = read_dynamic_state(*probe);
+      }
+      bodies.push_back(make_body_from_state(b, *shapes.back(), s));
+      owned.push_back(bodies.back().get());
+      before.bodies.push_back(BodySnapshot{b, s});
+      after.bodies.push_back(BodySnapshot{b, moved(s, btScalar(0.25))});
+    }
+    contact = std::make_unique<btPersistentManifold>(owned[0], owned[1], 0, btScalar(0.02), btScalar(0.02));
+    btManifoldPoint p(btVector3(0, 0, 0), btVector3(0, 0, 0), btVector3(1, 0, 0), btScalar(-0.01));
+    contact->addManifoldPoint(p);
+    contact_state = read_manifold_state(*contact);
+    before.manifolds.push_back(contact_state);
+    ManifoldState later = contact_state;
+    later.points[0].applied_impulse = 1.5;
+    after.manifolds.push_back(later);
+    islands.ids = {1, 2, 3, 4};
+    islands.begin = {0, 2, 3, 4};
+  }
+  IslandItems<btPersistentManifold*> held_of_first() {
+    IslandItems<btPersistentManifold*> held;
+    held.add(0, {1, 2}, contact.get());
+    held.finish(1);
+    return held;
+  }
+};
+
+TEST(IslandReplay, RequiresTheOldRun) {
+  IslandReplay replay;
+  EXPECT_THROW(replay.set(StepReplay{}), std::invalid_argument);
+  EXPECT_FALSE(replay.armed());
+}
+
+TEST(IslandReplay, ReplaysCleanIslandsTheOldRunSolvedAlike) {
+  Fixture f;
+  IslandReplay replay;
+  replay.set(StepReplay{&f.before, &f.after, &f.islands});
+  ASSERT_TRUE(replay.armed());
+  replay.mark_clean(f.owned, {f.contact_state});
+  IslandItems<btPersistentManifold*> held = f.held_of_first();
+  btCollisionObject* pair[] = {f.owned[0], f.owned[1]};
+  EXPECT_TRUE(replay.take(pair, 2, held, 0));
+  IslandItems<btPersistentManifold*> none;
+  none.finish(1);
+  btCollisionObject* three_four[] = {f.owned[2], f.owned[3]};  // the old run had {3} and {4}
+  EXPECT_FALSE(replay.take(three_four, 2, none, 0));
+  btCollisionObject* three[] = {f.owned[2]};
+  EXPECT_TRUE(replay.take(three, 1, none, 0));
+  ASSERT_TRUE(replay.pending());
+  replay.finish(0, 1);
+  EXPECT_FALSE(replay.pending());
+  for (int i : {0, 1, 2})
+    EXPECT_TRUE(same_bits(read_dynamic_state(*f.owned[static_cast<std::size_t>(i)]),
+                          f.after.bodies[static_cast<std::size_t>(i)].state));
+  EXPECT_TRUE(same_bits(read_dynamic_state(*f.owned[3]), f.before.bodies[3].state));  // not taken
+  EXPECT_TRUE(same_bits(read_manifold_state(*f.contact), f.after.manifolds[0]));
+}
+
+TEST(IslandReplay, ADifferenceMakesBodiesDirty) {
+  Fixture f;
+  IslandReplay replay;
+  replay.set(StepReplay{&f.before, &f.after, &f.islands});
+  // Body 3's state differs from the old run's; the 1-2 contact differs.
+  write_dynamic_state(*f.owned[2], moved(f.before.bodies[2].state, btScalar(0.5)));
+  ManifoldState other = f.contact_state;
+  other.points[0].applied_impulse = 9;
+  replay.mark_clean(f.owned, {other});
+  IslandItems<btPersistentManifold*> held = f.held_of_first();
+  IslandItems<btPersistentManifold*> none;
+  none.finish(1);
+  btCollisionObject* pair[] = {f.owned[0], f.owned[1]};
+  btCollisionObject* three[] = {f.owned[2]};
+  btCollisionObject* four[] = {f.owned[3]};
+  EXPECT_FALSE(replay.take(pair, 2, held, 0));
+  EXPECT_FALSE(replay.take(three, 1, none, 0));
+  EXPECT_TRUE(replay.take(four, 1, none, 0));
+  // A contact in one run only: both its bodies dirty.
+  replay.mark_clean(f.owned, {});
+  EXPECT_FALSE(replay.take(pair, 2, held, 0));
+}
+
+TEST(IslandReplay, ABodyThatLeftIsSolvedAndAManifoldEmptyThenIsEmptied) {
+  Fixture f;
+  f.after.bodies.erase(f.after.bodies.begin() + 2);  // body 3 left the world in the old run
+  f.after.manifolds.clear();                           // the 1-2 manifold ended empty
+  IslandReplay replay;
+  replay.set(StepReplay{&f.before, &f.after, &f.islands});
+  replay.mark_clean(f.owned, {f.contact_state});
+  IslandItems<btPersistentManifold*> held = f.held_of_first();
+  IslandItems<btPersistentManifold*> none;
+  none.finish(1);
+  btCollisionObject* three[] = {f.owned[2]};
+  EXPECT_FALSE(replay.take(three, 1, none, 0));
+  EXPECT_FALSE(replay.pending());
+  btCollisionObject* pair[] = {f.owned[0], f.owned[1]};
+  EXPECT_TRUE(replay.take(pair, 2, held, 0));
+  replay.finish(0, 1);
+  EXPECT_EQ(f.contact->getNumContacts(), 0);
+}
+
+TEST(IslandReplay, VerifyComparesAndNeverWrites) {
+  Fixture f;
+  IslandReplay replay;
+  replay.set(StepReplay{&f.before, &f.after, &f.islands, false, true});
+  replay.mark_clean(f.owned, {f.contact_state});
+  IslandItems<btPersistentManifold*> none;
+  none.finish(1);
+  btCollisionObject* four[] = {f.owned[3]};
+  ASSERT_TRUE(replay.take(four, 1, none, 0));
+  EXPECT_THROW(replay.finish(0, 1), std::logic_error);  // still in the before state
+  EXPECT_TRUE(same_bits(read_dynamic_state(*f.owned[3]), f.before.bodies[3].state));
+  ASSERT_TRUE(replay.take(four, 1, none, 0));
+  write_dynamic_state(*f.owned[3], f.after.bodies[3].state);  // as if solved to the old result
+  EXPECT_NO_THROW(replay.finish(0, 1));
+}
+
+}  // namespace
+}  // namespace soda
