@@ -1,195 +1,140 @@
-// Internal: one world's speculation (docs/rollback.md) as a component of its
-// step (world_process.h). The step calls it through the hooks below and
-// nothing else; it holds everything speculation needs — the bets, the log
-// of the neighbours' messages used, the world's kept states (with the
-// step's KeptStates), the old run a re-run may rejoin, the validation
-// reports held until committed — and goes back in time through one verb
-// family (docs/rollback.md, "Going back in time"):
+// Internal: how a world's step (world_process.h) treats time — the
+// component the step asks, at fixed hooks, what to do about its neighbours'
+// messages and its own past. Two implementations: Lockstep (lockstep.h),
+// which waits for every message and never goes back, every hook a no-op;
+// and Anticipation (anticipation.h, docs/rollback.md), which bets on empty
+// messages, runs ahead and goes back when a bet is lost.
 //
-//   roll_back(t)     a used message of step t changed: this world's own
-//                    rollback (restore + Notice to the neighbours), or a
-//                    rollback of every world posted on the board
-//   restore(t)       this world only: rebuild from its kept state at t,
-//                    the step begins again there (WorldStep::begin_again)
-//   catch_up()       take in the rollbacks of every world posted since
-//   reset(t)         the run was rewound from outside (a Simulation's
-//                    rollback for past inputs): forget everything past t
-//   try_rejoin()     the re-run's state equals the old run's: take the old
-//                    run's later steps back instead of re-running them
+// Speculation decides; the step applies. A hook returns a Verdict — drop or
+// accept a message, messages to put in the inbox or take out of it, a
+// restart at an earlier step (or, rejoining, a later one) from a kept state,
+// messages to send — and only the world's process changes its inbox, its
+// merge queue, its phase and its world (Process::apply, world_process.cpp).
+// A speculation reads the step (const WorldStep&), never writes it.
 //
-// Why the result equals lockstep's and why it ends: speculation.cpp.
-// Used by the world's thread only (the hooks), except metrics().
+// Invariants:
+//  1. a verdict is applied whole, before the step reads its inbox again:
+//     inbox edits in order, then the restart (the last one decided: a
+//     restart forgets nothing of the inbox, and a later restart replaces an
+//     earlier one), then the entries the buffer drops, the messages sent,
+//     the backlog of entries to publish first and the replay to arm;
+//  2. the state a restart names stays valid until the verdict is applied
+//     (it is a kept state no later decision of the same hook drops);
+//  3. Lockstep's verdicts are empty, its screen accepts every message and
+//     its done() is true: the step without speculation is the step.
 #pragma once
 
 #include <cstdint>
-#include <cstdio>
-#include <cstdlib>
-#include <functional>
-#include <map>
 #include <optional>
 #include <set>
-#include <tuple>
 #include <utility>
 #include <vector>
 
-#include "kept_states.h"
-#include "process_options.h"
-#include "stage_clock.h"
+#include "soda/rollback/transform_buffer.h"
+#include "soda/runtime/messages.h"
+#include "soda/runtime/world_metrics.h"
+#include "soda/worlds/territory_world.h"
 #include "validator.h"
 #include "world_step.h"
 
 namespace soda {
 
-/// SODA_SPEC_TRACE set: every rollback, notice and rejoin to stderr.
-inline const bool kSpecTrace = std::getenv("SODA_SPEC_TRACE") != nullptr;
-#define SPEC_TRACE(...)                                  \
-  do {                                                   \
-    if (::soda::kSpecTrace) std::fprintf(stderr, __VA_ARGS__); \
-  } while (0)
+/// One change to a step's inbox (and its merge queue, `fragments`).
+struct InboxEdit {
+  enum class Kind {
+    Put,       // `message` under `key`
+    Erase,     // the message under `key`, if any
+    DropFrom,  // every message of world `from` at steps >= `step`, inbox and merge queue
+    DropVoid,  // every message of an epoch below `epoch` at steps >= `step`, but those under `keep`
+  };
+  Kind kind = Kind::Put;
+  MessageKey key{};
+  Message message{};
+  WorldId from = kNoWorld;
+  std::int64_t step = 0;
+  std::uint32_t epoch = 0;
+  std::set<MessageKey> keep;
+};
 
-/// A message of a merged island — Glue with entries, Fragments, Gather,
-/// Results. A rollback over a step with one sent or used is a rollback of
-/// every world. Ghosts, Migrants and empty Glue (no island crosses the
-/// border) are kept when used and compared with their re-sends.
-bool is_merge_message(const Message& m);
+/// What a speculation decided at one hook (invariant 1: how it is applied).
+struct Verdict {
+  /// screen(): the message is taken care of; the step drops it.
+  bool drop = false;
+  std::vector<InboxEdit> inbox;
+  /// The step begins again at internal step `step` (its Predict) in the
+  /// world rebuilt from `state` (a kept state: invariant 2).
+  struct Restart {
+    std::int64_t step = 0;
+    const WorldSnapshot* state = nullptr;
+  };
+  std::optional<Restart> restart;
+  /// Under a Simulation: the transform buffer's entries from this scene step
+  /// on are void (republished by the re-run); -1: none.
+  std::int64_t republish_from = -1;
+  /// Messages to send after the restart, stamped by the step (notices).
+  std::vector<std::pair<WorldId, Message>> send;
+  /// Messages to send again exactly as they were sent (a rejoin).
+  std::vector<Message> resend;
+  /// Entries to publish before the step goes on (a rejoin took these scene
+  /// steps back); the step is then in its Publish phase.
+  std::vector<TransformEntry<btScalar>> backlog;
+  /// Islands the next step replays (TerritoryWorld::set_replay).
+  std::optional<StepReplay> replay;
+
+  bool empty() const {
+    return !drop && inbox.empty() && !restart && republish_from < 0 && send.empty() && resend.empty() &&
+           backlog.empty() && !replay;
+  }
+};
 
 class Speculation {
  public:
-  /// What the step shares with its speculation (every reference outlives it).
-  struct Context {
-    WorldStep& step;
-    KeptStates& kept;
-    const ProcessSafety& safety;  // anticipation > 0
-    const ProcessOutput& output;
-    const std::vector<WorldId>& neighbours;
-    Validator* validator;
-    int substeps;
-    Transport& transport;
-    StageClock& clock;
-    WorldMetrics& sums;  // messages_sent
-    std::function<void(WorldId, Message)> send;  // the step's send (stamps and logs it)
-  };
-  explicit Speculation(Context context);
+  virtual ~Speculation() = default;
 
   // Hooks, in the order of a step.
-  /// advance(), first: the rollbacks of every world not taken in yet.
-  void catch_up();
-  /// deliver(): true if the message was taken care of here (a notice, a
-  /// void message, a re-send compared with the one used, late glue).
-  bool screen(Message& m);
-  /// A neighbour's Ghosts or Migrants of this step missing: true if bets
-  /// that they are empty were placed in the inbox.
-  bool bet(MessageKind kind);
-  /// Before predict(): a re-run step replays what comes out unchanged.
-  void before_predict();
+  /// advance(), first: rollbacks of every world not taken in yet.
+  virtual Verdict catch_up() = 0;
+  /// A message delivered (drop: taken care of here — a notice, a void
+  /// message, a re-send compared with the one used, late glue). A message
+  /// dropped may have been moved from.
+  virtual Verdict screen(Message& m) = 0;
+  /// A neighbour's `kind` of this step missing: bets that it is empty
+  /// (Put edits), or nothing.
+  virtual Verdict bet(MessageKind kind) = 0;
+  /// Before predict(): what a re-run step replays.
+  virtual Verdict before_predict() = 0;
   /// A neighbour's message taken from the inbox for the step.
-  void used(const MessageKey& key, const Message& m);
-  /// A message this world sends (logged for a rejoin; merge steps noted).
-  void sent(const Message& m);
+  virtual void used(const MessageKey& key, const Message& m) = 0;
+  /// A message this world sends (stamped: step, epoch()).
+  virtual void sent(const Message& m) = 0;
   /// A merge message of this step taken in.
-  void merged() { merge_steps_.insert(s_.step); }
-  /// Validation: the report of the step just finished, passed on once
-  /// committed (GVT past it).
-  void report(WorldStepReport report);
-  /// After a step's end: keep the state, report the low-water mark, trim
-  /// what GVT passed, rejoin the old run if possible.
-  void step_ended(const TerritoryCounters& counters);
-  /// The world reached its target: done unless a step may still change
-  /// (the world is then woken when GVT reaches its clock).
+  virtual void merged() = 0;
+  /// Validation: the report of the step just finished.
+  virtual void report(WorldStepReport report) = 0;
+  /// After each internal step's end: keep the state, report the low-water
+  /// mark, maybe rejoin an old run.
+  virtual Verdict step_ended(const TerritoryCounters& counters) = 0;
+  /// The world reached its target: done unless a step may still change.
+  virtual bool done() = 0;
   /// Asks the horizon to wake this world once scene step `scene_step` is
-  /// final; false (and no wake) if it is already.
-  bool wake_when_final(std::int64_t scene_step);
-  bool done();
+  /// final; false (and no wake) if it is already (readers' holds while
+  /// speculating: RunControl::held_until).
+  virtual bool wake_when_final(std::int64_t scene_step) = 0;
   /// An entry of scene step `scene_step` is in the transform buffer.
-  void published(std::int64_t scene_step);
-  /// Under a Simulation: commit step and RunControl follow GVT.
-  void report_committed();
+  virtual void published(std::int64_t scene_step) = 0;
+  /// Under a Simulation, after each advance(): what is committed.
+  virtual void report_committed() = 0;
   /// The CPU time of a finished step, its restores excepted.
-  void step_cpu(std::int64_t ns);
+  virtual void step_cpu(std::int64_t ns) = 0;
   /// The run was rewound to internal step `step` from outside.
-  void reset(std::int64_t step);
-  /// The epoch of the rollback board this world has taken in.
-  std::uint32_t epoch() const { return seen_epoch_; }
-  /// Internal steps between kept states.
-  int checkpoint_every() const { return checkpoint_every_; }
-  /// Fills the speculation fields of `m` (rollback_cpu_seconds: the re-runs only).
-  void metrics(WorldMetrics& m) const;
-
- private:
-  // A neighbour's message this run used, kept while its step is above GVT.
-  struct Used {
-    std::uint64_t digest = 0;        // of the message's bytes, once unconfirmed
-    bool confirmed = true;           // false: a bet not yet met, or void (re-send awaited)
-    bool bet = false;                // assumed empty before it arrived
-    std::optional<Message> message;  // for a re-run after this world rolls back
-  };
-  using UsedKey = std::tuple<std::int64_t, int, WorldId>;  // (step, kind, from)
-  // What this world's run had done past a rollback of its own, kept while
-  // the re-run may rejoin it: once the re-run's state at a step after the
-  // message that changed is bit-equal to the old run's, and the messages the
-  // old run used from there on are the ones at hand, the old run's later
-  // steps are still exact (a step is a function of the state and the
-  // messages used) and are taken back instead of re-run (try_rejoin).
-  struct OldRun {
-    std::int64_t changed_step = 0;                      // the step whose message changed
-    std::map<std::int64_t, WorldSnapshot> kept;         // its states after the rollback's step
-    std::map<UsedKey, Used> used;                       // messages it used from that step on
-    std::map<std::int64_t, std::vector<Message>> sent;  // messages it sent from that step on
-    std::map<std::int64_t, WorldStepReport> reports;    // validation reports after that step
-    std::set<std::int64_t> merge_steps;                 // its steps with merge messages (never taken back)
-    std::map<std::int64_t, LocalIslands> islands;       // the islands it solved in place, by step (arm_replay)
-  };
-  // The step a rollback interrupted after its islands were solved: what it
-  // had solved, for the re-run of that step to replay (arm_replay).
-  struct PartialStep {
-    std::int64_t step = -1;
-    bool integrated = false;  // state taken after integrate(), else right after the solve
-    LocalIslands islands;
-    WorldSnapshot state;
-  };
-
-  bool within_anticipation();
-  bool compare_with_used(Message& m);
-  void take_notice(WorldId from, std::int64_t step);
-  void roll_back(std::int64_t step);
-  std::int64_t checkpoint_at_or_before(std::int64_t step) const;
-  void restore(std::int64_t step, std::int64_t changed_step, bool keep_old_run);
-  void try_rejoin();
-  void arm_replay();
-  void drop_old_run();
-  void await_resend(std::int64_t step, Used& u);
-  void report_mark();
-  void trim_below(std::int64_t gvt);
-  WorldId me() const { return s_.world->id(); }
-
-  Context c_;
-  WorldStep& s_;  // c_.step
-  int checkpoint_every_ = 1;  // keep a state every so many internal steps
-
-  std::map<UsedKey, Used> used_;
-  std::map<std::int64_t, int> unconfirmed_;                 // step -> unconfirmed uses
-  std::set<MessageKey> bets_in_inbox_;
-  std::set<MessageKey> lost_bets_;                          // never bet on these again
-  std::map<WorldId, std::pair<std::int64_t, bool>> newest_ghosts_;  // per neighbour: step, not empty
-  std::set<std::int64_t> merge_steps_;                      // steps with merge messages sent or used
-  std::map<WorldId, std::uint64_t> notices_sent_;
-  std::map<std::int64_t, WorldStepReport> reports_;         // validation: reported once committed
-  std::map<std::int64_t, std::vector<Message>> sent_log_;   // Ghosts, Migrants, empty Glue sent, by step
-  std::map<std::int64_t, LocalIslands> island_log_;         // islands solved in place, by step (propagate only)
-  std::optional<OldRun> old_run_;
-  std::optional<PartialStep> partial_step_;
-  std::int64_t restored_to_ = -1;        // the step the newest restore went back to
-  std::uint32_t seen_epoch_ = 0;         // of the rollback board
-  std::int64_t reported_through_ = -1;   // validation: steps reported
-  std::int64_t rerun_until_ = 0;         // steps below it are re-runs
-  std::int64_t last_published_ = 0;      // newest scene step published
-  std::int64_t committed_reported_ = 0;  // newest scene step reported to the RunControl
-
-  // Metrics.
-  std::uint64_t bets_ = 0, bets_lost_ = 0, rollbacks_ = 0, steps_rolled_back_ = 0, bodies_resolved_ = 0;
-  std::uint64_t bodies_replayed_ = 0, steps_rejoined_ = 0;
-  std::int64_t rerun_cpu_ns_ = 0;  // re-run steps, their restores excepted
-  std::vector<std::int32_t> lead_;
+  virtual void reset(std::int64_t step) = 0;
+  /// The epoch of the rollback board taken in (messages carry it).
+  virtual std::uint32_t epoch() const = 0;
+  /// True if this world may run ahead of the commit horizon (its lead is
+  /// measured and its waits name the horizon).
+  virtual bool runs_ahead() const = 0;
+  /// Fills the speculation fields of `m`.
+  virtual void metrics(WorldMetrics& m) const = 0;
 };
 
 }  // namespace soda

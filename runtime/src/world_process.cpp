@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "anticipation.h"
+#include "lockstep.h"
 #include "metrics_sums.h"
 #include "run_control.h"
 #include "soda/loadbalance/thread_clock.h"
@@ -30,11 +32,13 @@ PartitionedWorld::Process::Process(TerritoryWorld& world, Transport& transport, 
   s_.step = world.steps_done();
   sums_.world = world.id();
   sums_.neighbours = neighbours_.size();
-  if (safety_.anticipation > 0)
-    spec_ = std::make_unique<Speculation>(Speculation::Context{
-        s_, kept_, safety_, output_, neighbours_, validator_, substeps_, transport_, clock_, sums_,
-        [this](WorldId to, Message m) { send(to, std::move(m)); }});
-  if (safety_.keep_states || spec_) kept_.states().emplace(s_.step, world.part_snapshot());
+  if (safety_.anticipation > 0) {
+    spec_ = std::make_unique<Anticipation>(
+        Anticipation::Context{s_, kept_, safety_, output_, neighbours_, validator_, substeps_, clock_});
+  } else {
+    spec_ = std::make_unique<Lockstep>(Lockstep::Context{s_, kept_, safety_, output_, validator_, substeps_, clock_});
+  }
+  if (safety_.keep_states || spec_->runs_ahead()) kept_.states().emplace(s_.step, world.part_snapshot());
 }
 
 // Going back in time from outside (docs/rollback.md): the step begins again
@@ -45,7 +49,7 @@ void PartitionedWorld::Process::rewind(TerritoryWorld& world, std::int64_t scene
   s_.fragments.clear();
   s_.next_publish = scene_step + 1;  // the buffer dropped the later entries
   kept_.states().erase(kept_.states().upper_bound(s_.step), kept_.states().end());
-  if (spec_) spec_->reset(s_.step);
+  spec_->reset(s_.step);
   if (safety_.horizon) safety_.horizon->report(s_.world->id(), s_.step);
 }
 
@@ -90,7 +94,10 @@ void PartitionedWorld::Process::deliver(Message m) {
   if (!graph_.adjacent(s_.world->id(), m.from))
     throw PartitionError("world " + std::to_string(s_.world->id()) + " got " + describe(m) +
                          " from a world that is not a neighbour");
-  if (spec_ && spec_->screen(m)) return;
+  Verdict screened = spec_->screen(m);
+  const bool drop = screened.drop;
+  apply(std::move(screened));
+  if (drop) return;
   if (m.kind() == MessageKind::Fragments || m.kind() == MessageKind::Results || m.kind() == MessageKind::Gather) {
     // Late fragments of a step whose merge is over are dropped: the island
     // they belong to is complete here (island_merge.h).
@@ -109,7 +116,7 @@ PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
   // pay two clock reads per poll): what no stage below takes is not counted.
   // A pending rollback first: the mailbox may already hold messages of the
   // re-run steps from neighbours that rewound before this world.
-  if (spec_) spec_->catch_up();
+  apply(spec_->catch_up());
   if (s_.phase == StepPhase::Predict && output_.rewind && output_.control)
     if (std::shared_ptr<const WorldSnapshot> state = output_.control->take_rewind(s_.world->id())) {
       StageClock::Scope rollback(clock_, Stage::Rollback);
@@ -122,20 +129,20 @@ PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
     for (Message& m : held_) {
       if (!receive) receive.emplace(clock_, Stage::Receive);
       deliver(std::move(m));
-      result.progressed = result.progressed || spec_;  // it may have confirmed a bet
+      result.progressed = result.progressed || spec_->runs_ahead();  // it may have confirmed a bet
     }
     held_.clear();
     while (std::optional<Message> m = transport_.try_receive(s_.world->id())) {
       if (!receive) receive.emplace(clock_, Stage::Receive);
       deliver(std::move(*m));
-      result.progressed = result.progressed || spec_;  // it may have confirmed a bet
+      result.progressed = result.progressed || spec_->runs_ahead();  // it may have confirmed a bet
     }
   }
   for (;;) {
     if (s_.phase == StepPhase::Predict && !may_start()) {
       // Held by readers (RunControl::hold_for_readers) while speculating: it
       // waits for the horizon, reading its mailbox (a rollback may come).
-      if (spec_ && output_.control) {
+      if (spec_->runs_ahead() && output_.control) {
         if (const std::optional<std::int64_t> until = output_.control->held_until(s_.step)) {
           result.progressed = result.progressed || !spec_->wake_when_final(*until);
           break;
@@ -143,7 +150,7 @@ PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
       }
       // Speculating, the world is done only once no step of it can change:
       // once the commit horizon reaches its clock.
-      result.done = !spec_ || spec_->done();
+      result.done = spec_->done();
       break;
     }
     const std::int64_t before = s_.step;
@@ -151,7 +158,7 @@ PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
     result.progressed = true;
     if (s_.step != before) step_costs_done();
   }
-  if (spec_) spec_->report_committed();
+  spec_->report_committed();
   return result;
 }
 
@@ -167,7 +174,7 @@ std::vector<std::pair<WorldId, Batch>> PartitionedWorld::Process::take_all(Messa
   std::vector<std::pair<WorldId, Batch>> out;
   for (WorldId n : from) {
     auto it = s_.inbox.find(message_key(kind, s_.step, n));
-    if (spec_) spec_->used(it->first, it->second);
+    spec_->used(it->first, it->second);
     out.emplace_back(n, std::get<Batch>(std::move(it->second.payload)));
     s_.inbox.erase(it);
   }
@@ -178,10 +185,8 @@ void PartitionedWorld::Process::send(WorldId to, Message message) {
   message.from = s_.world->id();
   message.to = to;
   message.step = s_.step;
-  if (spec_) {
-    message.epoch = spec_->epoch();
-    spec_->sent(message);
-  }
+  message.epoch = spec_->epoch();
+  spec_->sent(message);
   ++sums_.messages_sent;
   const std::uint64_t bytes0 = thread_bytes_sent();
   const MessageKind kind = message.kind();
@@ -236,7 +241,9 @@ bool PartitionedWorld::Process::run_phase() {
 }
 
 bool PartitionedWorld::Process::have_or_bet(MessageKind kind) {
-  return have_all(kind, neighbours_) || (spec_ && spec_->bet(kind));
+  if (have_all(kind, neighbours_)) return true;
+  apply(spec_->bet(kind));
+  return have_all(kind, neighbours_);
 }
 
 std::vector<WorldId> PartitionedWorld::Process::glue_senders() const {
@@ -249,7 +256,7 @@ std::vector<WorldId> PartitionedWorld::Process::glue_senders() const {
 void PartitionedWorld::Process::predict() {
   StageClock::Scope stage(clock_, Stage::Predict);
   if (output_.inputs && s_.step % substeps_ == 0) apply_inputs();
-  if (spec_) spec_->before_predict();
+  apply(spec_->before_predict());
   s_.idle = safety_.skip_idle && !fault_due() && s_.world->idle_ready();
   if (s_.idle) {
     s_.world->begin_idle_step();
@@ -303,7 +310,7 @@ void PartitionedWorld::Process::send_ghosts() {
 
 void PartitionedWorld::Process::exchange_ghosts() {
   StageClock::Scope stage(clock_, Stage::ExchangeGhosts);
-  s_.world->apply_ghosts(take_all<GhostBatch>(MessageKind::Ghosts, neighbours_), spec_ != nullptr);
+  s_.world->apply_ghosts(take_all<GhostBatch>(MessageKind::Ghosts, neighbours_), spec_->runs_ahead());
 }
 
 void PartitionedWorld::Process::collide() {
@@ -339,7 +346,7 @@ bool PartitionedWorld::Process::merge() {
   s_.fragments.erase(it);
   for (Message& m : batch) {
     ++sums_.relay_messages_received;
-    if (spec_) spec_->merged();
+    spec_->merged();
     if (m.kind() == MessageKind::Results) {
       for (std::shared_ptr<const IslandResult>& r : std::get<ResultBatch>(m.payload).results)
         take_result(std::move(r));
@@ -402,23 +409,10 @@ void PartitionedWorld::Process::end_step() {
                            s_.world->owned_ids(),    s_.world->ghost_count(),
                            s_.world->static_count(), s_.world->bullet_object_count(),
                            s_.world->held_contact_pairs(), s_.world->parked_count()};
-    if (spec_) {
-      spec_->report(std::move(report));
-    } else {
-      validator_->report(std::move(report));
-    }
+    spec_->report(std::move(report));
   }
-  if (spec_) spec_->step_ended(c);
+  apply(spec_->step_ended(c));  // lockstep: keeps states at scene step boundaries
   if (s_.step % substeps_ != 0) return;
-  if (!spec_) {
-    StageClock::Scope checkpoint(clock_, Stage::Checkpoint);
-    if (safety_.keep_states) kept_.states().emplace(s_.step, s_.world->part_snapshot());
-    if (safety_.horizon) safety_.horizon->report(s_.world->id(), s_.step);
-    // One scene step below GVT stays too: the watchdog's heal of a
-    // penetration restores the step before the one that found it.
-    if (safety_.keep_states)
-      kept_.states().erase(kept_.states().begin(), kept_.states().lower_bound(safety_.horizon->gvt() - substeps_));
-  }
   if (progress_) progress_(s_.step / substeps_);
   if (output_.after_step) output_.after_step(s_.world->id(), s_.step / substeps_);
   // A re-run after a rollback (speculation) does not publish the steps up to

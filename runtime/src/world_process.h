@@ -25,13 +25,15 @@
 //                  poses to the world's transform buffer; waits while it is
 //                  full (advance() returns, waiting_for_room() is true)
 //
-// Speculation (Safety::anticipation > 0; docs/rollback.md) is a component
-// of its own (speculation.h): the step calls it through its hooks — on
-// delivery, for a bet when a neighbour's Ghosts or Migrants are missing,
-// before predict, for each message used or sent, after each step — and it
-// goes back in time by rebuilding the world and restarting the step
-// (WorldStep::begin_again). Each stage's CPU time, waits and counts go to
-// a StageClock (WorldMetrics::stages).
+// How the step treats time is a component of its own, a Speculation
+// (speculation.h): Lockstep, or Anticipation with Safety::anticipation > 0
+// (docs/rollback.md). The step calls it through its hooks — on delivery,
+// for a bet when a neighbour's Ghosts or Migrants are missing, before
+// predict, for each message used or sent, after each step — and applies the
+// Verdict each hook returns (apply()): messages in and out of the inbox, a
+// restart in a rebuilt world (WorldStep::begin_again), notices to send.
+// Each stage's CPU time, waits and counts go to a StageClock
+// (WorldMetrics::stages).
 //
 // Under PartitionedWorld::step the world runs up to a fixed target; under a
 // Simulation (attach()) it asks the RunControl before beginning each step.
@@ -153,6 +155,10 @@ class PartitionedWorld::Process {
   void gathered(BodyId island);
   void take_result(std::shared_ptr<const IslandResult> result);
   void end_step();
+  // What speculation decided (speculation.h).
+  void apply(Verdict v);
+  void edit_inbox(InboxEdit& e);
+  void resend(Message m);
   void check_watchdog();
   void apply_inputs();
   // Idle territories (docs/skip.md).
@@ -180,7 +186,7 @@ class PartitionedWorld::Process {
   std::int64_t target_ = 0;
   WorldStep s_;                            // the step in progress
   KeptStates kept_;                        // keep_states, speculation
-  std::unique_ptr<Speculation> spec_;      // anticipation > 0; else null
+  std::unique_ptr<Speculation> spec_;      // Anticipation (anticipation > 0) or Lockstep
 
   // Metrics.
   WorldMetrics sums_;

@@ -96,16 +96,7 @@ void PartitionedWorld::Process::entry_published(std::int64_t scene_step, bool ke
   }
   ++entries_published_;
   clock_.count(Stage::Publish, 1);
-  if (spec_) {
-    spec_->published(scene_step);
-    return;
-  }
-  // Kept states (rollback for past inputs): a step above GVT may still be
-  // rewritten, so only steps below it are committed.
-  std::int64_t commit = scene_step - 1;
-  if (safety_.keep_states) commit = std::min(commit, safety_.horizon->gvt() / substeps_ - 1);
-  output_.buffer->raise_commit_step(commit);
-  output_.control->published(s_.world->id(), scene_step);
+  spec_->published(scene_step);  // what is committed now (lockstep.h, anticipation.h)
 }
 
 }  // namespace soda

@@ -16,12 +16,12 @@ void PartitionedWorld::Process::step_costs_done() {
   const std::int64_t rollback_ns = t.cpu_ns[static_cast<std::size_t>(Stage::Rollback)];
   step_cpu_max_ns_ = std::max(step_cpu_max_ns_, step_ns);
   step_cpu_history_ns_.push_back(step_ns);
-  if (spec_) spec_->step_cpu(step_ns - (rollback_ns - step_start_rollback_ns_));  // restores: counted
+  spec_->step_cpu(step_ns - (rollback_ns - step_start_rollback_ns_));  // restores: counted
   step_start_cpu_ns_ = t.cpu_ns_sum;
   step_start_rollback_ns_ = rollback_ns;
   if (!output_.control) {  // PartitionedWorld::step: its per-step loads
     const TerritoryCounters& c = s_.world->counters();
-    const std::int64_t lead = spec_ ? s_.step - safety_.horizon->gvt() : 0;
+    const std::int64_t lead = spec_->runs_ahead() ? s_.step - safety_.horizon->gvt() : 0;
     step_log_.push_back(StepRecord{s_.step, step_ns, blocked_ns_ - step_start_blocked_ns_,
                                    static_cast<std::int32_t>(s_.world->owned_count()), static_cast<std::int32_t>(lead),
                                    static_cast<std::int32_t>(c.local_islands + c.islands_solved)});
@@ -74,7 +74,7 @@ std::string PartitionedWorld::Process::waiting_for() const {
     case StepPhase::AwaitMigrants: missing(MessageKind::Migrants, neighbours_); break;
     case StepPhase::Publish: s << "waits for room in its transform buffer"; break;
   }
-  if (spec_) {
+  if (spec_->runs_ahead()) {
     s << "; horizon " << safety_.horizon->gvt();
   }
   return s.str();
@@ -110,7 +110,7 @@ WorldMetrics PartitionedWorld::Process::metrics() const {
   m.owned_bodies = s_.world->owned_count();
   m.ghosts = s_.world->ghost_count();
   m.kept_states_max = kept_.max();
-  if (spec_) spec_->metrics(m);
+  spec_->metrics(m);
   m.rollback_cpu_seconds += static_cast<double>(t.cpu_ns[static_cast<std::size_t>(Stage::Rollback)]) * 1e-9;
   return m;
 }

@@ -1,7 +1,8 @@
-// One world's speculation (speculation.h, docs/rollback.md): its hooks, bets
-// on empty neighbour messages, the messages it used, rollback notices,
+// One world's speculation (anticipation.h, docs/rollback.md): its hooks,
+// bets on empty neighbour messages, the messages it used, rollback notices,
 // rollbacks of every world, and its low-water mark in the commit horizon.
-// Restores, rejoins and replays: speculation_rollback.cpp.
+// Restores, rejoins and replays: anticipation_rollback.cpp. Every change to
+// the step goes into the verdict of the hook running (out()).
 //
 // Why the result equals lockstep's: a world's step t is a function of its
 // state at t and the neighbours' messages of t it uses. Every message it used
@@ -28,25 +29,9 @@
 
 #include "run_control.h"
 #include "soda/runtime/message_codec.h"
-#include "speculation.h"
+#include "anticipation.h"
 
 namespace soda {
-namespace {
-
-Message empty_message(MessageKind kind, WorldId from, WorldId to, std::int64_t step) {
-  Message m;
-  m.from = from;
-  m.to = to;
-  m.step = step;
-  if (kind == MessageKind::Ghosts) {
-    m.payload = GhostBatch{};
-  } else {
-    m.payload = MigrantBatch{};
-  }
-  return m;
-}
-
-}  // namespace
 
 bool is_merge_message(const Message& m) {
   switch (m.kind()) {
@@ -58,7 +43,7 @@ bool is_merge_message(const Message& m) {
   }
 }
 
-Speculation::Speculation(Context c)
+Anticipation::Anticipation(Context c)
     : c_(std::move(c)),
       s_(c_.step),
       // A state every checkpoint_every internal steps (a rollback restores
@@ -66,10 +51,36 @@ Speculation::Speculation(Context c)
       // kept states are asked for anyway.
       checkpoint_every_(c_.safety.keep_states ? 1 : c_.safety.checkpoint_every) {}
 
-bool Speculation::screen(Message& m) {
+
+Verdict& Anticipation::out() {
+  if (!out_) throw std::logic_error("Anticipation: a change to the step outside a hook");
+  return *out_;
+}
+
+std::int64_t Anticipation::at_step() const { return out_ && out_->restart ? out_->restart->step : s_.step; }
+
+StepPhase Anticipation::at_phase() const {
+  return out_ && out_->restart ? StepPhase::Predict : s_.phase;
+}
+
+Verdict Anticipation::screen(Message& m) {
+  Verdict v;
+  Building building(*this, v);
+  v.drop = screen_into(m);
+  return v;
+}
+
+Verdict Anticipation::catch_up() {
+  Verdict v;
+  Building building(*this, v);
+  catch_up_into();
+  return v;
+}
+
+bool Anticipation::screen_into(Message& m) {
   if (m.epoch > seen_epoch_) {  // a rollback of every world its sender saw first
     c_.safety.board->await(m.epoch);  // over ranks its entry may still be on its way
-    catch_up();
+    catch_up_into();
   }
   if (const Control* control = std::get_if<Control>(&m.payload)) {
     // The sender's pin holds the horizon at the notice's step until this
@@ -88,16 +99,21 @@ bool Speculation::screen(Message& m) {
   if (!is_merge_message(m) && compare_with_used(m)) return true;
   // Glue of a step whose glue this world no longer waits for: not needed
   // (a neighbour re-sent it after rolling back).
+  const std::int64_t step = at_step();
+  const StepPhase phase = at_phase();
   return m.kind() == MessageKind::Glue &&
-         (m.step < s_.step || (m.step == s_.step && s_.phase != StepPhase::Predict &&
-                               s_.phase != StepPhase::AwaitGhosts && s_.phase != StepPhase::AwaitGlue));
+         (m.step < step || (m.step == step && phase != StepPhase::Predict && phase != StepPhase::AwaitGhosts &&
+                            phase != StepPhase::AwaitGlue));
 }
 
-void Speculation::before_predict() {
+Verdict Anticipation::before_predict() {
+  Verdict v;
+  Building building(*this, v);
   if (old_run_ || partial_step_) arm_replay();
+  return v;
 }
 
-void Speculation::sent(const Message& m) {
+void Anticipation::sent(const Message& m) {
   if (is_merge_message(m)) {
     merge_steps_.insert(s_.step);
   } else if (m.kind() != MessageKind::Control) {
@@ -105,11 +121,13 @@ void Speculation::sent(const Message& m) {
   }
 }
 
-void Speculation::report(WorldStepReport report) {
+void Anticipation::report(WorldStepReport report) {
   if (s_.step > reported_through_) reports_.insert_or_assign(s_.step, std::move(report));  // once committed
 }
 
-void Speculation::step_ended(const TerritoryCounters& c) {
+Verdict Anticipation::step_ended(const TerritoryCounters& c) {
+  Verdict v;
+  Building building(*this, v);
   StageClock::Scope stage(c_.clock, Stage::Checkpoint);
   if (partial_step_ && partial_step_->step < s_.step) partial_step_.reset();
   if (s_.step <= rerun_until_) {
@@ -128,17 +146,17 @@ void Speculation::step_ended(const TerritoryCounters& c) {
   const std::int64_t gvt = c_.safety.horizon->gvt();
   lead_.push_back(static_cast<std::int32_t>(s_.step - gvt));
   trim_below(gvt);
-  if (old_run_) try_rejoin();
-  if (!s_.backlog.empty()) s_.phase = StepPhase::Publish;  // a rejoin took steps back: their entries first
+  if (old_run_) try_rejoin();  // its backlog, if any, is published first
+  return v;
 }
 
-bool Speculation::done() { return !c_.safety.horizon->wake_at(me(), s_.step); }
+bool Anticipation::done() { return !c_.safety.horizon->wake_at(me(), s_.step); }
 
-bool Speculation::wake_when_final(std::int64_t scene_step) {
+bool Anticipation::wake_when_final(std::int64_t scene_step) {
   return c_.safety.horizon->wake_at(me(), scene_step * c_.substeps);
 }
 
-void Speculation::published(std::int64_t scene_step) {
+void Anticipation::published(std::int64_t scene_step) {
   last_published_ = scene_step;
   report_committed();
 }
@@ -147,7 +165,7 @@ void Speculation::published(std::int64_t scene_step) {
 // rewritten. The buffer's commit step follows GVT (one behind the newest
 // entry, which stays readable), and the RunControl hears only of committed
 // steps, so advance_to() and the readouts never see a speculative state.
-void Speculation::report_committed() {
+void Anticipation::report_committed() {
   if (!c_.output.control) return;
   const std::int64_t horizon = c_.safety.horizon->gvt() / c_.substeps;
   const std::int64_t commit = std::min(last_published_ - 1, horizon - 1);
@@ -162,13 +180,13 @@ void Speculation::report_committed() {
   }
 }
 
-void Speculation::step_cpu(std::int64_t ns) {
+void Anticipation::step_cpu(std::int64_t ns) {
   if (s_.step <= rerun_until_) rerun_cpu_ns_ += ns;
 }
 
 // Rewound from outside: every world parked at one boundary, nothing in
 // flight; the logs of later steps go (the kept states: KeptStates, by the step).
-void Speculation::reset(std::int64_t step) {
+void Anticipation::reset(std::int64_t step) {
   used_.clear();
   sent_log_.clear();
   island_log_.clear();
@@ -180,7 +198,7 @@ void Speculation::reset(std::int64_t step) {
   reports_.erase(reports_.upper_bound(step), reports_.end());
 }
 
-void Speculation::metrics(WorldMetrics& m) const {
+void Anticipation::metrics(WorldMetrics& m) const {
   m.bets = bets_;
   m.bets_lost = bets_lost_;
   m.rollbacks = rollbacks_;
@@ -198,111 +216,22 @@ void Speculation::metrics(WorldMetrics& m) const {
   m.lead_mean = lead_.empty() ? 0.0 : sum / static_cast<double>(lead_.size());
 }
 
-// The neighbours whose `kind` of this step is missing: bet that it is empty,
-// if every one of them is a neighbour this world sent no ghosts to (and, for
-// Migrants, got no ghosts from), no bet on it was lost at this step, the
-// newest ghosts that arrived from it were empty unless bets are eager (a
-// border that has just become busy stays busy: betting on each following
-// step lost one bet and re-ran the world each time), and the step is within
-// the anticipation.
-bool Speculation::bet(MessageKind kind) {
-  std::vector<WorldId> missing;
-  for (WorldId n : c_.neighbours)
-    if (!s_.inbox.count(message_key(kind, s_.step, n))) missing.push_back(n);
-  for (WorldId n : missing) {
-    if (s_.world->sends_ghosts_to(n)) return false;
-    if (kind == MessageKind::Migrants && s_.world->received_ghosts_from(n)) return false;
-    if (lost_bets_.count(message_key(kind, s_.step, n))) return false;
-    auto newest = newest_ghosts_.find(n);
-    if (!c_.safety.eager_bets && newest != newest_ghosts_.end() && newest->second.second) return false;
-  }
-  if (!within_anticipation()) return false;
-  for (WorldId n : missing) {
-    const MessageKey key{static_cast<int>(kind), s_.step, n};
-    s_.inbox.emplace(key, empty_message(kind, n, me(), s_.step));
-    bets_in_inbox_.insert(key);
-    ++bets_;
-  }
-  return true;
-}
-
-// True if this step is fewer than `anticipation` steps past GVT; else the
-// world asks to be woken when it is.
-bool Speculation::within_anticipation() {
-  const std::int64_t needed = s_.step - c_.safety.anticipation + 1;
-  return !c_.safety.horizon->wake_at(me(), needed);
-}
-
-// A neighbour's message the step took from the inbox: kept (a merge: noted).
-void Speculation::used(const MessageKey& key, const Message& m) {
-  const auto& [kind, step, from] = key;
-  if (is_merge_message(m)) {
-    merge_steps_.insert(step);
-    return;  // a merge: the rollback of every world takes care of it
-  }
-  Used u;
-  if (bets_in_inbox_.erase(key)) {
-    u.bet = true;
-    u.confirmed = false;
-    u.digest = message_digest(m);
-    ++unconfirmed_[step];
-  } else {
-    u.message = m;  // its digest is taken only if its sender voids it
-  }
-  used_.insert_or_assign(UsedKey{step, kind, from}, std::move(u));
-}
-
-// A Ghosts, Migrants or empty Glue message for a step this run used one
-// of: confirm it or roll back. True if the message has been taken care of
-// (else it goes to the inbox).
-bool Speculation::compare_with_used(Message& m) {
-  auto it = used_.find(UsedKey{m.step, static_cast<int>(m.kind()), m.from});
-  if (it == used_.end()) return false;
-  Used& u = it->second;
-  if (u.confirmed)
-    throw std::logic_error("world " + std::to_string(me()) + " got " + describe(m) +
-                           " again, without a rollback notice");
-  if (message_digest(m) == u.digest) {
-    u.confirmed = true;
-    u.bet = false;  // met
-    u.message = std::move(m);
-    const std::int64_t s = std::get<0>(it->first);
-    if (--unconfirmed_[s] == 0) unconfirmed_.erase(s);
-    report_mark();
-    return true;
-  }
-  if (u.bet) {
-    ++bets_lost_;
-    lost_bets_.insert(MessageKey{static_cast<int>(m.kind()), m.step, m.from});
-  }
-  SPEC_TRACE("w%d at %lld: %s differs from the one used (bet %d)\n", me(), (long long)s_.step,
-             describe(m).c_str(), u.bet);
-  const std::int64_t step = m.step;
-  roll_back(step);
-  return screen(m);  // then to the inbox (dropped if a rollback of every world voided it)
-}
 
 // Neighbour `from` rolled back to `step` on its own (it had no merge
 // messages from that step on): its messages of steps >= step sent before
 // this are void. Drops those not used yet; the ones used await their
 // re-send, which is compared with them.
-void Speculation::take_notice(WorldId from, std::int64_t step) {
-  SPEC_TRACE("w%d at %lld: notice from %d: rolled back to %lld\n", me(), (long long)s_.step, from,
+void Anticipation::take_notice(WorldId from, std::int64_t step) {
+  SPEC_TRACE("w%d at %lld: notice from %d: rolled back to %lld\n", me(), (long long)at_step(), from,
              (long long)step);
   // Fuzzing: other worlds run on while this one takes the notice in (the
   // horizon must not move past the notice's step meanwhile: screen()).
   if (c_.safety.fuzz) fuzz_pause(*c_.safety.fuzz);
-  for (auto it = s_.inbox.begin(); it != s_.inbox.end();) {
-    const auto& [kind, s, f] = it->first;
-    if (f == from && s >= step) {
-      bets_in_inbox_.erase(it->first);
-      it = s_.inbox.erase(it);
-    } else {
-      ++it;
-    }
-  }
-  for (auto it = s_.fragments.lower_bound(step); it != s_.fragments.end(); ++it)
-    std::erase_if(it->second, [&](const Message& m) { return m.from == from; });
+  InboxEdit drop{.kind = InboxEdit::Kind::DropFrom};
+  drop.from = from;
+  drop.step = step;
+  out().inbox.push_back(std::move(drop));
+  std::erase_if(bets_in_inbox_, [&](const MessageKey& k) { return std::get<2>(k) == from && std::get<1>(k) >= step; });
   for (auto it = used_.lower_bound(UsedKey{step, 0, kNoWorld}); it != used_.end(); ++it) {
     const auto& [s, kind, f] = it->first;
     Used& u = it->second;
@@ -314,17 +243,17 @@ void Speculation::take_notice(WorldId from, std::int64_t step) {
 // A message used at `step` changed: this world's own rollback if it had no
 // merge messages from `step` on (and not recomputing), else every world's.
 // The world goes back to its checkpoint at or before `step`.
-void Speculation::roll_back(std::int64_t step) {
+void Anticipation::roll_back(std::int64_t step) {
   if (step < c_.safety.horizon->gvt())
     throw std::logic_error("world " + std::to_string(me()) + ": rollback to step " + std::to_string(step) +
                            ", below the commit horizon " + std::to_string(c_.safety.horizon->gvt()));
   const std::int64_t back = checkpoint_at_or_before(step);
   const bool merged = merge_steps_.lower_bound(back) != merge_steps_.end();
   if (merged || c_.safety.recompute) {
-    SPEC_TRACE("w%d at %lld: posts a rollback of every world to %lld\n", me(), (long long)s_.step,
+    SPEC_TRACE("w%d at %lld: posts a rollback of every world to %lld\n", me(), (long long)at_step(),
                (long long)back);
     c_.safety.board->post(back, step, me());
-    catch_up();
+    catch_up_into();
     return;
   }
   restore(back, step, true);
@@ -333,13 +262,13 @@ void Speculation::roll_back(std::int64_t step) {
       throw std::logic_error("world " + std::to_string(me()) + ": rolled back below the commit horizon");
     Message notice;
     notice.payload = Control{Control::Type::Notice, ++notices_sent_[n], back, step};
-    c_.send(n, std::move(notice));
+    out().send.emplace_back(n, std::move(notice));  // after the restart: stamped with its step
   }
 }
 
 // Checkpoints are kept at internal steps that are multiples of
 // checkpoint_every_ (the same steps in every world), and at the first step.
-std::int64_t Speculation::checkpoint_at_or_before(std::int64_t step) const {
+std::int64_t Anticipation::checkpoint_at_or_before(std::int64_t step) const {
   auto it = c_.kept.states().upper_bound(step);
   if (it == c_.kept.states().begin())
     throw std::logic_error("world " + std::to_string(me()) + ": no state kept at or before step " +
@@ -349,11 +278,11 @@ std::int64_t Speculation::checkpoint_at_or_before(std::int64_t step) const {
 
 // Rollbacks of every world this world has not taken in yet: restore each
 // step it has passed, drop every message their epochs voided.
-void Speculation::catch_up() {
+void Anticipation::catch_up_into() {
   for (const RollbackBoard::Entry& e : c_.safety.board->since(seen_epoch_)) {
     // Rollback and Propagate: the world keeps its old run, which its re-run
     // rejoins if its own state and messages turn out unchanged.
-    if (s_.step > e.step || (s_.step == e.step && s_.phase != StepPhase::Predict)) {
+    if (at_step() > e.step || (at_step() == e.step && at_phase() != StepPhase::Predict)) {
       restore(e.step, e.pinned, !c_.safety.recompute);
       // An input at a step readers hold may reach below what was committed:
       // the re-run reports its steps again (RunControl::rolled_back).
@@ -361,14 +290,11 @@ void Speculation::catch_up() {
     }
     seen_epoch_ = e.epoch;
     auto void_message = [&](const Message& m) { return m.epoch < e.epoch && m.step >= e.step; };
-    for (auto it = s_.inbox.begin(); it != s_.inbox.end();) {
-      if (!bets_in_inbox_.count(it->first) && void_message(it->second)) {
-        it = s_.inbox.erase(it);
-      } else {
-        ++it;
-      }
-    }
-    for (auto& [s, list] : s_.fragments) std::erase_if(list, void_message);
+    InboxEdit drop{.kind = InboxEdit::Kind::DropVoid};  // the inbox (not the bets) and the merge queue
+    drop.step = e.step;
+    drop.epoch = e.epoch;
+    drop.keep = bets_in_inbox_;
+    out().inbox.push_back(std::move(drop));
     for (auto it = used_.lower_bound(UsedKey{e.step, 0, kNoWorld}); it != used_.end(); ++it) {
       Used& u = it->second;  // used at a step this world had not passed: void, awaiting the re-send
       if (u.confirmed && u.message && void_message(*u.message)) await_resend(std::get<0>(it->first), u);
@@ -381,7 +307,7 @@ void Speculation::catch_up() {
 
 // A used message its sender voided (a Notice, a rollback of every world):
 // kept as a digest, unconfirmed, until the re-send is compared with it.
-void Speculation::await_resend(std::int64_t step, Used& u) {
+void Anticipation::await_resend(std::int64_t step, Used& u) {
   u.confirmed = false;
   u.digest = message_digest(*u.message);
   u.message.reset();
@@ -390,15 +316,15 @@ void Speculation::await_resend(std::int64_t step, Used& u) {
 
 // Low-water mark: the clock, or the oldest step of a message used that may
 // still change.
-void Speculation::report_mark() {
-  std::int64_t mark = s_.step;
+void Anticipation::report_mark() {
+  std::int64_t mark = at_step();
   if (!unconfirmed_.empty()) mark = std::min(mark, unconfirmed_.begin()->first);
   c_.safety.horizon->report(me(), mark);
 }
 
 // Nothing below GVT can change: states, uses and validation reports of
 // those steps are final.
-void Speculation::trim_below(std::int64_t gvt) {
+void Anticipation::trim_below(std::int64_t gvt) {
   // A rollback to a step at or above GVT restores the checkpoint at or
   // before it and re-runs from there with the messages used: keep both.
   const std::int64_t keep = checkpoint_at_or_before(gvt);

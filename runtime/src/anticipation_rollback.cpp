@@ -1,13 +1,12 @@
-// One world's speculation, going back (speculation.h): restoring a kept
+// One world's speculation, going back (anticipation.h): restoring a kept
 // state, rejoining the run a re-run left, replaying what a re-run step
-// repeats unchanged.
+// repeats unchanged — each a decision in the verdict of the hook running.
 #include <algorithm>
 #include <stdexcept>
 #include <string>
 
 #include "soda/runtime/message_codec.h"
-#include "speculation.h"
-#include "transport_bytes.h"
+#include "anticipation.h"
 
 namespace soda {
 namespace {
@@ -37,29 +36,31 @@ std::vector<BodyState> body_states_of(const WorldSnapshot& part) {
 // states before it come out of the re-run unchanged. `keep_old_run`: a
 // rollback of its own; what the run had done past `step` is kept for
 // try_rejoin.
-void Speculation::restore(std::int64_t step, std::int64_t changed_step, bool keep_old_run) {
+void Anticipation::restore(std::int64_t step, std::int64_t changed_step, bool keep_old_run) {
   StageClock::Scope stage(c_.clock, Stage::Rollback);
   c_.clock.count(Stage::Rollback, 1);
   const std::string who = "world " + std::to_string(me());
-  if (step > s_.step) throw std::logic_error(who + ": rollback to step " + std::to_string(step) + " ahead of its clock");
+  const std::int64_t at = at_step();
+  const StepPhase phase = at_phase();
+  if (step > at) throw std::logic_error(who + ": rollback to step " + std::to_string(step) + " ahead of its clock");
   auto kept = c_.kept.states().find(step);
   if (kept == c_.kept.states().end())
     throw std::logic_error(who + ": rollback to step " + std::to_string(step) + ", which it no longer keeps");
-  SPEC_TRACE("w%d at %lld: restores %lld (phase %d)\n", me(), (long long)s_.step, (long long)step,
-             static_cast<int>(s_.phase));
+  SPEC_TRACE("w%d at %lld: restores %lld (phase %d)\n", me(), (long long)at, (long long)step,
+             static_cast<int>(phase));
   ++rollbacks_;
-  steps_rolled_back_ += static_cast<std::uint64_t>(s_.step - step);
+  steps_rolled_back_ += static_cast<std::uint64_t>(at - step);
   // The step in progress is a re-run once it has solved something (the
   // islands are solved after the ghosts arrive); a world waiting for ghosts
   // had only predicted, one publishing had ended the step.
-  const bool solved = s_.phase == StepPhase::AwaitGlue || s_.phase == StepPhase::Merging ||
-                      s_.phase == StepPhase::AwaitMigrants;
-  rerun_until_ = std::max(rerun_until_, solved ? s_.step + 1 : s_.step);
+  const bool solved =
+      phase == StepPhase::AwaitGlue || phase == StepPhase::Merging || phase == StepPhase::AwaitMigrants;
+  rerun_until_ = std::max(rerun_until_, solved ? at + 1 : at);
   partial_step_.reset();
   if (solved && keep_old_run) {
     PartialStep& p = partial_step_.emplace();
-    p.step = s_.step;
-    p.integrated = s_.phase == StepPhase::AwaitMigrants;
+    p.step = at;  // solved: no restart decided before in this hook, s_.world is the step's
+    p.integrated = phase == StepPhase::AwaitMigrants;
     if (p.integrated) {
       p.islands = s_.world->local_islands();
       s_.world->part_snapshot(p.state);
@@ -68,7 +69,7 @@ void Speculation::restore(std::int64_t step, std::int64_t changed_step, bool kee
     }
   }
   restored_to_ = step;
-  s_.begin_again(c_.safety.rebuild(kept->second, step), step);
+  out().restart = Verdict::Restart{step, &kept->second};
   if (c_.output.buffer) {
     // Entries of boundaries after the changed step are void: republished
     // with a new revision by the re-run. Earlier ones come out of the re-run
@@ -80,8 +81,8 @@ void Speculation::restore(std::int64_t step, std::int64_t changed_step, bool kee
     // Committed steps were computed from confirmed messages only; the re-run
     // repeats them bit for bit, so they stay too.
     const std::int64_t first = std::max(changed_step / c_.substeps + 1, c_.output.buffer->commit_step() + 1);
-    c_.output.buffer->invalidate_from(first);
-    s_.next_publish = std::min(s_.next_publish, first);
+    Verdict& v = out();
+    v.republish_from = v.republish_from < 0 ? first : std::min(v.republish_from, first);
     last_published_ = std::min(last_published_, first - 1);
   }
   if (old_run_) drop_old_run();  // rolled back again (or for every world): the re-run leaves the old run
@@ -102,7 +103,7 @@ void Speculation::restore(std::int64_t step, std::int64_t changed_step, bool kee
   sent_log_.erase(sent_log_.lower_bound(step), sent_log_.end());
   island_log_.erase(island_log_.lower_bound(step), island_log_.end());
   merge_steps_.erase(merge_steps_.lower_bound(step), merge_steps_.end());
-  for (const MessageKey& k : bets_in_inbox_) s_.inbox.erase(k);
+  for (const MessageKey& k : bets_in_inbox_) out().inbox.push_back(InboxEdit{.kind = InboxEdit::Kind::Erase, .key = k});
   bets_in_inbox_.clear();
   for (auto it = used_.lower_bound(UsedKey{step, 0, kNoWorld}); it != used_.end(); it = used_.erase(it)) {
     const auto [s, kind, from] = it->first;
@@ -110,7 +111,8 @@ void Speculation::restore(std::int64_t step, std::int64_t changed_step, bool kee
     if (!u.confirmed) {
       if (--unconfirmed_[s] == 0) unconfirmed_.erase(s);
     } else if (u.message) {
-      s_.inbox.emplace(MessageKey{kind, s, from}, std::move(*u.message));
+      out().inbox.push_back(
+          InboxEdit{.kind = InboxEdit::Kind::Put, .key = MessageKey{kind, s, from}, .message = std::move(*u.message)});
     }
   }
   report_mark();
@@ -123,30 +125,39 @@ void Speculation::restore(std::int64_t step, std::int64_t changed_step, bool kee
 // are what the re-run would compute. Take them back: its uses, its kept
 // states and reports, its sent messages (re-sent: the rollback's Notice
 // voided them), and the world rebuilt at its newest kept state.
-void Speculation::try_rejoin() {
+void Anticipation::try_rejoin() {
   StageClock::Scope stage(c_.clock, Stage::Rollback);
-  OldRun& old = *old_run_;
-  const std::int64_t s = s_.step;
-  const std::int64_t j = old.kept.rbegin()->first;
-  if (s >= j) {
+  const std::int64_t j = old_run_->kept.rbegin()->first;
+  if (s_.step >= j) {
     drop_old_run();  // the re-run has caught up: nothing left to take back
     return;
   }
-  if (s <= old.changed_step) return;
+  std::vector<std::pair<std::int64_t, const WorldSnapshot*>> entries;  // (scene step, state)
+  if (may_rejoin(j, entries)) rejoin(j, entries);
+}
+
+// The rejoin's conditions (above); `entries`: under a Simulation, the old
+// run's entries of these steps were dropped from the buffer (restore): they
+// are republished from the kept states, so each scene step not yet published
+// needs one. Drops the old run if one of its messages changed.
+bool Anticipation::may_rejoin(std::int64_t j,
+                              std::vector<std::pair<std::int64_t, const WorldSnapshot*>>& entries) {
+  OldRun& old = *old_run_;
+  const std::int64_t s = s_.step;
+  if (s <= old.changed_step) return false;
   auto old_state = old.kept.find(s);
   auto new_state = c_.kept.states().find(s);
-  if (old_state == old.kept.end() || new_state == c_.kept.states().end()) return;
-  if (!same_bits(old_state->second, new_state->second)) return;
-
+  if (old_state == old.kept.end() || new_state == c_.kept.states().end()) return false;
+  if (!same_bits(old_state->second, new_state->second)) return false;
   const auto in_range = [&](std::int64_t step) { return step >= s && step < j; };
   std::size_t at_hand = 0;
   for (const auto& [key, m] : s_.inbox) at_hand += in_range(std::get<1>(key));
   for (const auto& [step, list] : s_.fragments)
-    if (in_range(step) && !list.empty()) return;  // a merge the old run did not have
+    if (in_range(step) && !list.empty()) return false;  // a merge the old run did not have
   // Merge messages are not kept for comparison: steps of the old run that
   // merged islands cannot be taken back.
   auto merged = old.merge_steps.lower_bound(s);
-  if (merged != old.merge_steps.end() && *merged < j) return;
+  if (merged != old.merge_steps.end() && *merged < j) return false;
   const UsedKey from{s, 0, kNoWorld}, to{j, 0, kNoWorld};
   std::size_t matched = 0;
   for (auto it = old.used.lower_bound(from); it != old.used.end() && it->first < to; ++it) {
@@ -157,27 +168,31 @@ void Speculation::try_rejoin() {
     const Used& u = it->second;
     if (message_digest(in->second) != (u.message ? message_digest(*u.message) : u.digest)) {
       drop_old_run();  // a message of the old run's steps changed: re-run them
-      return;
+      return false;
     }
   }
-  if (matched != at_hand) return;  // messages the old run did not use: re-run
-  // Under a Simulation the old run's entries of these steps were dropped
-  // from the buffer (restore): they are republished from the kept states,
-  // so each scene step not yet published needs one.
-  std::vector<std::pair<std::int64_t, const WorldSnapshot*>> entries;  // (scene step, state)
-  if (c_.output.buffer) {
-    for (std::int64_t b = std::max(s_.next_publish, (s + c_.substeps - 1) / c_.substeps); b * c_.substeps < j; ++b) {
-      const std::int64_t at = b * c_.substeps;
-      const WorldSnapshot* state = nullptr;
-      if (at == s) state = &new_state->second;
-      if (auto it = old.kept.find(at); at != s && it != old.kept.end()) state = &it->second;
-      if (!state) return;  // not kept (checkpoint_every > 1): re-run
-      entries.emplace_back(b, state);
-    }
+  if (matched != at_hand) return false;  // messages the old run did not use: re-run
+  if (!c_.output.buffer) return true;
+  for (std::int64_t b = std::max(s_.next_publish, (s + c_.substeps - 1) / c_.substeps); b * c_.substeps < j; ++b) {
+    const std::int64_t at = b * c_.substeps;
+    const WorldSnapshot* state = nullptr;
+    if (at == s) state = &new_state->second;
+    if (auto it = old.kept.find(at); at != s && it != old.kept.end()) state = &it->second;
+    if (!state) return false;  // not kept (checkpoint_every > 1): re-run
+    entries.emplace_back(b, state);
   }
+  return true;
+}
 
+// Takes the old run's steps [s_.step, j) back (may_rejoin said so).
+void Anticipation::rejoin(std::int64_t j,
+                          const std::vector<std::pair<std::int64_t, const WorldSnapshot*>>& entries) {
+  OldRun& old = *old_run_;
+  const std::int64_t s = s_.step;
+  const UsedKey from{s, 0, kNoWorld}, to{j, 0, kNoWorld};
   SPEC_TRACE("w%d at %lld: re-run rejoins the old run at %lld, takes back %lld steps\n", me(),
              (long long)s, (long long)s, (long long)(j - s));
+  Verdict& v = out();
   for (auto it = old.used.lower_bound(from); it != old.used.end() && it->first < to; ++it) {
     const auto& [step, kind, sender] = it->first;
     Used u = std::move(it->second);
@@ -185,8 +200,8 @@ void Speculation::try_rejoin() {
     if (in != s_.inbox.end()) {
       u.confirmed = true;  // equal to the one used (checked above)
       u.bet = false;
-      u.message = std::move(in->second);
-      s_.inbox.erase(in);
+      u.message = in->second;
+      v.inbox.push_back(InboxEdit{.kind = InboxEdit::Kind::Erase, .key = in->first});
     } else if (u.message) {
       await_resend(step, u);  // voided by its sender since
     } else {
@@ -196,14 +211,8 @@ void Speculation::try_rejoin() {
   }
   for (auto it = old.sent.lower_bound(s); it != old.sent.end() && it->first < j; ++it) {
     for (const Message& m : it->second) {
-      Message again = m;
-      again.epoch = seen_epoch_;
-      ++c_.sums.messages_sent;
-      const std::uint64_t bytes0 = thread_bytes_sent();
-      const WorldId to = again.to;
-      const MessageKind kind = again.kind();
-      c_.transport.send(to, std::move(again));
-      c_.clock.sent(to, kind, thread_bytes_sent() - bytes0);
+      v.resend.push_back(m);
+      v.resend.back().epoch = seen_epoch_;
     }
     sent_log_.insert_or_assign(it->first, std::move(it->second));
   }
@@ -219,14 +228,12 @@ void Speculation::try_rejoin() {
   }
   for (auto it = old.reports.upper_bound(s); it != old.reports.end() && it->first <= j; ++it)
     if (it->first > reported_through_) reports_.insert_or_assign(it->first, std::move(it->second));
-  std::vector<TransformEntry<btScalar>> backlog;
   for (const auto& [scene_step, state] : entries)
-    backlog.push_back(transform_entry(scene_step, c_.output.dt, body_states_of(*state)));
+    v.backlog.push_back(transform_entry(scene_step, c_.output.dt, body_states_of(*state)));
   steps_rejoined_ += static_cast<std::uint64_t>(j - s);
   old_run_.reset();
   partial_step_.reset();
-  s_.begin_again(c_.safety.rebuild(c_.kept.states().at(j), j), j);
-  for (TransformEntry<btScalar>& e : backlog) s_.backlog.push_back(std::move(e));
+  v.restart = Verdict::Restart{j, &c_.kept.states().at(j)};
   c_.kept.noted();
   report_mark();
 }
@@ -237,7 +244,7 @@ void Speculation::try_rejoin() {
 // are kept every checkpoint_every steps: 1 replays every step; the step a
 // rollback interrupted has its own record, partial_step_). At the step
 // restored to, the state kept is the old run's: it was restored from it.
-void Speculation::arm_replay() {
+void Anticipation::arm_replay() {
   const std::int64_t r = s_.step;
   const LocalIslands* islands = nullptr;
   const WorldSnapshot* after = nullptr;
@@ -262,10 +269,10 @@ void Speculation::arm_replay() {
     if (auto it = old_run_->kept.find(r); it != old_run_->kept.end()) before = &it->second;
   }
   if (!before) return;
-  s_.world->set_replay(StepReplay{before, after, islands, mid_step, c_.safety.verify_replay});
+  out().replay = StepReplay{before, after, islands, mid_step, c_.safety.verify_replay};
 }
 
-void Speculation::drop_old_run() {
+void Anticipation::drop_old_run() {
   for (auto& [step, state] : old_run_->kept) c_.kept.recycle(std::move(state));
   old_run_.reset();
 }
