@@ -46,6 +46,31 @@ int solver_guest_slots(const PartitionedOptions& o, int k) {
   return std::max(0, std::min(k - 1, cores - o.runtime.solver_threads));
 }
 
+// What makes each world's process safe (process_options.h), from the
+// options; the horizon and the board are the caller's.
+ProcessSafety process_safety(const PartitionedOptions& o, const detail::TestingHooks& hooks, int substeps,
+                             std::atomic<bool>* fault_fired, FuzzRandom* fuzz) {
+  const RuntimeOptions& r = o.runtime;
+  if (r.checkpoint_every < 1) throw std::invalid_argument("PartitionedWorld: checkpoint_every must be >= 1");
+  if (r.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");
+  if (r.anticipation > 0 && r.watchdog.response == WatchdogResponse::Heal)
+    throw std::invalid_argument(
+        "PartitionedWorld: speculation (anticipation > 0) and the watchdog's Heal cannot be combined yet");
+  ProcessSafety safety;
+  safety.watchdog = &r.watchdog;
+  safety.fault = hooks.inject_fault;
+  safety.fault_fired = fault_fired;
+  safety.keep_states = r.watchdog.response == WatchdogResponse::Heal || o.keep_states;
+  safety.fuzz = fuzz;
+  safety.anticipation = r.anticipation * substeps;
+  safety.checkpoint_every = r.checkpoint_every;
+  safety.recompute = r.rollback == PartitionedOptions::Rollback::Recompute;
+  safety.eager_bets = r.eager_bets;
+  safety.skip_idle = r.idle_territories;
+  safety.verify_replay = hooks.verify_replay;
+  return safety;
+}
+
 }  // namespace
 
 PartitionedWorld::PartitionedWorld(const Scene& scene, TerritoryMap map, PartitionedOptions options)
@@ -162,7 +187,6 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
     in.worlds.back()->set_solver_pool(in.solver_pool);
     in.worlds.back()->set_parking(options_.runtime.parking);
   }
-  const bool heal = options_.runtime.watchdog.response == WatchdogResponse::Heal || options_.keep_states;
   std::unique_ptr<SharedMemoryHorizon> horizon;
   if (options_.group) {
     std::vector<bool> local;  // over ranks: this rank's worlds (the ranks compute GVT together)
@@ -184,27 +208,11 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   };
   in.horizon->set_wake_hook(wake);
   if (hooks.fuzz_seed && !fuzz_) fuzz_ = std::make_shared<FuzzRandom>(hooks.fuzz_seed ^ 0x5A5A5A5A5A5A5A5Aull);
-  Process::Safety safety;
-  safety.watchdog = &options_.runtime.watchdog;
-  safety.fault = hooks.inject_fault;
-  safety.fault_fired = fault_fired_.get();
+  Process::Safety safety = process_safety(options_, hooks, substeps_, fault_fired_.get(), fuzz_.get());
   safety.horizon = in.horizon.get();
-  safety.keep_states = heal;
-  safety.fuzz = fuzz_.get();
-  safety.anticipation = options_.runtime.anticipation * substeps_;
-  if (options_.runtime.checkpoint_every < 1) throw std::invalid_argument("PartitionedWorld: checkpoint_every must be >= 1");
-  safety.checkpoint_every = options_.runtime.checkpoint_every;
-  safety.recompute = options_.runtime.rollback == PartitionedOptions::Rollback::Recompute;
-  safety.eager_bets = options_.runtime.eager_bets;
-  safety.skip_idle = options_.runtime.idle_territories;
-  safety.verify_replay = hooks.verify_replay;
   in.board = std::make_unique<RollbackBoard>(k, *in.horizon, wake);
   safety.board = in.board.get();
   if (options_.group && options_.runtime.anticipation > 0) options_.group->share_rollbacks(shared_horizon, *in.board);
-  if (options_.runtime.anticipation < 0) throw std::invalid_argument("PartitionedWorld: anticipation must be >= 0");
-  if (options_.runtime.anticipation > 0 && options_.runtime.watchdog.response == WatchdogResponse::Heal)
-    throw std::invalid_argument(
-        "PartitionedWorld: speculation (anticipation > 0) and the watchdog's Heal cannot be combined yet");
   auto statics = std::make_shared<const std::vector<BodySnapshot>>(in.worlds.front()->static_snapshots());
   for (WorldId w = 0; w < k; ++w) {
     if (safety.anticipation > 0)

@@ -159,6 +159,54 @@ void gather_rank_traffic(ProcessGroup& group, const PartitionedWorld& world, Run
   }
 }
 
+// The PartitionedOptions of a partitioned run (its schedule and threads
+// noted in `r`).
+PartitionedOptions partitioned_options(const RunConfig& config, int k, RunResult& r) {
+  PartitionedOptions options;
+  if (config.threads == 1) {
+    options.schedule = Schedule::Sequential;
+    r.threads = 1;
+  } else if (config.threads == 0 || config.threads >= k) {
+    options.schedule = Schedule::ThreadPerWorld;
+    r.threads = k;
+  } else {
+    options.schedule = Schedule::Pool;
+    options.threads = config.threads;
+    r.threads = config.threads;
+  }
+  r.schedule = schedule_name(options.schedule);
+  options.serialise = config.serialise;
+  options.runtime = config.runtime;
+  options.sync_test = config.sync_test;
+  if (config.inputs) options.inputs = *config.inputs;
+  options.group = config.group;
+  return options;
+}
+
+// What a partitioned run measured and ended with, into `r`.
+void collect_partitioned(const PartitionedWorld& world, const Scene& scene, const RunConfig& config, RunResult& r) {
+  r.world_metrics = world.metrics();
+  for (const WorldMetrics& m : r.world_metrics) r.cpu_seconds += m.cpu_seconds;
+  r.messages = world.messages_sent();
+  r.reach_cells = world.world(0).map().reach();
+  r.message_bytes = world.bytes_sent();
+  if (config.group) gather_rank_traffic(*config.group, world, r);
+  r.state_hash = world.state_hash();
+  r.sleeping_bodies = world.sleeping_count();
+  if (config.inputs) {  // at the end: the inputs added and removed bodies
+    r.bodies = world.body_count();
+    r.dynamic_bodies = r.bodies - (scene.bodies.size() - scene.dynamic_count());
+  }
+  r.healed_steps = world.healed_steps();
+  r.sync_rollbacks = world.sync_rollbacks();
+  r.balance_log = world.balance_log();
+  r.step_loads = world.step_loads();
+  for (const WorldMetrics& m : r.world_metrics) r.migrations += m.migrations_out;
+  for (const WorldMetrics& m : r.world_metrics) r.coloured_islands += m.coloured_islands;
+  for (const WorldMetrics& m : r.world_metrics) r.guest_tasks += m.guest_tasks;
+  for (const WorldMetrics& m : r.world_metrics) r.substepped_islands += m.substepped_islands;
+}
+
 // K > 1: all steps in one call (the worlds run without a barrier between
 // steps); progress and step times come from world 0's thread. Every world
 // inserts its bodies in the order of config.shuffle_seed. Inputs (when not
@@ -183,24 +231,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.rollback = config.runtime.rollback;
   const TerritoryMap map = make_partition(config.partition, scene, config.territories, GridOptions{});
   const int k = map.world_count();
-  PartitionedOptions options;
-  if (config.threads == 1) {
-    options.schedule = Schedule::Sequential;
-    r.threads = 1;
-  } else if (config.threads == 0 || config.threads >= k) {
-    options.schedule = Schedule::ThreadPerWorld;
-    r.threads = k;
-  } else {
-    options.schedule = Schedule::Pool;
-    options.threads = config.threads;
-    r.threads = config.threads;
-  }
-  r.schedule = schedule_name(options.schedule);
-  options.serialise = config.serialise;
-  options.runtime = config.runtime;
-  options.sync_test = config.sync_test;
-  if (config.inputs) options.inputs = *config.inputs;
-  options.group = config.group;
+  PartitionedOptions options = partitioned_options(config, k, r);
   r.solver_threads = config.runtime.solver_threads;
   std::vector<std::int64_t> step_ends;  // written by world 0's thread only
   step_ends.reserve(static_cast<std::size_t>(config.steps));
@@ -249,26 +280,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   std::vector<std::int64_t> step_ns;
   for (std::size_t i = 0; i < step_ends.size(); ++i) step_ns.push_back(step_ends[i] - (i ? step_ends[i - 1] : t0));
   r.step_time = StepTimeStats::from_ns(std::move(step_ns));
-  r.world_metrics = world.metrics();
-  for (const WorldMetrics& m : r.world_metrics) r.cpu_seconds += m.cpu_seconds;
-  r.messages = world.messages_sent();
-  r.reach_cells = world.world(0).map().reach();
-  r.message_bytes = world.bytes_sent();
-  if (config.group) gather_rank_traffic(*config.group, world, r);
-  r.state_hash = world.state_hash();
-  r.sleeping_bodies = world.sleeping_count();
-  if (config.inputs) {  // at the end: the inputs added and removed bodies
-    r.bodies = world.body_count();
-    r.dynamic_bodies = r.bodies - (scene.bodies.size() - scene.dynamic_count());
-  }
-  r.healed_steps = world.healed_steps();
-  r.sync_rollbacks = world.sync_rollbacks();
-  r.balance_log = world.balance_log();
-  r.step_loads = world.step_loads();
-  for (const WorldMetrics& m : r.world_metrics) r.migrations += m.migrations_out;
-  for (const WorldMetrics& m : r.world_metrics) r.coloured_islands += m.coloured_islands;
-  for (const WorldMetrics& m : r.world_metrics) r.guest_tasks += m.guest_tasks;
-  for (const WorldMetrics& m : r.world_metrics) r.substepped_islands += m.substepped_islands;
+  collect_partitioned(world, scene, config, r);
   if (config.runtime.validate) {
     const WorldSnapshot s = world.snapshot();
     r.bodies_at_end = s.bodies.size();
