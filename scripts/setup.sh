@@ -29,6 +29,7 @@ packages=(
 if [ "$mode" = all ]; then
   packages+=(
     python3-matplotlib   # bench/plot_accuracy.py (plots only; the C++ never needs it)
+    universal-ctags      # scripts/room-sizes.py (function lengths; scripts/test.sh's size check)
     libjs-three          # three.js for the browser viewer (served from /usr/share/javascript/three)
     chromium             # the browser tests (headless, WebGL on SwiftShader)
   )
