@@ -13,7 +13,7 @@
 #include "soda/mpi/mpi_group.h"
 #include "soda/mpi/mpi_session.h"
 #include "soda/worlds/watchdog.h"
-#include "testing_hooks.h"
+#include "driver/testing_hooks.h"
 
 namespace soda {
 namespace {

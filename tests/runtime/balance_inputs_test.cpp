@@ -14,7 +14,7 @@
 #include "runtime/partitioned_test_util.h"
 #include "soda/runtime/simulation.h"
 #include "soda/scene/registry.h"
-#include "validator.h"
+#include "step/validator.h"
 
 namespace soda {
 namespace {

@@ -17,7 +17,7 @@
 #include "parallel_stages.h"  // worlds/src: kParallelMinBodies
 #include "runtime/partitioned_test_util.h"
 #include "soda/worlds/solver_pool.h"
-#include "testing_hooks.h"  // runtime/src: the test-only knobs
+#include "driver/testing_hooks.h"  // runtime/src: the test-only knobs
 
 namespace soda {
 namespace {

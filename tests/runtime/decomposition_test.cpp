@@ -5,7 +5,7 @@
 // (ghosts, seeded manifolds, migrations, merged islands) and runs with the
 // validation mode on (one owner per body, one holder per contact state).
 #include "runtime/partitioned_test_util.h"
-#include "testing_hooks.h"  // runtime/src: the test-only knobs
+#include "driver/testing_hooks.h"  // runtime/src: the test-only knobs
 
 namespace soda {
 namespace {

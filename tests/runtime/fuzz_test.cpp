@@ -5,7 +5,7 @@
 // unusual orders, and every run still ends on the one-territory hash.
 // Label "concurrency" (ThreadSanitizer in CI runs fewer seeds).
 #include "runtime/partitioned_test_util.h"
-#include "testing_hooks.h"  // runtime/src: the test-only knobs
+#include "driver/testing_hooks.h"  // runtime/src: the test-only knobs
 
 #include <map>
 

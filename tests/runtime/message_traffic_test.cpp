@@ -6,7 +6,7 @@
 
 #include <memory>
 
-#include "message_tally.h"
+#include "step/message_tally.h"
 #include "soda/runtime/message_codec.h"
 
 namespace soda {

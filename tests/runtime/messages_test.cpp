@@ -5,12 +5,12 @@
 
 #include <cstdio>
 
-#include "island_merge.h"
+#include "step/island_merge.h"
 #include "runtime/partitioned_test_util.h"
 #include "soda/runtime/message_codec.h"
 #include "soda/runtime/transport.h"
 #include "soda/runtime/world_graph.h"
-#include "validator.h"
+#include "step/validator.h"
 
 namespace soda {
 namespace {

@@ -1,4 +1,4 @@
-// The scheduler alone (runtime/src/scheduler.h), on toy worlds: each world
+// The scheduler alone (runtime/src/execution/scheduler.h), on toy worlds: each world
 // of a ring sends its successor one message per step and waits for its
 // predecessor's. Every schedule runs every world to the end; the first error
 // of any world stops every thread and reaches the caller; the round-robin
@@ -9,7 +9,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "scheduler.h"
+#include "execution/scheduler.h"
 #include "soda/runtime/transport.h"
 
 namespace soda {

@@ -17,7 +17,7 @@
 #include <sstream>
 
 #include "soda/grid/map_file.h"
-#include "testing_hooks.h"
+#include "driver/testing_hooks.h"
 
 namespace soda {
 namespace {

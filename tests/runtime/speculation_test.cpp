@@ -4,7 +4,7 @@
 // one-territory hash, whatever the anticipation, schedule, fuzzing or
 // rollback mode. Label "concurrency" (ThreadSanitizer in CI).
 #include "runtime/partitioned_test_util.h"
-#include "testing_hooks.h"  // runtime/src: the test-only knobs
+#include "driver/testing_hooks.h"  // runtime/src: the test-only knobs
 
 #include <algorithm>
 #include <cstdlib>

@@ -1,4 +1,4 @@
-// Speculation decides, the step applies (runtime/src/speculation.h): the
+// Speculation decides, the step applies (runtime/src/speculation/speculation.h): the
 // two implementations driven hook by hook on one thread, with a real
 // territory world, commit horizon and rollback board, and no process — the
 // test reads each Verdict and applies its inbox edits by hand.
@@ -14,8 +14,8 @@
 
 #include <gtest/gtest.h>
 
-#include "anticipation.h"
-#include "lockstep.h"
+#include "speculation/anticipation.h"
+#include "speculation/lockstep.h"
 #include "soda/grid/partition.h"
 #include "soda/rollback/commit_horizon.h"
 #include "soda/rollback/rollback_board.h"

@@ -5,7 +5,7 @@
 // event that happens only once (an injected fault) is caught as the
 // difference it makes.
 #include "runtime/partitioned_test_util.h"
-#include "testing_hooks.h"  // runtime/src: the test-only knobs
+#include "driver/testing_hooks.h"  // runtime/src: the test-only knobs
 
 namespace soda {
 namespace {

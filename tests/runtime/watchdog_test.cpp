@@ -7,7 +7,7 @@
 // is the same for every partition, and equals one CanonicalWorld that takes
 // the same substeps at that step.
 #include "runtime/partitioned_test_util.h"
-#include "testing_hooks.h"  // runtime/src: the test-only knobs
+#include "driver/testing_hooks.h"  // runtime/src: the test-only knobs
 
 #include "soda/worlds/watchdog.h"
 #include "soda/worlds/world_snapshot.h"

@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "metrics_sums.h"
+#include "driver/metrics_sums.h"
 #include "soda/runtime/world_metrics.h"
 
 namespace soda {

@@ -1,6 +1,6 @@
 // Rollbacks of every world at once (speculation, docs/rollback.md).
 // A rollback that voids merge messages (Glue with entries, Fragments, Gather,
-// Results; is_merge_message in runtime/src/speculation.h) is
+// Results; is_merge_message in runtime/src/speculation/speculation.h) is
 // one of the whole merged island's worlds, which re-merge; done world by
 // world, worlds could keep using each other's in-between merge messages and
 // roll each other back forever. So such a rollback is posted here with a new

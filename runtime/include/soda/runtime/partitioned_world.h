@@ -43,9 +43,9 @@
 namespace soda {
 
 namespace detail {
-struct TestingHooks;  // internal (runtime/src/testing_hooks.h)
+struct TestingHooks;  // internal (runtime/src/driver/testing_hooks.h)
 }
-class InputQueue;  // internal (runtime/src/input_queue.h)
+class InputQueue;  // internal (runtime/src/step/input_queue.h)
 class ProcessGroup;  // soda/runtime/process_group.h
 
 /// How the worlds' steps are scheduled onto threads. Results never depend
@@ -81,7 +81,7 @@ struct PartitionedOptions {
   bool keep_states = false;
   /// Internal: the knobs only tests set (an injected fault, fuzzing, the
   /// solve-everywhere protocol variant, replay verification); set through
-  /// runtime/src/testing_hooks.h. Leave empty.
+  /// runtime/src/driver/testing_hooks.h. Leave empty.
   std::shared_ptr<const detail::TestingHooks> testing = {};
   /// A policy to use instead of make_balance_policy(runtime.balance)
   /// (tests, experiments); runtime.balance.period still sets the balance

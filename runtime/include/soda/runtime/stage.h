@@ -1,5 +1,5 @@
 // The stages of one world's step, one name each (docs/naming.md): the step's
-// state machine (runtime/src/world_process.cpp), the TerritoryWorld call it
+// state machine (runtime/src/step/world_process.cpp), the TerritoryWorld call it
 // makes, the per-stage costs in WorldMetrics and the JSON of `soda run` /
 // `soda bench` all use these names.
 #pragma once

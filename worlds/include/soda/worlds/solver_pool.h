@@ -25,7 +25,7 @@
 //  3. helpers spin a short while between jobs (the jobs of one solve come
 //     back to back) and then sleep; they never run a task outside run();
 //  4. guests (threads that are not the pool's: a territory's thread waiting
-//     for its neighbours' messages, runtime/src/scheduler.cpp) take tasks by
+//     for its neighbours' messages, runtime/src/execution/scheduler.cpp) take tasks by
 //     the same protocol as helpers, at most guest_slots at a time, and only
 //     inside serve() (a thread finding every slot taken waits there for
 //     one); a job counts them in threads() whether or not they

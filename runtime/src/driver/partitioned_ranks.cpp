@@ -1,0 +1,163 @@
+// PartitionedWorld over the ranks of a ProcessGroup (process_group.h,
+// docs/mpi.md): which options a run over ranks supports, the step with the
+// group's communication loop on the caller's thread, and the whole-scene
+// readouts gathered to rank 0.
+//
+// Every rank builds every TerritoryWorld (the same scene, map and options),
+// but steps only its own; the others stay at their first state and are
+// never read. With speculation the group computes the commit horizon over
+// the ranks and carries the rollback board's posts (docs/mpi.md).
+#include <algorithm>
+#include <stdexcept>
+#include <type_traits>
+
+#include "driver/partitioned_internals.h"
+#include "execution/plain_bytes.h"
+#include "soda/runtime/process_group.h"
+
+namespace soda {
+
+namespace {
+
+static_assert(std::is_trivially_copyable_v<BodyState>);
+static_assert(std::is_trivially_copyable_v<StageCosts>);
+
+constexpr const char* kReadout = "PartitionedWorld: a rank's gathered readout";
+
+template <class T>
+void put(std::vector<std::uint8_t>& out, const T& v) {
+  put_plain(out, v);
+}
+
+template <class T>
+T take(const std::vector<std::uint8_t>& in, std::size_t& at) {
+  return take_plain<T>(in, at, kReadout);
+}
+
+// A world's metrics as they travel to rank 0: every counter
+// (for_each_counter) and the per-step means and maxima; the per-step series
+// (cpu_step_ms, lead) and the traffic stay on the rank that measured them.
+template <class M, class F>
+void each_scalar(M& m, F&& f) {
+  f(m.world), f(m.steps), f(m.stages), f(m.cpu_step_mean_ms), f(m.cpu_step_max_ms), f(m.lead_mean);
+  for_each_counter(m, [&](const char*, auto& value, CounterFold) { f(value); });
+}
+
+}  // namespace
+
+bool PartitionedWorld::steps_world(WorldId w) const {
+  return !options_.group || options_.group->rank_of(w, world_count()) == options_.group->rank();
+}
+
+void PartitionedWorld::check_group_options() const {
+  const auto refuse = [](const std::string& what) {
+    throw std::invalid_argument("PartitionedWorld over ranks (MPI, docs/mpi.md): " + what +
+                                " is not supported yet");
+  };
+  if (options_.runtime.validate) refuse("validation");
+  if (options_.runtime.watchdog.response == WatchdogResponse::Heal) refuse("the watchdog's heal");
+  if (options_.runtime.balance.policy != "none" || options_.balance_policy) refuse("load balancing");
+  if (options_.runtime.solver_threads > 1) refuse("a solver pool (solver_threads > 1)");
+}
+
+// The scheduler's threads step this rank's worlds; the caller's thread (the
+// one that initialised MPI) moves messages between ranks meanwhile.
+void PartitionedWorld::run_on_ranks(std::int64_t internal_target) {
+  ProcessGroup& group = *options_.group;
+  if (options_.runtime.anticipation > 0) group.set_horizon_goal(internal_target);
+  Scheduler::Options o;
+  // Round-robin on one thread cannot tell a deadlock from a message still
+  // on its way from another rank: one pool worker instead.
+  o.schedule = options_.schedule == Schedule::Sequential ? Schedule::Pool : options_.schedule;
+  o.threads = options_.schedule == Schedule::Sequential ? 1 : options_.threads;
+  o.pin = options_.runtime.pin;
+  for (WorldId w = 0; w < world_count(); ++w) o.local.push_back(steps_world(w));
+  Scheduler scheduler(std::move(o), in_->task_list(), *in_->transport, nullptr,
+                      [&group](WorldId w, std::exception_ptr error) {
+                        std::string what = "unknown error";
+                        try {
+                          std::rethrow_exception(error);
+                        } catch (const std::exception& e) {
+                          what = e.what();
+                        } catch (...) {
+                        }
+                        group.report_failure("world " + std::to_string(w) + ": " + what);
+                      });
+  scheduler.launch();
+  try {
+    group.pump([&scheduler] { return scheduler.finished(); });
+  } catch (...) {
+    in_->transport->close();  // the worlds stop; the error is this rank's
+    scheduler.join();
+    throw;
+  }
+  if (!group.remote_failure().empty()) in_->transport->close();
+  scheduler.join();
+  const std::string remote = group.remote_failure();
+  std::exception_ptr error = scheduler.error();
+  if (error) {
+    try {
+      std::rethrow_exception(error);
+    } catch (const TransportClosed&) {
+      if (remote.empty()) throw;
+    }
+  }
+  if (!remote.empty()) throw std::runtime_error(remote);
+}
+
+std::vector<BodyState> PartitionedWorld::gathered_states() const {
+  std::vector<std::uint8_t> mine;
+  for (WorldId w = 0; w < world_count(); ++w)
+    if (steps_world(w))
+      for (const BodyState& b : world(w).owned_states()) put(mine, b);
+  const std::vector<std::vector<std::uint8_t>> all = options_.group->gather(mine);
+  std::vector<BodyState> out = in_->worlds.front()->static_states();
+  for (const std::vector<std::uint8_t>& part : all.empty() ? std::vector<std::vector<std::uint8_t>>{mine} : all) {
+    if (part.size() % sizeof(BodyState)) throw std::logic_error("PartitionedWorld: a rank's body states are truncated");
+    for (std::size_t at = 0; at < part.size();) out.push_back(take<BodyState>(part, at));
+  }
+  std::sort(out.begin(), out.end(), [](const BodyState& a, const BodyState& b) { return a.id < b.id; });
+  return out;
+}
+
+// The whole scene's state on every rank (for SyncTest, heal, cession): not
+// done yet. A world's part_snapshot() holds manifolds with bodies outside
+// the part (ghosts, statics), which deserialize_snapshot refuses on its own;
+// parts need a codec of their own first (docs/mpi.md, "What is not done").
+WorldSnapshot PartitionedWorld::gathered_snapshot() const {
+  throw std::logic_error("PartitionedWorld::snapshot() over ranks is not supported yet (docs/mpi.md)");
+}
+
+std::size_t PartitionedWorld::gathered_count(bool sleeping) const {
+  std::uint64_t n = 0;
+  for (WorldId w = 0; w < world_count(); ++w)
+    if (steps_world(w)) n += sleeping ? world(w).sleeping_count() : world(w).owned_count();
+  std::vector<std::uint8_t> mine;
+  put(mine, n);
+  const std::vector<std::vector<std::uint8_t>> all = options_.group->gather(mine);
+  if (all.empty()) return n;
+  n = 0;
+  for (const std::vector<std::uint8_t>& part : all) {
+    std::size_t at = 0;
+    n += take<std::uint64_t>(part, at);
+  }
+  return n;
+}
+
+// Each world's counters from the rank that stepped it.
+std::vector<WorldMetrics> PartitionedWorld::gathered_metrics(std::vector<WorldMetrics> local) const {
+  std::vector<std::uint8_t> mine;
+  for (WorldMetrics& m : local)
+    if (steps_world(m.world)) each_scalar(m, [&](const auto& v) { put(mine, v); });
+  const std::vector<std::vector<std::uint8_t>> all = options_.group->gather(mine);
+  for (const std::vector<std::uint8_t>& part : all)
+    for (std::size_t at = 0; at < part.size();) {
+      WorldMetrics m;
+      each_scalar(m, [&](auto& v) { v = take<std::remove_reference_t<decltype(v)>>(part, at); });
+      if (m.world < 0 || m.world >= world_count()) throw std::logic_error("PartitionedWorld: a gathered world id");
+      if (!steps_world(m.world)) local[static_cast<std::size_t>(m.world)] = std::move(m);
+    }
+  return local;
+}
+
+}  // namespace soda

@@ -1,0 +1,84 @@
+#include "embedding/census.h"
+
+#include <algorithm>
+#include <iterator>
+#include <stdexcept>
+#include <string>
+
+namespace soda {
+
+Census::Census(const Scene& scene) {
+  for (const Body& b : scene.bodies) {
+    if (b.is_static) {
+      statics_.push_back(b);
+      continue;
+    }
+    scene_.push_back(b.id);
+    dynamics_.emplace(b.id, b);
+  }
+  std::sort(scene_.begin(), scene_.end());
+  std::sort(statics_.begin(), statics_.end(), [](const Body& a, const Body& b) { return a.id < b.id; });
+}
+
+const Body* Census::description(BodyId id) const {
+  std::lock_guard lock(mutex_);
+  auto it = dynamics_.find(id);
+  if (it != dynamics_.end()) return &it->second;
+  auto s = std::lower_bound(statics_.begin(), statics_.end(), id, [](const Body& b, BodyId i) { return b.id < i; });
+  return s != statics_.end() && s->id == id ? &*s : nullptr;
+}
+
+void Census::record(const UserInput& in) {
+  std::lock_guard lock(mutex_);
+  if (in.kind == UserInput::Kind::AddBody) {
+    dynamics_.emplace(in.body.id, in.body);
+    changed_[in.body.id].first = in.step + 1;
+  } else if (in.kind == UserInput::Kind::RemoveBody) {
+    // A scene body has first = 0 (default); an added one keeps its first.
+    changed_[in.id].end = in.step + 1;
+  }
+}
+
+bool Census::holds_locked(BodyId id, std::int64_t step) const {
+  if (auto it = changed_.find(id); it != changed_.end()) return it->second.holds(step);
+  return std::binary_search(scene_.begin(), scene_.end(), id);
+}
+
+std::size_t Census::count_at_locked(std::int64_t step) const {
+  std::size_t n = scene_.size();
+  for (const auto& [id, span] : changed_) {
+    const bool in_scene = std::binary_search(scene_.begin(), scene_.end(), id);
+    if (in_scene && !span.holds(step)) --n;
+    if (!in_scene && span.holds(step)) ++n;
+  }
+  return n;
+}
+
+std::size_t Census::count_at(std::int64_t step) const {
+  std::lock_guard lock(mutex_);
+  return count_at_locked(step);
+}
+
+void Census::check(std::int64_t step, const std::vector<BodyId>& ids) const {
+  std::lock_guard lock(mutex_);
+  const std::string at = "SceneReader: step " + std::to_string(step);
+  for (BodyId id : ids)
+    if (!holds_locked(id, step))
+      throw std::logic_error(at + " holds body " + std::to_string(id) + ", which is not in the scene at that step");
+  const std::size_t expected = count_at_locked(step);
+  if (ids.size() == expected) return;
+  // Every id held is alive, so some alive body is missing: name the first.
+  std::vector<BodyId> alive;
+  for (BodyId id : scene_)
+    if (holds_locked(id, step)) alive.push_back(id);
+  for (const auto& [id, span] : changed_)
+    if (span.holds(step) && !std::binary_search(scene_.begin(), scene_.end(), id)) alive.push_back(id);
+  std::sort(alive.begin(), alive.end());
+  std::vector<BodyId> missing;
+  std::set_difference(alive.begin(), alive.end(), ids.begin(), ids.end(), std::back_inserter(missing));
+  throw std::logic_error(at + " holds " + std::to_string(ids.size()) + " bodies, the scene has " +
+                         std::to_string(expected) + " dynamic bodies at that step" +
+                         (missing.empty() ? std::string() : "; body " + std::to_string(missing.front()) + " is missing"));
+}
+
+}  // namespace soda

@@ -1,0 +1,70 @@
+#include "embedding/input_ledger.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+#include "soda/scene/validate.h"
+#include "soda/worlds/body_state.h"
+
+namespace soda {
+
+InputLedger::InputLedger(const Scene& scene) : settings_(scene.settings) {
+  for (const Body& b : scene.bodies) lives_[b.id] = Life{b.is_static};
+}
+
+void InputLedger::check(const UserInput& in) const {
+  const std::string what = describe(in);
+  if (in.step < 0) throw std::invalid_argument(what + ": the step must be >= 0");
+  if (in.kind == UserInput::Kind::AddBody) {
+    if (lives_.count(in.body.id)) throw std::invalid_argument(what + ": id " + std::to_string(in.body.id) + " is in use");
+    if (in.body.is_static) throw std::invalid_argument(what + ": only dynamic bodies can be added to a running scene");
+    Scene one;
+    one.settings = settings_;
+    one.bodies.push_back(in.body);
+    try {
+      validate_scene(one, "added body", kDoublePrecision ? Precision::Double : Precision::Float);
+    } catch (const SceneError& e) {
+      throw std::invalid_argument(what + ": " + e.what());
+    }
+    return;
+  }
+  auto it = lives_.find(in.id);
+  if (it == lives_.end()) throw std::invalid_argument(what + ": no body has that id");
+  const Life& life = it->second;
+  if (life.is_static) throw std::invalid_argument(what + ": the body is static");
+  if (life.retired)
+    throw std::invalid_argument(what + ": the body was removed before the snapshot this run was restored from");
+  if (in.step < life.added || in.step >= life.removed)
+    throw std::invalid_argument(what + ": the body is not in the scene then (added at step " +
+                                std::to_string(life.added) +
+                                (life.removed == INT64_MAX ? "" : ", removed at step " + std::to_string(life.removed)) +
+                                ")");
+  if (in.kind == UserInput::Kind::RemoveBody && life.last_input > in.step)
+    throw std::invalid_argument(what + ": the body has an input at the later step " + std::to_string(life.last_input));
+  if (!in.linear.allFinite() || !in.angular.allFinite())
+    throw std::invalid_argument(what + ": velocities and impulses must be finite");
+}
+
+void InputLedger::record(const UserInput& in) {
+  const BodyId id = in.kind == UserInput::Kind::AddBody ? in.body.id : in.id;
+  Life& life = lives_[id];
+  if (in.kind == UserInput::Kind::AddBody) life.added = in.step;
+  if (in.kind == UserInput::Kind::RemoveBody) life.removed = in.step;
+  life.last_input = std::max(life.last_input, in.step);
+}
+
+void InputLedger::retire(BodyId id) {
+  Life& life = lives_[id];
+  life.retired = true;
+  life.removed = 0;
+}
+
+std::vector<BodyId> InputLedger::removed_before(std::int64_t step) const {
+  std::vector<BodyId> out;
+  for (const auto& [id, life] : lives_)
+    if (life.retired || life.removed < step) out.push_back(id);
+  return out;
+}
+
+}  // namespace soda
