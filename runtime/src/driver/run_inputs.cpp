@@ -8,6 +8,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "soda/grid/partition.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/replay/replay_writer.h"
 #include "soda/runtime/simulation.h"

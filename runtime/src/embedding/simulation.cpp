@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "embedding/simulation_engine.h"
+#include "soda/grid/partition.h"
 
 namespace soda {
 

@@ -31,6 +31,7 @@
 #include "soda/runtime/balance_log.h"
 #include "soda/runtime/message_traffic.h"
 #include "soda/runtime/runtime_options.h"
+#include "soda/runtime/schedule.h"
 #include "soda/runtime/stage.h"
 #include "soda/runtime/world_graph.h"
 #include "soda/runtime/world_metrics.h"
@@ -47,15 +48,6 @@ struct TestingHooks;  // internal (runtime/src/driver/testing_hooks.h)
 }
 class InputQueue;  // internal (runtime/src/step/input_queue.h)
 class ProcessGroup;  // soda/runtime/process_group.h
-
-/// How the worlds' steps are scheduled onto threads. Results never depend
-/// on it (tests check); speed does.
-enum class Schedule {
-  Sequential,      // one thread, worlds advanced round-robin (deterministic order)
-  ThreadPerWorld,  // one thread per world, blocking on its mailbox
-  Pool,            // `threads` workers; a world is a task that parks while it waits
-};
-const char* schedule_name(Schedule schedule);
 
 struct PartitionedOptions {
   Schedule schedule = Schedule::Sequential;

@@ -41,11 +41,17 @@
 #include <string>
 #include <vector>
 
+// What an embedder uses, and nothing more: the scene and its generators,
+// the grid options and territory map of the config, the runtime knobs, the
+// readers, queries and inputs, body states, snapshots and checkpoints. The
+// partitioned runtime behind it (partitioned_world.h, territory_world.h, the
+// policies) stays out; metrics() names WorldMetrics, declared here: include
+// soda/runtime/world_metrics.h to read them.
 #include "soda/grid/grid.h"
-#include "soda/grid/partition.h"
 #include "soda/grid/territory_map.h"
 #include "soda/runtime/checkpoint.h"
-#include "soda/runtime/partitioned_world.h"
+#include "soda/runtime/runtime_options.h"
+#include "soda/runtime/schedule.h"
 #include "soda/runtime/scene_query.h"
 #include "soda/runtime/scene_reader.h"
 #include "soda/runtime/user_input.h"
@@ -55,6 +61,8 @@
 #include "soda/worlds/world_snapshot.h"
 
 namespace soda {
+
+struct WorldMetrics;  // soda/runtime/world_metrics.h
 
 struct SimulationConfig {
   int territories = 1;               // K worlds
