@@ -40,6 +40,12 @@ void write_dynamic_state(btRigidBody& body, const BodyDynamicState& state);
 /// gContactBreakingThreshold. This is a body's *halo*.
 void bullet_aabb(const btCollisionObject& object, btVector3& min, btVector3& max);
 
+/// A Bullet object's body id: its user index (make_body_from_state sets it).
+inline BodyId id_of(const btCollisionObject* o) { return static_cast<BodyId>(o->getUserIndex()); }
+
+/// A Bullet vector as a value (double).
+inline Vec3 to_vec3(const btVector3& v) { return Vec3(double(v.x()), double(v.y()), double(v.z())); }
+
 /// Every field of one manifold's points, in cache order; ids from the bodies'
 /// user indices.
 ManifoldState read_manifold_state(const btPersistentManifold& manifold);

@@ -23,8 +23,6 @@
 namespace soda {
 namespace {
 
-BodyId id_of(const btCollisionObject* o) { return static_cast<BodyId>(o->getUserIndex()); }
-
 // Held manifolds pointed at the island's bodies get their own bodies back
 // however the solve ends (invariant 2).
 struct Redirected {

@@ -1,5 +1,6 @@
 #include "canonical_dynamics_world.h"
 
+#include "body_factory.h"
 #include "island_solver_settings.h"
 #include "island_substeps.h"
 #include "parallel_stages.h"
@@ -15,8 +16,6 @@
 
 namespace soda {
 namespace {
-
-BodyId id_of(const btCollisionObject* o) { return static_cast<BodyId>(o->getUserIndex()); }
 
 // Bullet's dbvt never rebalances while proxies are only inserted (stepping
 // rebalances it a little per step), so building a world in spatial order

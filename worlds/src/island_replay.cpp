@@ -10,12 +10,6 @@
 #include "soda/worlds/value_codec.h"
 
 namespace soda {
-namespace {
-
-BodyId id_of(const btCollisionObject* o) { return static_cast<BodyId>(o->getUserIndex()); }
-
-}  // namespace
-
 void IslandReplay::set(const StepReplay& replay) {
   if (!replay.before || !replay.after || !replay.islands)
     throw std::invalid_argument("TerritoryWorld::set_replay: before, after and islands are required");

@@ -12,8 +12,6 @@
 namespace soda {
 namespace {
 
-Vec3 to_vec3(const btVector3& v) { return Vec3(double(v.x()), double(v.y()), double(v.z())); }
-
 // Bit of cell c in a bitset over the map box's cells (false outside the
 // box), as in interior_. Forced inline: predict asks it for every owned body.
 [[gnu::always_inline]] inline bool interior_bit(const std::vector<std::uint64_t>& bits, const CellBox& box,

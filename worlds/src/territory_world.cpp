@@ -15,12 +15,6 @@
 #include "territory_world_parts.h"
 
 namespace soda {
-namespace {
-
-Vec3 to_vec3(const btVector3& v) { return Vec3(double(v.x()), double(v.y()), double(v.z())); }
-
-
-}  // namespace
 
 std::string beyond_reach(WorldId world, std::int64_t step, BodyId body, double speed, const char* what,
                          const CellCoord& cell, WorldId other, const TerritoryMap& map) {

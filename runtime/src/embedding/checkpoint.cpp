@@ -25,7 +25,7 @@
 namespace soda {
 namespace {
 
-constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'C', 'K', 'P', 'T'};
+constexpr char kCheckpointMagic[8] = {'S', 'O', 'D', 'A', 'C', 'K', 'P', 'T'};
 constexpr std::size_t kIdentityBytes = 16;  // magic, version, precision: the same in every version
 constexpr std::size_t kHeaderBytes = 48;
 constexpr std::size_t kChecksumBytes = 8;
@@ -87,8 +87,8 @@ UserInput read_input(ByteReader& r) {
 // Checks the header and the trailer (everything but the body's fields).
 CheckpointHeader check_frame(const std::vector<std::uint8_t>& bytes, const std::string& source) {
   const std::size_t size = bytes.size();
-  const std::size_t compared = std::min(size, sizeof kMagic);
-  if (size == 0 || std::memcmp(bytes.data(), kMagic, compared) != 0)
+  const std::size_t compared = std::min(size, sizeof kCheckpointMagic);
+  if (size == 0 || std::memcmp(bytes.data(), kCheckpointMagic, compared) != 0)
     refuse(source, size == 0 ? "empty (0 bytes)" : "not a SODA checkpoint (its first bytes are not \"SODACKPT\")");
   if (size < kIdentityBytes)
     refuse(source, "truncated: " + std::to_string(size) + " bytes, a checkpoint header takes " +
@@ -135,7 +135,7 @@ CheckpointHeader check_frame(const std::vector<std::uint8_t>& bytes, const std::
 std::vector<std::uint8_t> encode_checkpoint(const SimulationSnapshot& snapshot) {
   const WorldSnapshot& s = snapshot.state;
   ByteWriter w;
-  write_header(w, kMagic, kCheckpointVersion);
+  write_header(w, kCheckpointMagic, kCheckpointVersion);
   w.put(s.steps_done);
   w.count(s.bodies.size());
   w.count(s.manifolds.size());
