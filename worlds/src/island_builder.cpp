@@ -1,5 +1,5 @@
-// IslandBuilder (island_builder.h): union-find with path halving, the root
-// of a set always its smallest node, so numbering the roots in node order
+// IslandBuilder (island_builder.h): disjoint sets (disjoint_sets.h), the
+// root of a set always its smallest node, so numbering the roots in node order
 // numbers the islands by their smallest node.
 #include "island_builder.h"
 
@@ -10,22 +10,13 @@ namespace soda {
 
 void IslandBuilder::reset(int node_count) {
   if (node_count < 0) throw std::invalid_argument("IslandBuilder: a negative node count");
-  parent_.resize(static_cast<std::size_t>(node_count));
-  std::iota(parent_.begin(), parent_.end(), 0);
-}
-
-int IslandBuilder::find(int i) {
-  while (parent_[static_cast<std::size_t>(i)] != i) {
-    parent_[static_cast<std::size_t>(i)] = parent_[static_cast<std::size_t>(parent_[static_cast<std::size_t>(i)])];
-    i = parent_[static_cast<std::size_t>(i)];
-  }
-  return i;
+  sets_.reset(node_count);
 }
 
 void IslandBuilder::join(int a, int b) {
   if (a == kNoNode || b == kNoNode) return;
-  const int ra = find(a), rb = find(b);
-  if (ra != rb) parent_[static_cast<std::size_t>(std::max(ra, rb))] = std::min(ra, rb);  // root = smallest node
+  const int ra = sets_.find(a), rb = sets_.find(b);
+  if (ra != rb) sets_.attach(std::max(ra, rb), std::min(ra, rb));  // root = smallest node
 }
 
 void IslandBuilder::finish() {
@@ -33,7 +24,7 @@ void IslandBuilder::finish() {
   island_of_.resize(static_cast<std::size_t>(n));
   int count = 0;
   for (int i = 0; i < n; ++i) {
-    const int r = find(i);
+    const int r = sets_.find(i);
     island_of_[static_cast<std::size_t>(i)] = r == i ? count++ : island_of_[static_cast<std::size_t>(r)];
   }
   begin_.assign(static_cast<std::size_t>(count) + 1, 0);

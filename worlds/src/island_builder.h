@@ -36,6 +36,7 @@
 #include <vector>
 
 #include "soda/worlds/body_state.h"
+#include "soda/worlds/disjoint_sets.h"
 
 namespace soda {
 
@@ -51,7 +52,7 @@ class IslandBuilder {
   /// one's nodes (invariant 3).
   void finish();
 
-  int node_count() const { return static_cast<int>(parent_.size()); }
+  int node_count() const { return sets_.size(); }
   int island_count() const { return static_cast<int>(begin_.size()) - 1; }
   /// The island of a node (finish() first).
   int island_of(int node) const { return island_of_[static_cast<std::size_t>(node)]; }
@@ -61,9 +62,7 @@ class IslandBuilder {
   const std::vector<int>& order() const { return order_; }
 
  private:
-  int find(int i);
-
-  std::vector<int> parent_;     // union-find; a root is its island's smallest node
+  DisjointSets sets_;           // a root is its island's smallest node
   std::vector<int> island_of_;  // per node
   std::vector<int> begin_{0};   // CSR offsets into order_, island_count() + 1
   std::vector<int> order_;      // nodes by island, ascending inside each

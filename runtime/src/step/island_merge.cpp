@@ -10,6 +10,7 @@ void IslandMerger::start(WorldId me, std::vector<Fragment> mine, bool carry_data
   me_ = me;
   carry_data_ = carry_data;
   nodes_.clear();
+  sets_.reset(0);
   index_.clear();
   by_link_in_.clear();
   components_.clear();
@@ -40,22 +41,13 @@ void IslandMerger::receive(WorldId from, std::vector<Fragment> fragments) {
   update();
 }
 
-int IslandMerger::find(int i) {
-  while (nodes_[static_cast<std::size_t>(i)].parent != i) {
-    Node& n = nodes_[static_cast<std::size_t>(i)];
-    n.parent = nodes_[static_cast<std::size_t>(n.parent)].parent;
-    i = n.parent;
-  }
-  return i;
-}
-
 int IslandMerger::unite(int a, int b) {
   a = find(a), b = find(b);
   if (a == b) return a;
   Component& ca = components_.at(a);
   Component& cb = components_.at(b);
   if (ca.members.size() < cb.members.size()) return unite(b, a);
-  nodes_[static_cast<std::size_t>(b)].parent = a;
+  sets_.attach(b, a);
   ca.members.insert(ca.members.end(), cb.members.begin(), cb.members.end());
   ca.unresolved += cb.unresolved;
   std::vector<WorldId> targets;
@@ -74,7 +66,8 @@ int IslandMerger::unite(int a, int b) {
 int IslandMerger::add(Fragment f, bool mine) {
   const int i = static_cast<int>(nodes_.size());
   const FragmentId id{f.world, f.root};
-  nodes_.push_back(Node{std::move(f), i, mine});
+  nodes_.push_back(Node{std::move(f), mine});
+  sets_.add();
   const Fragment& frag = nodes_.back().fragment;
   index_.emplace(id, i);
   Component c;

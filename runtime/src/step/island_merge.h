@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "soda/worlds/border_records.h"
+#include "soda/worlds/disjoint_sets.h"
 
 namespace soda {
 
@@ -60,7 +61,6 @@ class IslandMerger {
  private:
   struct Node {
     Fragment fragment;
-    int parent = 0;                 // union-find
     bool mine = false;
   };
   // At component roots:
@@ -73,13 +73,14 @@ class IslandMerger {
   };
 
   int add(Fragment fragment, bool mine);
-  int find(int i);
+  int find(int i) { return sets_.find(i); }
   int unite(int a, int b);
   void update();
 
   WorldId me_ = kNoWorld;
   bool carry_data_ = true;
   std::deque<Node> nodes_;                          // stable addresses
+  DisjointSets sets_;                               // over nodes_, a component per root
   std::map<FragmentId, int> index_;
   // (owner world, holder world, holder root, body) -> the owner's fragment
   // holding `body` with that link in.
