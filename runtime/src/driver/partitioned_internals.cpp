@@ -1,6 +1,7 @@
 #include "driver/partitioned_internals.h"
 
 #include <algorithm>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 
@@ -10,17 +11,29 @@ namespace soda {
 class PartitionedWorld::Internals::ProcessTask final : public WorldTask {
  public:
   explicit ProcessTask(Process& process) : process_(process) {}
+  // Every call that changes the process, under its activity lock (readers
+  // of metrics() wait for it); publish_blocking may block and takes none.
   Advance advance() override {
+    std::lock_guard lock(process_.activity());
     const Process::Advance a = process_.advance();
     return Advance{a.progressed, a.done};
   }
-  void deliver(Message message) override { process_.hold(std::move(message)); }
+  void deliver(Message message) override {
+    std::lock_guard lock(process_.activity());
+    process_.hold(std::move(message));
+  }
   bool waiting_for_room() const override { return process_.waiting_for_room(); }
   void publish_blocking() override { process_.publish_blocking(); }
   std::int64_t steps_done() const override { return process_.steps_done(); }
   std::string waiting_for() const override { return process_.waiting_for(); }
-  void add_blocked_ns(std::int64_t ns) override { process_.add_blocked_ns(ns); }
-  void add_guest_work(std::int64_t tasks, std::int64_t cpu_ns) override { process_.add_guest_work(tasks, cpu_ns); }
+  void add_blocked_ns(std::int64_t ns) override {
+    std::lock_guard lock(process_.activity());
+    process_.add_blocked_ns(ns);
+  }
+  void add_guest_work(std::int64_t tasks, std::int64_t cpu_ns) override {
+    std::lock_guard lock(process_.activity());
+    process_.add_guest_work(tasks, cpu_ns);
+  }
 
  private:
   Process& process_;

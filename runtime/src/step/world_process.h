@@ -42,6 +42,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -110,7 +111,14 @@ class PartitionedWorld::Process {
   /// (a running thread's: its CPU time) counts in Stage::Solve.
   void add_guest_work(std::int64_t tasks, std::int64_t busy_ns);
 
+  /// Any thread: waits for the world's thread to leave advance() and the
+  /// calls above (activity()), so a world parked at its limit that still
+  /// takes a message (speculating: until the horizon reaches it) is read
+  /// between two of them.
   WorldMetrics metrics() const;
+  /// Held by the world's thread (the scheduler's task) around advance(),
+  /// hold(), add_blocked_ns() and add_guest_work(); never while blocked.
+  std::mutex& activity() const { return activity_; }
 
   /// One finished internal step, as PartitionedWorld::step_loads() needs it.
   struct StepRecord {
@@ -189,6 +197,7 @@ class PartitionedWorld::Process {
   std::unique_ptr<Speculation> spec_;      // Anticipation (anticipation > 0) or Lockstep
 
   // Metrics.
+  mutable std::mutex activity_;  // see activity()
   WorldMetrics sums_;
   StageClock clock_;                       // per-stage costs; its published() totals are the metrics
   std::vector<Message> held_;              // hold(): for the next advance()

@@ -81,6 +81,7 @@ std::string PartitionedWorld::Process::waiting_for() const {
 }
 
 WorldMetrics PartitionedWorld::Process::metrics() const {
+  std::lock_guard lock(activity_);
   WorldMetrics m = sums_;
   m.steps = s_.step;
   // Finished steps only: a world parked at its limit may still be in
