@@ -14,21 +14,8 @@
 namespace soda::replay {
 namespace {
 
+using testing::expect_same;
 using testing::TempPath;
-
-// Bitwise equality of two frames (floats compared as bits).
-void expect_same(const ViewFrame& a, const ViewFrame& b) {
-  EXPECT_EQ(a.step, b.step);
-  ASSERT_EQ(a.position.size(), b.position.size());
-  EXPECT_EQ(0, std::memcmp(a.position.data(), b.position.data(), a.position.size() * sizeof(float))) << a.step;
-  ASSERT_EQ(a.orientation.size(), b.orientation.size());
-  EXPECT_EQ(0, std::memcmp(a.orientation.data(), b.orientation.data(), a.orientation.size() * sizeof(float)));
-  EXPECT_EQ(a.sleeping, b.sleeping) << a.step;
-  EXPECT_EQ(a.owner, b.owner) << a.step;
-  EXPECT_EQ(a.cell_owner, b.cell_owner) << a.step;
-  EXPECT_EQ(a.world_busy_ms, b.world_busy_ms) << a.step;
-  EXPECT_EQ(a.state_hash, b.state_hash) << a.step;
-}
 
 struct Written {
   std::vector<ViewFrame> input, stored;

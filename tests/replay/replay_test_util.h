@@ -2,10 +2,12 @@
 // a temporary file path.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <random>
 #include <string>
@@ -166,6 +168,22 @@ inline std::vector<ViewBody> added_bodies() {
   capsule.position = Vec3(-3, 5, 3);
   capsule.orientation = Quat(Eigen::AngleAxisd(0.5, Vec3::UnitX()));
   return {box, capsule};
+}
+
+/// Bitwise equality of two frames (floats compared as bits), the bodies
+/// they hold (ids) included.
+inline void expect_same(const ViewFrame& a, const ViewFrame& b) {
+  EXPECT_EQ(a.step, b.step);
+  EXPECT_EQ(a.ids, b.ids) << a.step;
+  ASSERT_EQ(a.position.size(), b.position.size()) << a.step;
+  EXPECT_EQ(0, std::memcmp(a.position.data(), b.position.data(), a.position.size() * sizeof(float))) << a.step;
+  ASSERT_EQ(a.orientation.size(), b.orientation.size());
+  EXPECT_EQ(0, std::memcmp(a.orientation.data(), b.orientation.data(), a.orientation.size() * sizeof(float)));
+  EXPECT_EQ(a.sleeping, b.sleeping) << a.step;
+  EXPECT_EQ(a.owner, b.owner) << a.step;
+  EXPECT_EQ(a.cell_owner, b.cell_owner) << a.step;
+  EXPECT_EQ(a.world_busy_ms, b.world_busy_ms) << a.step;
+  EXPECT_EQ(a.state_hash, b.state_hash) << a.step;
 }
 
 }  // namespace soda::replay::testing
