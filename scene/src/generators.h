@@ -62,6 +62,11 @@ int sleepers_active_count(int sleepers);
 // idle_territories_scene.cpp: eight regions along x, activity in one (docs/skip.md).
 Scene make_idle_territories(const SceneParams& params);
 
+// joint_scenes.cpp: scenes with joints (docs/scenes.md, "Joint scenes").
+Scene make_pendulums(const SceneParams& params);
+Scene make_chain_bridge(const SceneParams& params);
+Scene make_ragdolls(const SceneParams& params);
+
 // stress_scenes.cpp: numerical stability (stress) and closed-form answers
 // (analytic).
 Scene make_tower(const SceneParams& params);

@@ -94,4 +94,12 @@ json body_json(const Body& b);
 /// it in messages, e.g. "cubes.json: body #3"; " (id N)" is appended.
 Body parse_body(std::string where, const json& j);
 
+/// A joint as the scene file writes it (joint_json.cpp).
+json joint_json(const Joint& joint);
+
+/// A joint in the scene file's format (docs/scene-format.md, "Joints").
+/// `where` names it in messages, e.g. "chain.json: joint #3"; " (id N)" is
+/// appended. Which bodies it names is checked by validate_scene.
+Joint parse_joint(std::string where, const json& j);
+
 }  // namespace soda::detail

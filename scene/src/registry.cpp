@@ -86,6 +86,19 @@ const std::vector<SceneGenerator>& scene_registry() {
        "from y = 3 m; in each of the seven others, N unit cubes created asleep 1.5 m apart: activity in "
        "one territory, the others idle",
        detail::make_idle_territories},
+      // Joint scenes (docs/scenes.md, "Joint scenes").
+      {"pendulums",
+       "4 chains of N links (default 16, N <= 200; boxes 0.5 x 0.2 x 0.2 m, 1 kg) joined by point-to-point "
+       "joints, hanging from static anchors at x = 0, held out along +x: they swing down through x = 0",
+       detail::make_pendulums},
+      {"chain-bridge",
+       "a bridge of N planks (default 24, N <= 400; 1 x 0.2 x 2 m, 5 kg) hinged edge to edge between two static "
+       "pillars 5 m up, spanning x = -N/2 .. N/2, and N / 2 boxes of 0.5 m dropped on it",
+       detail::make_chain_bridge},
+      {"ragdolls",
+       "N ragdolls (default 16) of 11 capsules each, joined by cone-twist (neck, shoulders, hips) and hinge "
+       "(waist, elbows, knees) joints, standing in columns 2 m apart and layers 2 m apart, falling into a pile",
+       detail::make_ragdolls},
       // Stress scenes (numerical stability).
       {"tower", "N unit boxes (default 10, N <= 100) stacked exactly resting on the origin",
        detail::make_tower},

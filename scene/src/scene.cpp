@@ -16,6 +16,18 @@ const char* shape_kind_name(ShapeKind kind) {
   return "unknown";
 }
 
+const char* joint_kind_name(JointKind kind) {
+  switch (kind) {
+    case JointKind::PointToPoint: return "point-to-point";
+    case JointKind::Hinge: return "hinge";
+    case JointKind::Slider: return "slider";
+    case JointKind::ConeTwist: return "cone-twist";
+    case JointKind::Fixed: return "fixed";
+    case JointKind::Spring6Dof: return "spring-6dof";
+  }
+  return "unknown";
+}
+
 Shape Shape::box(const Vec3& half_extents) {
   Shape s;
   s.kind = ShapeKind::Box;

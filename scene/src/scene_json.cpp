@@ -27,7 +27,7 @@ Scene finish_scene(detail::SceneSax& sax, const std::string& source) {
   using detail::Context;
   const json& doc = sax.top;
   Context ctx{source};
-  ctx.only_known(doc, {"format", "version", "name", "seed", "settings", "bodies"});
+  ctx.only_known(doc, {"format", "version", "name", "seed", "settings", "bodies", "joints"});
   if (ctx.string(doc, "format", true, "") != kFormat)
     ctx.fail("format", std::string("must be \"") + kFormat + "\"");
   if (ctx.integer(doc, "version", true, 0) != kVersion)
@@ -53,6 +53,12 @@ Scene finish_scene(detail::SceneSax& sax, const std::string& source) {
     s.steps = static_cast<int>(sc.integer(*st, "steps", false, s.steps));
   }
   scene.bodies = std::move(sax.bodies);
+  if (const json* joints = ctx.find(doc, "joints", false)) {
+    if (!joints->is_array()) ctx.fail("joints", "must be an array");
+    scene.joints.reserve(joints->size());
+    for (std::size_t i = 0; i < joints->size(); ++i)
+      scene.joints.push_back(detail::parse_joint(source + ": joint #" + std::to_string(i), (*joints)[i]));
+  }
   validate_scene(scene, source);
   return scene;
 }
@@ -105,6 +111,11 @@ std::string scene_to_json(const Scene& scene) {
   json bodies = json::array();
   for (const Body& b : scene.bodies) bodies.push_back(detail::body_json(b));
   doc["bodies"] = std::move(bodies);
+  if (!scene.joints.empty()) {  // a scene without joints is written as before
+    json joints = json::array();
+    for (const Joint& j : scene.joints) joints.push_back(detail::joint_json(j));
+    doc["joints"] = std::move(joints);
+  }
   return doc.dump(1) + "\n";
 }
 

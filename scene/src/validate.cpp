@@ -161,7 +161,92 @@ void check_body_envelope(const std::string& where, const Body& b, const Precisio
              num(e.max_angular_speed) + " rad/s" + in_envelope(e));
 }
 
+std::string joint_prefix(const std::string& source, std::size_t index, JointId id) {
+  std::ostringstream s;
+  s << source << ": joint #" << index << " (id " << id << ")";
+  return s.str();
+}
+
+void check_frame(const std::string& where, const std::string& field, const JointFrame& f) {
+  check_finite(where, field + ".position", f.position);
+  const Eigen::Vector4d q = f.orientation.coeffs();
+  for (int k = 0; k < 4; ++k)
+    if (!std::isfinite(q[k])) fail(where, field + ".orientation", "must be finite numbers");
+  if (!(q.norm() > 1e-6)) fail(where, field + ".orientation", "must be a non-zero quaternion");
+}
+
+// A limit [lower, upper] on an angle: lower <= upper, both in [-bound, bound].
+void check_angle_limit(const std::string& where, const std::string& field, double lower, double upper, double bound) {
+  check_finite(where, field, lower);
+  check_finite(where, field, upper);
+  if (!(lower <= upper)) fail(where, field, "lower " + std::to_string(lower) + " is above upper " + std::to_string(upper));
+  if (lower < -bound || upper > bound)
+    fail(where, field, "angles must lie in [-" + std::to_string(bound) + ", " + std::to_string(bound) + "] rad");
+}
+
+void check_joint_values(const Joint& j, const std::string& where) {
+  check_frame(where, "frame_a", j.frame_a);
+  check_frame(where, "frame_b", j.frame_b);
+  if (!(j.breaking_impulse > 0.0)) fail(where, "breaking_impulse", "must be > 0 (infinity or absent: never breaks)");
+  constexpr double kPi = 3.14159265358979323846;
+  switch (j.kind) {
+    case JointKind::Hinge:
+    case JointKind::Slider:
+      if (j.kind == JointKind::Hinge && j.limited) check_angle_limit(where, "limit", j.lower, j.upper, kPi);
+      if (j.kind == JointKind::Slider) {
+        check_finite(where, "limit", j.lower);
+        check_finite(where, "limit", j.upper);
+        if (j.limited && !(j.lower <= j.upper))
+          fail(where, "limit", "lower " + std::to_string(j.lower) + " is above upper " + std::to_string(j.upper));
+        check_angle_limit(where, "angular_limit", j.angular_lower, j.angular_upper, kPi);
+      }
+      if (j.motor) {
+        check_finite(where, "motor.velocity", j.motor_velocity);
+        check_finite(where, "motor.max_impulse", j.motor_max_impulse);
+        if (j.motor_max_impulse < 0.0) fail(where, "motor.max_impulse", "must be >= 0");
+      }
+      break;
+    case JointKind::ConeTwist:
+      for (double span : {j.swing_span1, j.swing_span2, j.twist_span}) {
+        check_finite(where, "spans", span);
+        if (!(span >= 0.0 && span <= kPi)) fail(where, "spans", "each span must lie in [0, pi] rad");
+      }
+      break;
+    case JointKind::Spring6Dof:
+      for (std::size_t a = 0; a < 6; ++a) {
+        const std::string axis = "[" + std::to_string(a) + "]";
+        for (double v : {j.axis_lower[a], j.axis_upper[a], j.stiffness[a], j.damping[a], j.motor_velocities[a],
+                         j.motor_max_forces[a]})
+          check_finite(where, "axes" + axis, v);
+        if (j.stiffness[a] < 0.0) fail(where, "axes.stiffness" + axis, "must be >= 0");
+        if (j.damping[a] < 0.0) fail(where, "axes.damping" + axis, "must be >= 0");
+        if (j.motor_max_forces[a] < 0.0) fail(where, "axes.motor_max_force" + axis, "must be >= 0");
+        // Angular axes: Bullet's Euler angles (order xyz) keep y within
+        // [-pi/2, pi/2], x and z within [-pi, pi]; lower > upper is free.
+        if (a >= 3 && j.axis_lower[a] <= j.axis_upper[a])
+          check_angle_limit(where, "axes.lower/upper" + axis, j.axis_lower[a], j.axis_upper[a],
+                            a == 4 ? kPi / 2 : kPi);
+      }
+      break;
+    case JointKind::PointToPoint:
+    case JointKind::Fixed: break;
+  }
+}
+
 }  // namespace
+
+void validate_joint(const Joint& joint, const std::string& where, const BodyLookup& body) {
+  if (joint.id > kMaxJointId) fail(where, "id", "must be below 2^31");
+  if (joint.body_a == joint.body_b) fail(where, "body_b", "joins body " + std::to_string(joint.body_a) + " to itself");
+  const Body* a = body(joint.body_a);
+  if (!a) fail(where, "body_a", "no body with id " + std::to_string(joint.body_a));
+  const Body* b = body(joint.body_b);
+  if (!b) fail(where, "body_b", "no body with id " + std::to_string(joint.body_b));
+  if (a->is_static && b->is_static)
+    fail(where, "body_b", "both bodies (" + std::to_string(joint.body_a) + ", " + std::to_string(joint.body_b) +
+                              ") are static: a joint needs a dynamic body");
+  check_joint_values(joint, where);
+}
 
 void validate_body(const Body& b, const std::string& where) {
   check_shape(where, b.shape);
@@ -208,6 +293,19 @@ void validate_scene(const Scene& scene, const std::string& source, Precision pre
     validate_body(b, where);
     if (!b.is_static) check_bullet_aabb(where, b, st.dt);
     check_body_envelope(where, b, envelope);
+  }
+  if (scene.joints.empty()) return;
+  const BodyLookup body = [&](BodyId id) -> const Body* {
+    auto it = seen.find(id);
+    return it == seen.end() ? nullptr : &scene.bodies[it->second];
+  };
+  std::unordered_map<JointId, std::size_t> joint_ids;
+  for (std::size_t i = 0; i < scene.joints.size(); ++i) {
+    const Joint& j = scene.joints[i];
+    const std::string where = joint_prefix(source, i, j.id);
+    auto [it, inserted] = joint_ids.emplace(j.id, i);
+    if (!inserted) fail(where, "id", "duplicate joint id, also used by joint #" + std::to_string(it->second));
+    validate_joint(j, where, body);
   }
 }
 

@@ -435,3 +435,40 @@ TEST(CliMemory, AnAllocationThatFailsIsACleanError) {
 }
 
 }  // namespace
+
+namespace {
+
+using namespace soda_cli_test;
+
+// Joints run in one world; a scene with joints is refused, by name, where
+// territory worlds would take it (docs/scene-format.md, "Joints").
+TEST_F(CliTest, JointScenesRunInOneWorldAndAreRefusedElsewhere) {
+  std::string first;
+  for (const char* seed : {"0", "3"}) {
+    const Outcome o = run_cli(std::string("run --scene ragdolls --n 4 --steps 120 --shuffle-seed ") + seed);
+    ASSERT_EQ(o.exit_code, 0) << o.output;
+    if (first.empty()) first = hash_of(o);
+    EXPECT_EQ(hash_of(o), first) << "seed " << seed;
+  }
+  EXPECT_EQ(run_cli("run --scene pendulums --n 4 --steps 30 --world stock").exit_code, 0);
+  for (const char* args : {"run --scene chain-bridge --n 8 --steps 10 --territories 2",
+                           "run --scene chain-bridge --n 8 --steps 10 --sync-test 4"}) {
+    const Outcome o = run_cli(args);
+    EXPECT_EQ(o.exit_code, 2) << args << "\n" << o.output;
+    EXPECT_NE(o.output.find("joints, which run in one world only"), std::string::npos) << o.output;
+  }
+}
+
+// A bad joint in a scene file: exit 2, the joint and the field named.
+TEST_F(CliTest, ABadJointIsBadInput) {
+  const std::filesystem::path file = dir_ / "bad-joint.json";
+  std::ofstream(file) << R"({"format": "soda-scene", "version": 1, "bodies": [
+      {"id": 0, "type": "static", "shape": {"type": "box", "half_extents": [10, 0.5, 10]}, "position": [0, -0.5, 0]},
+      {"id": 1, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5}, "position": [0, 2, 0]}],
+    "joints": [{"id": 4, "type": "hinge", "body_a": 1, "body_b": 12}]})";
+  const Outcome o = run_cli("run --scene " + file.string() + " --steps 5");
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("joint #0 (id 4): field 'body_b': no body with id 12"), std::string::npos) << o.output;
+}
+
+}  // namespace

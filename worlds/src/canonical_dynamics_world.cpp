@@ -3,6 +3,7 @@
 #include "body_factory.h"
 #include "island_solver_settings.h"
 #include "island_substeps.h"
+#include "joint_factory.h"
 #include "parallel_stages.h"
 #include "soda/worlds/solver_pool.h"
 #include "speculative_contact.h"
@@ -94,6 +95,12 @@ void CanonicalDynamicsWorld::add_body(btRigidBody* body) {
   } else {
     body->setIslandTag(-1);
   }
+}
+
+void CanonicalDynamicsWorld::add_joint(btTypedConstraint* constraint, bool collide_connected) {
+  addConstraint(constraint, !collide_connected);
+  ++jointed_[&constraint->getRigidBodyA()];
+  ++jointed_[&constraint->getRigidBodyB()];
 }
 
 // Bodies added since the last sort (parked islands woken, parking.h) are
@@ -201,6 +208,15 @@ void CanonicalDynamicsWorld::build_islands() {
       islands_.join(a->getUserIndex2(), b->getUserIndex2());  // positions: id order
   }
   stats_.contact_manifolds = contact_manifolds_.size();
+  // Joints that hold: an edge like a manifold with points.
+  for (int i = 0; i < m_constraints.size(); ++i) {
+    const btTypedConstraint* c = m_constraints[i];
+    if (!c->isEnabled()) continue;
+    const btRigidBody& a = c->getRigidBodyA();
+    const btRigidBody& b = c->getRigidBodyB();
+    if (a.isStaticOrKinematicObject() || b.isStaticOrKinematicObject()) continue;
+    islands_.join(a.getUserIndex2(), b.getUserIndex2());
+  }
   islands_.finish();
   island_bodies_.resize(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
@@ -239,6 +255,17 @@ void CanonicalDynamicsWorld::collect_island_manifolds() {
   island_manifolds_.finish(islands_.island_count());
   if (island_manifolds_.first_duplicate() >= 0)
     throw std::logic_error("CanonicalWorld: two manifolds for one pair (compound shapes are not supported)");
+  island_joints_.clear();
+  for (int i = 0; i < m_constraints.size(); ++i) {
+    btTypedConstraint* c = m_constraints[i];
+    if (!c->isEnabled()) continue;
+    const btRigidBody& a = c->getRigidBodyA();
+    const btRigidBody& b = c->getRigidBodyB();
+    const int island = a.getIslandTag() >= 0 ? a.getIslandTag() : b.getIslandTag();
+    if (island < 0) continue;
+    island_joints_.add(island, joint_id_of(c), c);
+  }
+  island_joints_.finish(islands_.island_count());
 }
 
 // Step 4b: one solveGroup per awake island.
@@ -258,6 +285,7 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
   big_islands_.clear();
   small_islands_.clear();
   stats_.awake_islands = stats_.sleeping_islands = stats_.solved_manifolds = stats_.substepped_islands = 0;
+  stats_.solved_joints = 0;
   stats_.substep_threads = 0;
   stats_.island_threads = 1;
   for (int k = 0; k < islands; ++k) {
@@ -274,12 +302,14 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
     }
     ++stats_.awake_islands;
     const int manifold_count = static_cast<int>(m - m_begin);
-    if (body_count == 1 && manifold_count == 0) {
+    const int joint_count = island_joints_.count(k);
+    if (body_count == 1 && manifold_count == 0 && joint_count == 0) {
       lone_bodies_.push_back(island_bodies_[body_begin]);
       continue;
     }
     stats_.solved_manifolds += static_cast<std::size_t>(manifold_count);
-    const IslandJob job{body_begin, body_count, m_begin, manifold_count};
+    stats_.solved_joints += static_cast<std::size_t>(joint_count);
+    const IslandJob job{body_begin, body_count, m_begin, manifold_count, island_joints_.begin(k), joint_count};
     bool small = pool != nullptr;
     int points = 0;
     for (std::size_t i = m_begin; i < m && small; ++i) {
@@ -304,8 +334,9 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
                          : island_solver_info(solver_info, scratch, bodies, job.body_count, manifolds,
                                               job.manifold_count, substeps);
     if (substeps > 1) substepped.fetch_add(1, std::memory_order_relaxed);
+    btTypedConstraint** joints = job.joint_count ? island_joints_.data() + job.joint_begin : nullptr;
     return solve_island(solver, bodies, job.body_count, manifolds, job.manifold_count, info, substeps, *dispatcher,
-                        island_pool);
+                        island_pool, joints, job.joint_count);
   };
   if (!small_islands_.empty()) {
     const std::size_t threads = static_cast<std::size_t>(pool->threads());
@@ -337,8 +368,6 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
 }
 
 void CanonicalDynamicsWorld::solveConstraints(btContactSolverInfo& solver_info) {
-  if (getNumConstraints() != 0)
-    throw std::logic_error("CanonicalWorld: constraints are not supported yet");
   if (!bodies_sorted_) sort_dynamic_bodies();
   getConstraintSolver()->prepareSolve(getNumCollisionObjects(), getDispatcher()->getNumManifolds());
   const std::size_t coloured_before = solver_->stats().coloured_islands;

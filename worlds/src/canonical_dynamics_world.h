@@ -19,22 +19,27 @@
 //
 // IslandStage, every step:
 //  1. union-find over dynamic bodies (id order) joined by manifolds that hold
-//     contact points (and whose bodies both merge islands): IslandBuilder,
-//     shared with the territory world (island_builder.h);
+//     contact points (and whose bodies both merge islands) and by joints
+//     that have not broken: IslandBuilder, shared with the territory world
+//     (island_builder.h);
 //  2. islands numbered by their smallest body id, bodies in id order;
 //  3. sleeping per island, as btSimulationIslandManager::buildIslands: all
 //     bodies want sleep -> ISLAND_SLEEPING; else sleepers are woken;
-//  4. each awake island's manifolds sorted by (id0, id1) and solved alone
+//  4. each awake island's manifolds sorted by (id0, id1), its joints by
+//     joint id, and solved alone
 //     (one solveGroup call per island; batch size 1, so Bullet's early exit
 //     and iteration overrides are per island). Awake lone bodies without
 //     contacts are solved in one call: they have no solver rows, so each one's
 //     result is its own integration, whatever else is in the call. Large
-//     islands are solved coloured by the ColouredSolver (coloured_solver.h).
+//     islands are solved coloured by the ColouredSolver (coloured_solver.h),
+//     except islands with joints: Bullet's own serial loop solves those
+//     (joint rows first, in joint id order, then the contacts).
 #pragma once
 
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include <btBulletDynamicsCommon.h>
@@ -75,6 +80,17 @@ class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost 
   void add_body(btRigidBody* body);
 
   const StepStats& stats() const { return stats_; }
+
+  /// Adds a joint's constraint (joint_factory.h) between bodies already in
+  /// the world; with collide_connected false its bodies do not collide with
+  /// each other while it holds (Bullet's constraint refs; a broken joint no
+  /// longer filters). Joints are solved in joint id order, whatever the
+  /// order they were added in.
+  void add_joint(btTypedConstraint* constraint, bool collide_connected);
+  /// Whether a body has a joint (a jointed island never parks).
+  bool jointed(const btCollisionObject* body) const {
+    return !jointed_.empty() && jointed_.count(body) != 0;
+  }
 
   /// SolverDefaults::Bullet (canonical_world.h): no speculative contacts,
   /// every island solved with the world's solver info as it is.
@@ -135,6 +151,8 @@ class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost 
   std::vector<btPersistentManifold*> contact_manifolds_;
   std::vector<btCollisionObject*> island_bodies_;         // by island, then id (islands_.begin)
   IslandItems<btPersistentManifold*> island_manifolds_;  // awake islands' manifolds, by island, then (id0, id1)
+  IslandItems<btTypedConstraint*, JointId> island_joints_;  // joints that hold, by island, then joint id
+  std::unordered_map<const btCollisionObject*, int> jointed_;  // bodies with joints: how many
   // solve_islands: the awake islands of a step, and solvers for the small
   // ones solved side by side on the pool (one per pool thread, taken by a
   // task for its islands and given back).
@@ -142,6 +160,7 @@ class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost 
     int body_begin, body_count;
     std::size_t manifold_begin;
     int manifold_count;
+    int joint_begin, joint_count;
   };
   std::vector<IslandJob> big_islands_, small_islands_;
   std::vector<std::unique_ptr<ColouredSolver>> spare_solvers_;

@@ -33,6 +33,10 @@ CanonicalWorld::CanonicalWorld(const WorldSnapshot& snapshot, const std::vector<
     if (entries_[i]->description.id == entries_[i - 1]->description.id)
       throw std::invalid_argument("CanonicalWorld: duplicate body id " +
                                   std::to_string(entries_[i]->description.id));
+  std::vector<Joint> joints;
+  std::vector<bool> broken;
+  for (const JointSnapshot& j : snapshot.joints) joints.push_back(j.description), broken.push_back(j.broken);
+  insert_joints(joints, &broken);
   import_manifolds(snapshot.manifolds);
   // 4. activation states last (statics stay as addRigidBody left them).
   for (const BodySnapshot& b : snapshot.bodies) {
@@ -109,6 +113,8 @@ WorldSnapshot CanonicalWorld::snapshot() const {
   s.bodies.reserve(entries_.size());
   for (const auto& e : entries_) s.bodies.push_back(BodySnapshot{e->description, read_dynamic_state(*e->body)});
   s.manifolds = contact_state();
+  s.joints.reserve(joints_.size());
+  for (const auto& j : joints_) s.joints.push_back(JointSnapshot{j->description, !j->constraint->isEnabled()});
   return s;
 }
 

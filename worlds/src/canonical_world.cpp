@@ -9,6 +9,7 @@
 
 #include "canonical_world_parts.h"
 #include "island_solver_settings.h"
+#include "joint_factory.h"
 #include "soda/worlds/bullet_allocator.h"
 #include "soda/worlds/bullet_bodies.h"
 
@@ -43,6 +44,38 @@ CanonicalWorld::CanonicalWorld(const Scene& scene, const std::vector<std::size_t
     if (entries_[i]->description.id == entries_[i - 1]->description.id)
       throw std::invalid_argument("CanonicalWorld: duplicate body id " +
                                   std::to_string(entries_[i]->description.id));
+  insert_joints(scene.joints, nullptr);
+}
+
+void CanonicalWorld::insert_joints(const std::vector<Joint>& joints, const std::vector<bool>* broken) {
+  std::vector<std::size_t> order(joints.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return joints[x].id < joints[y].id; });
+  auto find_body = [&](const Joint& j, BodyId id) -> btRigidBody& {
+    auto it = std::lower_bound(entries_.begin(), entries_.end(), id,
+                               [](const auto& e, BodyId x) { return e->description.id < x; });
+    if (it == entries_.end() || (*it)->description.id != id)
+      throw std::invalid_argument("CanonicalWorld: joint " + std::to_string(j.id) + " joins body " +
+                                  std::to_string(id) + ", which is not in the world");
+    return *(*it)->body;
+  };
+  for (std::size_t i : order) {
+    const Joint& j = joints[i];
+    if (!joints_.empty() && joints_.back()->description.id == j.id)
+      throw std::invalid_argument("CanonicalWorld: duplicate joint id " + std::to_string(j.id));
+    auto entry = std::make_unique<JointEntry>();
+    entry->description = j;
+    entry->constraint = make_constraint(j, find_body(j, j.body_a), find_body(j, j.body_b));
+    if (broken && (*broken)[i]) entry->constraint->setEnabled(false);
+    parts_->world.add_joint(entry->constraint.get(), j.collide_connected);
+    joints_.push_back(std::move(entry));
+  }
+}
+
+std::size_t CanonicalWorld::broken_joint_count() const {
+  std::size_t n = 0;
+  for (const auto& j : joints_) n += j->constraint->isEnabled() ? 0 : 1;
+  return n;
 }
 
 // parts_ is declared after entries_: it goes first, while the bodies it

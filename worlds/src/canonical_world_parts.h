@@ -41,6 +41,11 @@ struct CanonicalWorldParts {
 /// std::invalid_argument otherwise. canonical_world.cpp.
 std::vector<std::size_t> resolve_insertion_order(const std::vector<std::size_t>& order, std::size_t count);
 
+struct CanonicalWorld::JointEntry {
+  Joint description;
+  std::unique_ptr<btTypedConstraint> constraint;
+};
+
 struct CanonicalWorld::Entry {
   Body description;
   std::unique_ptr<btCollisionShape> shape;

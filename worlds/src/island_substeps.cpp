@@ -43,9 +43,11 @@ struct Saved {
 
 int solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int body_count,
                  btPersistentManifold** manifolds, int manifold_count, const btContactSolverInfo& info,
-                 int substeps, btDispatcher& dispatcher, SolverPool* pool) {
+                 int substeps, btDispatcher& dispatcher, SolverPool* pool, btTypedConstraint** constraints,
+                 int constraint_count) {
   if (substeps <= 1) {
-    solver.solveGroup(bodies, body_count, manifolds, manifold_count, nullptr, 0, info, nullptr, &dispatcher);
+    solver.solveGroup(bodies, body_count, manifolds, manifold_count, constraints, constraint_count, info, nullptr,
+                      &dispatcher);
     return 0;
   }
   int threads = 1;
@@ -68,7 +70,8 @@ int solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int bod
                                                   for (int k = begin; k < end; ++k)
                                                     refresh_manifold(*manifolds[k], dispatch_info);
                                                 }));
-    solver.solveGroup(bodies, body_count, manifolds, manifold_count, nullptr, 0, sub, nullptr, &dispatcher);
+    solver.solveGroup(bodies, body_count, manifolds, manifold_count, constraints, constraint_count, sub, nullptr,
+                      &dispatcher);
     const bool last = s + 1 == substeps;
     const int integrated = run_in_chunks(pool, body_count, kParallelMinBodies, kBodiesPerTask, [&](int begin, int end) {
       for (int j = begin; j < end; ++j) {

@@ -49,9 +49,11 @@ class SolverPool;
 /// (null: the calling thread alone) shares the refresh and the integration
 /// between substeps; the solveGroup calls use whatever pool the solver has.
 /// Returns the most threads that work between substeps could use (0: one
-/// substep, nothing between).
+/// substep, nothing between). `constraints` (the island's joints, in joint
+/// id order) go to every solveGroup call.
 int solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int body_count,
                  btPersistentManifold** manifolds, int manifold_count, const btContactSolverInfo& info,
-                 int substeps, btDispatcher& dispatcher, SolverPool* pool = nullptr);
+                 int substeps, btDispatcher& dispatcher, SolverPool* pool = nullptr,
+                 btTypedConstraint** constraints = nullptr, int constraint_count = 0);
 
 }  // namespace soda

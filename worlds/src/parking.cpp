@@ -102,7 +102,7 @@ void park_lone_settled_bodies(Parking& parking, CanonicalDynamicsWorld& world, b
     if (dispatcher.getManifoldByIndexInternal(i)->getNumContacts() > 0) return;
   const std::vector<btRigidBody*> candidates = world.dynamic_bodies();
   for (btRigidBody* b : candidates)
-    if (b->getBroadphaseHandle() && body_settled(*b, h)) {
+    if (b->getBroadphaseHandle() && !world.jointed(b) && body_settled(*b, h)) {
       btCollisionObject* one[] = {b};
       parking.add_island(one, 1);
     }
@@ -121,7 +121,7 @@ void park_settled_islands(Parking& parking, CanonicalDynamicsWorld& world, btCol
     bool park = n > 0;
     for (int j = 0; j < n && park; ++j) {
       const btRigidBody* b = btRigidBody::upcast(bodies[j]);
-      park = b && b->getBroadphaseHandle() && body_settled(*b, h);
+      park = b && b->getBroadphaseHandle() && !world.jointed(b) && body_settled(*b, h);
     }
     if (!park) continue;
     slot_of[static_cast<std::size_t>(k)] = static_cast<int>(parking.add_island(bodies, n));

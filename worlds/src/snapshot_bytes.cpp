@@ -2,7 +2,8 @@
 //
 // Layout (little-endian, no padding): "SODAWSN1", u32 version, u32
 // sizeof(btScalar), settings, i64 steps_done, u32 body count, bodies, u32
-// manifold count, manifolds. Every read is bounds-checked; counts are checked
+// manifold count, manifolds; version 2 (written only for a snapshot with
+// joints) then u32 joint count, joints. Every read is bounds-checked; counts are checked
 // against the bytes left before anything is allocated.
 #include <algorithm>
 #include <bit>
@@ -19,7 +20,69 @@ namespace soda {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'W', 'S', 'N', '1'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 1;        // no joints
+constexpr std::uint32_t kJointsVersion = 2;  // with joints
+constexpr std::size_t kMinJointBytes = 4 + 1 + 4 + 4 + 2 * 7 * 8 + 1 + 8 + 1 + 4 * 8 + 1 + 2 * 8 + 3 * 8 + 36 * 8 + 1;
+
+void write_joint(ByteWriter& w, const JointSnapshot& js) {
+  const Joint& j = js.description;
+  w.put(j.id);
+  w.put(static_cast<std::uint8_t>(j.kind));
+  w.put(j.body_a), w.put(j.body_b);
+  for (const JointFrame* f : {&j.frame_a, &j.frame_b}) {
+    w.vec3(f->position);
+    w.put(f->orientation.x()), w.put(f->orientation.y()), w.put(f->orientation.z()), w.put(f->orientation.w());
+  }
+  w.put(static_cast<std::uint8_t>(j.collide_connected));
+  w.put(j.breaking_impulse);
+  w.put(static_cast<std::uint8_t>(j.limited));
+  w.put(j.lower), w.put(j.upper), w.put(j.angular_lower), w.put(j.angular_upper);
+  w.put(static_cast<std::uint8_t>(j.motor));
+  w.put(j.motor_velocity), w.put(j.motor_max_impulse);
+  w.put(j.swing_span1), w.put(j.swing_span2), w.put(j.twist_span);
+  for (const auto* a : {&j.axis_lower, &j.axis_upper, &j.stiffness, &j.damping, &j.motor_velocities, &j.motor_max_forces})
+    for (double v : *a) w.put(v);
+  w.put(static_cast<std::uint8_t>(js.broken));
+}
+
+bool read_flag(ByteReader& r) {
+  const auto v = r.get<std::uint8_t>();
+  if (v > 1) r.fail("bad flag");
+  return v == 1;
+}
+
+JointSnapshot read_joint(ByteReader& r) {
+  JointSnapshot js;
+  Joint& j = js.description;
+  j.id = r.get<JointId>();
+  const auto kind = r.get<std::uint8_t>();
+  if (kind > static_cast<std::uint8_t>(JointKind::Spring6Dof)) r.fail("unknown joint kind");
+  j.kind = static_cast<JointKind>(kind);
+  j.body_a = r.get<BodyId>(), j.body_b = r.get<BodyId>();
+  for (JointFrame* f : {&j.frame_a, &j.frame_b}) {
+    f->position = r.vec3();
+    const double x = r.finite(), y = r.finite(), z = r.finite(), qw = r.finite();
+    f->orientation = Quat(qw, x, y, z);
+  }
+  j.collide_connected = read_flag(r);
+  j.breaking_impulse = r.get<double>();  // infinity: never breaks
+  if (!(j.breaking_impulse > 0)) r.fail("bad joint breaking impulse");
+  j.limited = read_flag(r);
+  j.lower = r.finite(), j.upper = r.finite(), j.angular_lower = r.finite(), j.angular_upper = r.finite();
+  j.motor = read_flag(r);
+  j.motor_velocity = r.finite(), j.motor_max_impulse = r.finite();
+  j.swing_span1 = r.finite(), j.swing_span2 = r.finite(), j.twist_span = r.finite();
+  for (auto* a : {&j.axis_lower, &j.axis_upper, &j.stiffness, &j.damping, &j.motor_velocities, &j.motor_max_forces})
+    for (double& v : *a) v = r.finite();
+  js.broken = read_flag(r);
+  return js;
+}
+
+std::vector<std::uint8_t> joint_bytes(const JointSnapshot& j) {
+  ByteWriter w;
+  write_joint(w, j);
+  return std::move(w.bytes);
+}
 
 [[noreturn]] void raise_snapshot_error(const std::string& message) { throw SnapshotFormatError(message); }
 
@@ -37,12 +100,15 @@ bool same_bits(const WorldSnapshot& a, const WorldSnapshot& b) {
       return false;
   for (std::size_t i = 0; i < a.manifolds.size(); ++i)
     if (!same_bits(a.manifolds[i], b.manifolds[i])) return false;
+  if (a.joints.size() != b.joints.size()) return false;
+  for (std::size_t i = 0; i < a.joints.size(); ++i)
+    if (joint_bytes(a.joints[i]) != joint_bytes(b.joints[i])) return false;
   return true;
 }
 
 std::vector<std::uint8_t> serialize(const WorldSnapshot& s) {
   ByteWriter w;
-  write_header(w, kMagic, kVersion);
+  write_header(w, kMagic, s.joints.empty() ? kVersion : kJointsVersion);
   w.put(s.settings.dt), w.put(s.settings.substeps), w.put(s.settings.iterations);
   w.vec3(s.settings.gravity);
   w.put(s.settings.steps);
@@ -51,12 +117,24 @@ std::vector<std::uint8_t> serialize(const WorldSnapshot& s) {
   for (const BodySnapshot& b : s.bodies) write_body(w, b);
   w.put(static_cast<std::uint32_t>(s.manifolds.size()));
   for (const ManifoldState& m : s.manifolds) write_manifold(w, m);
+  if (!s.joints.empty()) {
+    w.put(static_cast<std::uint32_t>(s.joints.size()));
+    for (const JointSnapshot& j : s.joints) write_joint(w, j);
+  }
   return std::move(w.bytes);
 }
 
 WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes) {
   ByteReader r(bytes, "deserialize_snapshot", raise_snapshot_error);
-  read_header(r, kMagic, kVersion, "world snapshot");
+  // The header, version 1 or 2 (read_header takes one version).
+  char magic[8];
+  r.get(magic);
+  if (std::memcmp(magic, kMagic, sizeof magic) != 0) r.fail("not a SODA world snapshot (bad magic)");
+  const auto version = r.get<std::uint32_t>();
+  if (version != kVersion && version != kJointsVersion) r.fail("unsupported world snapshot version");
+  if (r.get<std::uint32_t>() != sizeof(btScalar))
+    r.fail(std::string("world snapshot precision differs from this build's (") +
+           (sizeof(btScalar) == 8 ? "double" : "float") + ")");
   WorldSnapshot s;
   s.settings.dt = r.finite();
   s.settings.substeps = r.get<int>();
@@ -86,6 +164,17 @@ WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes) {
       r.fail("manifolds not sorted by (id0, id1)");
     s.manifolds.push_back(std::move(m));
   }
+  if (version == kJointsVersion) {
+    const std::uint32_t nj = r.count(kMinJointBytes);
+    if (nj == 0) r.fail("a version 2 snapshot without joints");
+    s.joints.reserve(nj);
+    for (std::uint32_t i = 0; i < nj; ++i) {
+      JointSnapshot j = read_joint(r);
+      if (!has_body(j.description.body_a) || !has_body(j.description.body_b)) r.fail("joint with bad body ids");
+      if (i > 0 && !(s.joints.back().description.id < j.description.id)) r.fail("joints not sorted by id");
+      s.joints.push_back(std::move(j));
+    }
+  }
   if (!r.done()) r.fail("trailing bytes");
   return s;
 }
@@ -95,6 +184,7 @@ Scene scene_of(const WorldSnapshot& snapshot) {
   scene.settings = snapshot.settings;
   scene.bodies.reserve(snapshot.bodies.size());
   for (const BodySnapshot& b : snapshot.bodies) scene.bodies.push_back(b.description);
+  for (const JointSnapshot& j : snapshot.joints) scene.joints.push_back(j.description);
   return scene;
 }
 

@@ -1,5 +1,12 @@
 #include "soda/worlds/stock_world.h"
 
+#include <algorithm>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+
+#include "joint_factory.h"
 #include "soda/worlds/bullet_allocator.h"
 #include "world_teardown.h"
 
@@ -30,6 +37,20 @@ StockWorld::StockWorld(const Scene& scene, const std::vector<std::size_t>& inser
       for (auto& b : bodies_.bodies) world_->addRigidBody(b.get());
     } else {
       for (std::size_t i : insertion_order) world_->addRigidBody(bodies_.bodies.at(i).get());
+    }
+    std::unordered_map<BodyId, btRigidBody*> by_id;
+    for (std::size_t i = 0; i < scene.bodies.size(); ++i) by_id[scene.bodies[i].id] = bodies_.bodies[i].get();
+    std::vector<std::size_t> order(scene.joints.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::sort(order.begin(), order.end(),
+              [&](std::size_t x, std::size_t y) { return scene.joints[x].id < scene.joints[y].id; });
+    for (std::size_t i : order) {
+      const Joint& j = scene.joints[i];
+      auto a = by_id.find(j.body_a), b = by_id.find(j.body_b);
+      if (a == by_id.end() || b == by_id.end())
+        throw std::invalid_argument("StockWorld: joint " + std::to_string(j.id) + " joins a body not in the scene");
+      joints_.push_back(make_constraint(j, *a->second, *b->second));
+      world_->addConstraint(joints_.back().get(), !j.collide_connected);
     }
   } catch (...) {  // e.g. std::bad_alloc: the world goes before the bodies it reads
     release_all_pairs(*broadphase_, *dispatcher_);

@@ -21,6 +21,7 @@ namespace soda {
 TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map,
                                std::int64_t internal_steps_done, const TerritoryWorld* share_pools_of)
     : id_(id), map_(std::move(map)), settings_(snapshot.settings) {
+  refuse_joints(snapshot.joints.size());
   init_world(share_pools_of);
   steps_done_ = internal_steps_done >= 0 ? internal_steps_done : snapshot.steps_done * settings_.substeps;
   for (const BodySnapshot& b : snapshot.bodies) {

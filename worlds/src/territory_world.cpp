@@ -5,6 +5,7 @@
 #include <map>
 #include <span>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 
 #include "canonical_dynamics_world.h"
@@ -28,8 +29,17 @@ std::string beyond_reach(WorldId world, std::int64_t step, BodyId body, double s
   return msg.str();
 }
 
+void refuse_joints(std::size_t joints) {
+  if (joints != 0)
+    throw std::invalid_argument("the scene has " + std::to_string(joints) +
+                                " joints: joints run in one world only (one territory, without --sync-test, "
+                                "--watchdog heal, inputs, checkpoints or ranks); territory worlds do not take "
+                                "them yet (docs/scene-format.md, \"Joints\")");
+}
+
 TerritoryWorld::TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map)
     : id_(id), map_(std::move(map)), settings_(scene.settings) {
+  refuse_joints(scene.joints.size());
   init_world();
   for (const Body& b : scene.bodies) {
     if (b.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");

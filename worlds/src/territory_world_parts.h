@@ -139,6 +139,11 @@ inline TerritoryWorld::Entry& entry_of(const btCollisionObject* object) {
   return *static_cast<TerritoryWorld::Entry*>(object->getUserPointer());
 }
 
+/// Throws std::invalid_argument when a scene or snapshot with `joints`
+/// joints (> 0) would be split into territory worlds, which do not take
+/// joints yet (territory_world.cpp).
+void refuse_joints(std::size_t joints);
+
 /// The PartitionError text for a body that reached a world outside this
 /// world's neighbourhood (predict: its halo overlaps `cell` of `other`;
 /// migrate: its new home `cell` belongs to `other`): names the body, its

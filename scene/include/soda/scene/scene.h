@@ -12,7 +12,9 @@
 //     (its one-step swept AABB has length^2 >= 1e12, see kBulletMaxAabbLength2).
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -90,6 +92,63 @@ struct Body {
 /// has just fallen asleep carries at least.
 inline constexpr double kAsleepTimer = 2.0;
 
+/// Stable joint id, unique among a scene's joints. Valid ids are 0 ..
+/// kMaxJointId; joints are created and solved in id order.
+using JointId = std::uint32_t;
+inline constexpr JointId kMaxJointId = (JointId{1} << 31) - 1;
+
+/// Bullet's constraint types (docs/scene-format.md, "Joints").
+enum class JointKind {
+  PointToPoint,  // btPoint2PointConstraint: the frames' origins coincide
+  Hinge,         // btHingeConstraint: rotation about the frames' z axes
+  Slider,        // btSliderConstraint: motion along and about the frames' x axes
+  ConeTwist,     // btConeTwistConstraint: twist about x, swing inside a cone
+  Fixed,         // btFixedConstraint: the frames coincide
+  Spring6Dof,    // btGeneric6DofSpring2Constraint: six axes, limits, springs, motors
+};
+
+/// Name used in scene files and messages ("point-to-point", "hinge", ...).
+const char* joint_kind_name(JointKind kind);
+
+/// A rigid frame in a body's local space (metres, unit quaternion).
+struct JointFrame {
+  Vec3 position = Vec3::Zero();
+  Quat orientation = Quat::Identity();
+};
+
+/// One joint between two bodies (at most one of them static). Which fields a
+/// kind reads (the others are ignored and not written to files):
+/// - every kind: frame_a, frame_b (point-to-point: their positions only),
+///   collide_connected, breaking_impulse;
+/// - Hinge: limited/lower/upper (angle about z, rad), motor/motor_velocity
+///   (rad/s)/motor_max_impulse (N m s);
+/// - Slider: lower/upper (along x, m; lower > upper: free),
+///   angular_lower/angular_upper (about x, rad), motor/motor_velocity
+///   (m/s)/motor_max_impulse (as Bullet's max linear motor force times the
+///   step);
+/// - ConeTwist: swing_span1, swing_span2, twist_span (rad);
+/// - Spring6Dof: per axis (x, y, z linear in m, then x, y, z angular in rad)
+///   axis_lower/axis_upper (lower == upper: locked; lower > upper: free),
+///   stiffness/damping (a spring where stiffness > 0), motor_velocities and
+///   motor_max_forces (a motor where max force > 0).
+struct Joint {
+  JointId id = 0;
+  JointKind kind = JointKind::PointToPoint;
+  BodyId body_a = 0, body_b = 0;
+  JointFrame frame_a, frame_b;  // in body_a's and body_b's local space
+  /// Whether the two bodies collide with each other (default: they do not).
+  bool collide_connected = false;
+  /// The impulse (N s) at which the joint breaks for good; infinity: never.
+  double breaking_impulse = std::numeric_limits<double>::infinity();
+  bool limited = false;
+  double lower = 1.0, upper = -1.0;
+  double angular_lower = 0.0, angular_upper = 0.0;
+  bool motor = false;
+  double motor_velocity = 0.0, motor_max_impulse = 0.0;
+  double swing_span1 = 1.0, swing_span2 = 1.0, twist_span = 1.0;
+  std::array<double, 6> axis_lower{}, axis_upper{}, stiffness{}, damping{}, motor_velocities{}, motor_max_forces{};
+};
+
 /// Stepping settings of a scene. Units: seconds, m/s^2.
 struct SceneSettings {
   double dt = 1.0 / 60.0;     // fixed step
@@ -104,6 +163,7 @@ struct Scene {
   std::uint64_t seed = 0;     // seed it was generated from (0 for files)
   SceneSettings settings;
   std::vector<Body> bodies;   // any order; ids are what identify bodies
+  std::vector<Joint> joints;  // any order; created and solved in id order
 
   std::size_t dynamic_count() const;
   std::size_t static_count() const;

@@ -13,10 +13,14 @@
 //     dispatcher, broadphase, solver): distinct worlds may step concurrently
 //     on distinct threads. One world is not thread-safe.
 //
+// Joints (Scene::joints) are island edges like manifolds with points; an
+// island's joints are solved in joint id order (docs/determinism.md,
+// "Joints"); snapshots carry them and whether each has broken.
+//
 // Outside the contract: continuous collision detection (CCD motion clamping
 // sweeps against the whole world; bodies are created with CCD off),
-// constraints (joints; not supported yet: adding one throws on step), compound
-// shapes (several manifolds per pair).
+// constraints added through bullet() rather than the scene, compound shapes
+// (several manifolds per pair).
 #pragma once
 
 #include <cstdint>
@@ -46,6 +50,7 @@ struct StepStats {
   std::size_t lone_bodies = 0;       // awake islands of one body without contacts
   std::size_t contact_manifolds = 0; // manifolds with points, all islands
   std::size_t solved_manifolds = 0;  // manifolds handed to the solver
+  std::size_t solved_joints = 0;     // joints handed to the solver (not broken, in awake islands)
   std::size_t broadphase_pairs = 0;  // after the full stale-pair sweep
   std::size_t speculative_contacts = 0;  // pairs given a speculative point (fast bodies; docs/ccd.md)
   std::size_t coloured_islands = 0;  // islands solved coloured (docs/coloured-solve.md)
@@ -130,6 +135,9 @@ class CanonicalWorld {
   std::uint64_t state_hash(bool include_contacts = false) const;
   std::size_t body_count() const;
   std::size_t sleeping_count() const;
+  std::size_t joint_count() const { return joints_.size(); }
+  /// Joints that broke (their breaking impulse reached): they hold no more.
+  std::size_t broken_joint_count() const;
 
   /// The full state as values. Cost: O(bodies + manifolds).
   WorldSnapshot snapshot() const;
@@ -147,12 +155,18 @@ class CanonicalWorld {
 
  private:
   struct Entry;
+  struct JointEntry;
   void build(const SceneSettings& settings);
+  /// The joints' constraints, in joint id order; `broken` (null: none) per
+  /// joint of `joints`. Throws std::invalid_argument for a joint whose body
+  /// is not in the world.
+  void insert_joints(const std::vector<Joint>& joints, const std::vector<bool>* broken);
   void insert_body(const Body& description, const BodyDynamicState* state);
   void import_manifolds(const std::vector<ManifoldState>& manifolds);
 
   SceneSettings settings_;
   std::vector<std::unique_ptr<Entry>> entries_;  // sorted by id after construction
+  std::vector<std::unique_ptr<JointEntry>> joints_;  // sorted by joint id
   // After entries_: destroyed first, while the bodies it holds are alive.
   std::unique_ptr<CanonicalWorldParts> parts_;
   std::int64_t steps_done_ = 0;

@@ -3,6 +3,9 @@
 // impulse solver), on a scene. Every speed figure SODA prints is a ratio
 // against this world, measured in the same process.
 //
+// The scene's joints are added as Bullet's constraints, in joint id order,
+// bodies of a joint not colliding unless the joint says so.
+//
 // It is *not* order-independent: inserting the same bodies in another order
 // gives another result (docs/determinism.md). The canonical world fixes that.
 #pragma once
@@ -47,6 +50,7 @@ class StockWorld {
   std::unique_ptr<btSequentialImpulseConstraintSolver> solver_;
   std::unique_ptr<btDiscreteDynamicsWorld> world_;
   BulletBodies bodies_;
+  std::vector<std::unique_ptr<btTypedConstraint>> joints_;  // the scene's joints, added in joint id order
   std::int64_t steps_done_ = 0;
 };
 

@@ -158,11 +158,20 @@ struct ManifoldState {
   ContactPoints points;
 };
 
+/// One joint: its description and whether it has broken, the only state a
+/// joint carries from step to step (Bullet's solver does not warm-start
+/// joint rows; worlds/src/joint_factory.h).
+struct JointSnapshot {
+  Joint description;
+  bool broken = false;
+};
+
 struct WorldSnapshot {
   SceneSettings settings;
   std::int64_t steps_done = 0;
   std::vector<BodySnapshot> bodies;      // sorted by id
   std::vector<ManifoldState> manifolds;  // sorted by (id0, id1); every one has points
+  std::vector<JointSnapshot> joints;     // sorted by id
 };
 
 /// Thrown by deserialize_snapshot for bytes that are not a valid snapshot of
@@ -173,7 +182,10 @@ class SnapshotFormatError : public std::runtime_error {
 };
 
 /// Self-describing little-endian byte encoding (magic, version, btScalar
-/// size, then every field). Round trip is bit-exact.
+/// size, then every field). Round trip is bit-exact. A snapshot without
+/// joints is written as version 1 (the bytes of every build before joints);
+/// one with joints as version 2, which adds the joints after the manifolds.
+/// Both are read.
 std::vector<std::uint8_t> serialize(const WorldSnapshot& snapshot);
 
 /// True if serialize(a) == serialize(b), without encoding either: settings,
@@ -185,9 +197,10 @@ bool same_bits(const WorldSnapshot& a, const WorldSnapshot& b);
 /// SnapshotFormatError with the reason and byte offset.
 WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes);
 
-/// The snapshot's settings and body descriptions as a Scene (ids, shapes,
-/// masses, materials; poses and velocities as the bodies were created, not
-/// as they are now: the raw states are in snapshot.bodies[i].state).
+/// The snapshot's settings, body descriptions and joints as a Scene (ids,
+/// shapes, masses, materials; poses and velocities as the bodies were
+/// created, not as they are now: the raw states are in
+/// snapshot.bodies[i].state; whether a joint broke is in snapshot.joints).
 Scene scene_of(const WorldSnapshot& snapshot);
 
 /// Canonical 64-bit hash (FNV-1a) of a contact state: manifolds in (id0, id1)
