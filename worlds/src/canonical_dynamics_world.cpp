@@ -256,6 +256,7 @@ void CanonicalDynamicsWorld::collect_island_manifolds() {
   if (island_manifolds_.first_duplicate() >= 0)
     throw std::logic_error("CanonicalWorld: two manifolds for one pair (compound shapes are not supported)");
   island_joints_.clear();
+  if (m_constraints.size() == 0) return;  // a world without joints pays nothing more
   for (int i = 0; i < m_constraints.size(); ++i) {
     btTypedConstraint* c = m_constraints[i];
     if (!c->isEnabled()) continue;
@@ -302,7 +303,7 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
     }
     ++stats_.awake_islands;
     const int manifold_count = static_cast<int>(m - m_begin);
-    const int joint_count = island_joints_.count(k);
+    const int joint_count = m_constraints.size() != 0 ? island_joints_.count(k) : 0;
     if (body_count == 1 && manifold_count == 0 && joint_count == 0) {
       lone_bodies_.push_back(island_bodies_[body_begin]);
       continue;

@@ -33,7 +33,7 @@ void refuse_joints(std::size_t joints) {
   if (joints != 0)
     throw std::invalid_argument("the scene has " + std::to_string(joints) +
                                 " joints: joints run in one world only (one territory, without --sync-test, "
-                                "--watchdog heal, inputs, checkpoints or ranks); territory worlds do not take "
+                                "--watchdog heal, inputs, --record, checkpoints or ranks); territory worlds do not take "
                                 "them yet (docs/scene-format.md, \"Joints\")");
 }
 

@@ -389,7 +389,7 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
                                 through_simulation_only(config)))
     throw std::invalid_argument(scene.name + ": the scene has " + std::to_string(scene.joints.size()) +
                                 " joints, which run in one world only: --territories 1, without --sync-test, "
-                                "--watchdog heal, inputs, checkpoints or ranks (docs/scene-format.md, \"Joints\")");
+                                "--watchdog heal, inputs, --record, checkpoints or ranks (docs/scene-format.md, \"Joints\")");
   const SleepingSwitch sleeping(config.sleeping);
   const Stamp start;
   check_run_memory(scene, config);
