@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "runtime/simulation_test_util.h"
+#include "soda/scene/registry.h"
 
 namespace soda {
 namespace {
@@ -176,6 +177,28 @@ TEST(Simulation, BadConfigIsRejected) {
   EXPECT_THROW(Simulation(s, SimulationConfig{.territories = 2, .threads = -1}), std::invalid_argument);
   EXPECT_THROW(Simulation(s, SimulationConfig{.territories = 2, .buffer_capacity = 1}), std::invalid_argument);
   EXPECT_THROW(Simulation(s, SimulationConfig{.territories = 2, .partition = "nonsense"}), GridError);
+}
+
+}  // namespace
+}  // namespace soda
+
+namespace soda {
+namespace {
+
+// Territory worlds do not take joints yet: a Simulation over a scene with
+// joints is refused by name before anything runs, for any K
+// (docs/scene-format.md, "Joints").
+TEST(SimulationJoints, ASceneWithJointsIsRefusedByName) {
+  const Scene s = make_scene("pendulums", SceneParams{2, 1, false});
+  ASSERT_FALSE(s.joints.empty());
+  for (int k : {1, 2}) {
+    try {
+      Simulation sim(s, SimulationConfig{.territories = k});
+      ADD_FAILURE() << "K = " << k << ": a Simulation took a scene with joints";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("joints run in one world only"), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace
