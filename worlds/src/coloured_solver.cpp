@@ -185,15 +185,25 @@ ColouredSolver::Residual ColouredSolver::sweep(Sweep kind) {
   for (int c = 0; c < colours; ++c) {
     const int begin = colour_begin_[static_cast<std::size_t>(c)];
     const int count = colour_begin_[static_cast<std::size_t>(c) + 1] - begin;
-    const int per_task =
-        pool_ ? std::clamp(count / (kTasksPerThread * pool_->threads()), kMinRunsPerTask, kMaxRunsPerTask)
-              : kMaxRunsPerTask;
+    // A multiple of 4: a task starts on a group of the wide rows.
+    const int fitted = pool_ ? std::clamp(count / (kTasksPerThread * pool_->threads()), kMinRunsPerTask,
+                                          kMaxRunsPerTask)
+                             : kMaxRunsPerTask;
+    const int per_task = (fitted + 3) & ~3;
+    const bool wide = wide_on_ && (kind == Sweep::Contact || kind == Sweep::Friction);
     const int tasks = (count + per_task - 1) / per_task;
     task_residuals_.assign(static_cast<std::size_t>(tasks), Residual{});
     auto task = [&](int t) {
       const int first = begin + t * per_task;
       const int n = std::min(per_task, begin + count - first);
-      solve_runs(kind, &colour_runs_[static_cast<std::size_t>(first)], n, task_residuals_[static_cast<std::size_t>(t)]);
+      Residual& residual = task_residuals_[static_cast<std::size_t>(t)];
+      if (wide) {
+        WideRows::Residual r;
+        wide_.solve(kind == Sweep::Friction, first, n, m_tmpSolverBodyPool, r);
+        residual.merge(Residual{r.max, r.nan});
+      } else {
+        solve_runs(kind, &colour_runs_[static_cast<std::size_t>(first)], n, residual);
+      }
     };
     if (pool_) {
       threads_ = std::max(threads_, pool_->run(tasks, task));
@@ -206,6 +216,31 @@ ColouredSolver::Residual ColouredSolver::sweep(Sweep kind) {
   const int count = colour_begin_[static_cast<std::size_t>(colours) + 1] - begin;
   if (count > 0) solve_runs(kind, &colour_runs_[static_cast<std::size_t>(begin)], count, total);
   return total;
+}
+
+// The colours' runs (not the overflow) in colour order, packed four by four.
+void ColouredSolver::pack_wide() {
+  const std::size_t colours = colour_begin_.size() - 2;
+  const int packed = colour_begin_[colours];
+  // Inside a colour the runs' order is free (no two share a dynamic body):
+  // runs of as many rows side by side fill the lanes of a group.
+  auto rows = [&](int r) {
+    const Run& run = runs_[static_cast<std::size_t>(r)];
+    return std::pair{run.contact_end - run.contact_begin, run.friction_end - run.friction_begin};
+  };
+  for (std::size_t c = 0; c < colours; ++c)
+    std::stable_sort(colour_runs_.begin() + colour_begin_[c], colour_runs_.begin() + colour_begin_[c + 1],
+                     [&](int x, int y) { return rows(x) < rows(y); });
+  wide_runs_.clear();
+  for (int k = 0; k < packed; ++k) {
+    const Run& r = runs_[static_cast<std::size_t>(colour_runs_[static_cast<std::size_t>(k)])];
+    wide_runs_.push_back(WideRows::RunRows{r.body_a, r.body_b, r.contact_begin, r.contact_end,
+                                           friction_rows_.data() + r.friction_begin,
+                                           r.friction_end - r.friction_begin});
+  }
+  const std::vector<int> begins(colour_begin_.begin(), colour_begin_.begin() + static_cast<std::ptrdiff_t>(colours) + 1);
+  wide_.pack(wide_runs_, begins, m_tmpSolverContactConstraintPool, m_tmpSolverContactFrictionConstraintPool,
+             m_tmpSolverBodyPool);
 }
 
 // Mode::SequentialInColourOrder: Bullet's order arrays in the order the
@@ -240,6 +275,11 @@ btScalar ColouredSolver::solveGroupCacheFriendlyIterations(btCollisionObject** b
         bodies, numBodies, manifoldPtr, numManifolds, constraints, numConstraints, info, debugDrawer);
   }
   threads_ = 1;
+  wide_on_ = WideRows::applies(*this);
+  if (wide_on_) {
+    pack_wide();
+    ++stats_.wide_islands;
+  }
   const btScalar threshold = info.m_leastSquaresResidualThreshold;
   auto done = [&](const Residual& r) { return !r.nan && r.max <= threshold; };
   if (info.m_splitImpulse)
@@ -266,6 +306,8 @@ btScalar ColouredSolver::solveGroupCacheFriendlyIterations(btCollisionObject** b
       break;
     }
   }
+  if (wide_on_) wide_.unpack(m_tmpSolverContactConstraintPool, m_tmpSolverContactFrictionConstraintPool);
+  wide_on_ = false;
   stats_.threads_max = std::max(stats_.threads_max, threads_);
   return 0.f;
 }

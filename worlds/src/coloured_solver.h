@@ -44,6 +44,7 @@
 #include <btBulletDynamicsCommon.h>
 
 #include "soda/worlds/solver_pool.h"
+#include "wide_rows.h"
 
 namespace soda {
 
@@ -90,6 +91,7 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
   /// Cumulative counts (never reset; worlds take differences per step).
   struct Stats {
     std::size_t coloured_islands = 0;  // solveGroup calls solved coloured
+    std::size_t wide_islands = 0;      // ... whose contact and friction sweeps ran four runs at a time (wide_rows.h)
     std::size_t coloured_runs = 0;     // runs of those islands, summed
     std::size_t overflow_runs = 0;     // ... solved in the overflow colour
     int colours_max = 0;               // most colours of one island (overflow excluded)
@@ -172,6 +174,13 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
   void solve_runs(Sweep kind, const int* runs, int count, Residual& residual);
 
   void set_colour_order();
+  void pack_wide();
+
+  /// Contact and friction sweeps of the colours four runs at a time
+  /// (wide_rows.h), where WideRows::applies: the same bits.
+  WideRows wide_;
+  bool wide_on_ = false;
+  std::vector<WideRows::RunRows> wide_runs_;
 
   std::shared_ptr<SolverPool> pool_;
   Mode mode_ = Mode::Coloured;
