@@ -7,24 +7,24 @@
 namespace soda::detail {
 namespace {
 
-ShapeKind parse_shape_kind(const Context& ctx, const std::string& name) {
+ShapeKind parse_shape_kind(const Context& ctx, const std::string& name, const std::string& at) {
   for (ShapeKind k : {ShapeKind::Box, ShapeKind::Sphere, ShapeKind::Capsule, ShapeKind::Cylinder,
-                      ShapeKind::ConvexHull})
+                      ShapeKind::ConvexHull, ShapeKind::Compound})
     if (name == shape_kind_name(k)) return k;
-  ctx.fail("shape.type", "unknown shape '" + name +
-                             "' (known: box, sphere, capsule, cylinder, convex_hull)");
+  ctx.fail(at + ".type", "unknown shape '" + name + "' (known: box, sphere, capsule, cylinder, convex_hull, compound)");
 }
 
-Shape parse_shape(const Context& body_ctx, const json& j) {
-  if (!j.is_object()) body_ctx.fail("shape", "must be an object");
+// `at` names the shape's field: "shape", or "shape.children[i].shape".
+Shape parse_shape(const Context& body_ctx, const json& j, const std::string& at = "shape") {
+  if (!j.is_object()) body_ctx.fail(at, "must be an object");
   Context ctx{body_ctx.where};
-  // Field names inside the shape are reported as shape.<name>.
-  auto field = [](const char* f) { return std::string("shape.") + f; };
+  // Field names inside the shape are reported as <at>.<name>.
+  auto field = [&at](const char* f) { return at + "." + f; };
   auto it = j.find("type");
-  if (it == j.end()) ctx.fail("shape.type", "missing");
-  if (!it->is_string()) ctx.fail("shape.type", "must be a string");
+  if (it == j.end()) ctx.fail(at + ".type", "missing");
+  if (!it->is_string()) ctx.fail(at + ".type", "must be a string");
   Shape s;
-  s.kind = parse_shape_kind(ctx, it->get<std::string>());
+  s.kind = parse_shape_kind(ctx, it->get<std::string>(), at);
   auto need = [&](const char* f) -> const json& {
     auto v = j.find(f);
     if (v == j.end()) ctx.fail(field(f), "missing");
@@ -58,11 +58,50 @@ Shape parse_shape(const Context& body_ctx, const json& j) {
       allowed.insert("points");
       break;
     }
+    case ShapeKind::Compound: {
+      const json& kids = need("children");
+      if (!kids.is_array()) ctx.fail(field("children"), "must be an array of {shape, position, orientation}");
+      if (kids.empty()) ctx.fail(field("children"), "a compound needs at least one child shape");
+      for (std::size_t i = 0; i < kids.size(); ++i) {
+        const std::string child = at + ".children[" + std::to_string(i) + "]";
+        const json& k = kids[i];
+        if (!k.is_object()) ctx.fail(child, "must be an object {shape, position, orientation}");
+        for (auto f = k.begin(); f != k.end(); ++f)
+          if (f.key() != "shape" && f.key() != "position" && f.key() != "orientation")
+            ctx.fail(child + "." + f.key(), "unknown field for a compound's child");
+        auto ks = k.find("shape");
+        if (ks == k.end()) ctx.fail(child + ".shape", "missing");
+        CompoundChild c;
+        c.shape = parse_shape(ctx, *ks, child + ".shape");
+        if (c.shape.kind == ShapeKind::Compound)
+          ctx.fail(child + ".shape.type",
+                   "nested compounds are not supported: a compound's children are convex shapes (box, sphere, "
+                   "capsule, cylinder, convex_hull)");
+        if (auto p = k.find("position"); p != k.end()) c.position = Vec3(ctx.numbers(*p, child + ".position", 3));
+        if (auto q = k.find("orientation"); q != k.end()) {
+          const Eigen::VectorXd v = ctx.numbers(*q, child + ".orientation", 4);
+          c.orientation = Quat(v[3], v[0], v[1], v[2]);  // file order x, y, z, w
+        }
+        s.children.push_back(std::move(c));
+      }
+      allowed.insert("children");
+      break;
+    }
   }
   for (auto f = j.begin(); f != j.end(); ++f)
     if (!allowed.count(f.key()))
       ctx.fail(field(f.key().c_str()), std::string("unknown field for a ") + shape_kind_name(s.kind));
   return s;
+}
+
+// A 32-bit collision group or mask: an integer in [0, 2^32).
+std::uint32_t filter_bits(const Context& ctx, const json& j, const char* field, std::uint32_t fallback) {
+  const json* v = ctx.find(j, field, false);
+  if (!v) return fallback;
+  if (!v->is_number_integer()) ctx.fail(field, std::string("must be an integer in [0, 2^32), got ") + v->type_name());
+  if (v->is_number_unsigned() ? v->get<std::uint64_t>() > 0xffffffffull : v->get<std::int64_t>() < 0)
+    ctx.fail(field, "must be an integer in [0, 2^32) (32 group bits)");
+  return static_cast<std::uint32_t>(v->get<std::uint64_t>());
 }
 
 }  // namespace
@@ -76,7 +115,8 @@ Body parse_body(std::string where, const json& j) {
   b.id = static_cast<BodyId>(id);
   ctx.where += " (id " + std::to_string(id) + ")";
   ctx.only_known(j, {"id", "type", "shape", "mass", "friction", "restitution", "position",
-                     "orientation", "linear_velocity", "angular_velocity", "asleep"});
+                     "orientation", "linear_velocity", "angular_velocity", "asleep", "collision_group",
+                     "collision_mask"});
   const std::string type = ctx.string(j, "type", true, "");
   if (type != "static" && type != "dynamic") ctx.fail("type", "must be \"static\" or \"dynamic\"");
   b.is_static = type == "static";
@@ -100,27 +140,49 @@ Body parse_body(std::string where, const json& j) {
     if (b.asleep && (!b.linear_velocity.isZero(0.0) || !b.angular_velocity.isZero(0.0)))
       ctx.fail("asleep", "a body created asleep must have zero linear_velocity and angular_velocity");
   }
+  b.collision_group = filter_bits(ctx, j, "collision_group", b.collision_group);
+  b.collision_mask = filter_bits(ctx, j, "collision_mask", b.collision_mask);
   return b;
 }
 
-json body_json(const Body& b) {
-  const auto vec_json = [](const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); };
-  json shape = {{"type", shape_kind_name(b.shape.kind)}};
-  switch (b.shape.kind) {
+namespace {
+
+json vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+json shape_json(const Shape& s) {
+  json shape = {{"type", shape_kind_name(s.kind)}};
+  switch (s.kind) {
     case ShapeKind::Box:
-    case ShapeKind::Cylinder: shape["half_extents"] = vec_json(b.shape.half_extents); break;
-    case ShapeKind::Sphere: shape["radius"] = b.shape.radius; break;
+    case ShapeKind::Cylinder: shape["half_extents"] = vec_json(s.half_extents); break;
+    case ShapeKind::Sphere: shape["radius"] = s.radius; break;
     case ShapeKind::Capsule:
-      shape["radius"] = b.shape.radius;
-      shape["height"] = b.shape.height;
+      shape["radius"] = s.radius;
+      shape["height"] = s.height;
       break;
     case ShapeKind::ConvexHull: {
       json pts = json::array();
-      for (const Vec3& p : b.shape.points) pts.push_back(vec_json(p));
+      for (const Vec3& p : s.points) pts.push_back(vec_json(p));
       shape["points"] = pts;
       break;
     }
+    case ShapeKind::Compound: {
+      json kids = json::array();
+      for (const CompoundChild& c : s.children)
+        kids.push_back({{"shape", shape_json(c.shape)},
+                        {"position", vec_json(c.position)},
+                        {"orientation", json::array({c.orientation.x(), c.orientation.y(), c.orientation.z(),
+                                                     c.orientation.w()})}});
+      shape["children"] = kids;
+      break;
+    }
   }
+  return shape;
+}
+
+}  // namespace
+
+json body_json(const Body& b) {
+  const json shape = shape_json(b.shape);
   json jb = {{"id", b.id},
              {"type", b.is_static ? "static" : "dynamic"},
              {"shape", shape},
@@ -135,6 +197,10 @@ json body_json(const Body& b) {
     jb["angular_velocity"] = vec_json(b.angular_velocity);
     if (b.asleep) jb["asleep"] = true;
   }
+  // Written only when not the default, so that files without filters stay
+  // as they were.
+  if (b.collision_group != kDefaultCollisionGroup) jb["collision_group"] = b.collision_group;
+  if (b.collision_mask != kAllCollisionGroups) jb["collision_mask"] = b.collision_mask;
   return jb;
 }
 

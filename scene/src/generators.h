@@ -82,6 +82,8 @@ Scene make_mixed_sizes(const SceneParams& params);
 // big_bodies_scene.cpp: bodies of 2, 5 and 20 m across among unit cubes; a
 // long plank dropped on a pile; a heavy 5 m box sliding across borders.
 Scene make_big_bodies(const SceneParams& params);
+// compounds_scene.cpp: chairs and tables made of boxes (compound shapes).
+Scene make_compounds(const SceneParams& params);
 Scene make_plank_pile(const SceneParams& params);
 Scene make_heavy_slide(const SceneParams& params);
 Scene make_free_fall(const SceneParams& params);

@@ -136,6 +136,10 @@ const std::vector<SceneGenerator>& scene_registry() {
        "N unit cubes (default 300) in a loose block, and bodies of 2 m, 5 m and 20 m across (boxes, "
        "capsules, convex hulls; 5 kg per m^3 of bounding box) falling into it across territory borders",
        detail::make_big_bodies},
+      {"compounds",
+       "N chairs and tables made of boxes (compound shapes; default 200, every third a table) falling in a loose "
+       "block onto a ground and two static tables, across territory borders",
+       detail::make_compounds},
       {"plank-pile",
        "a plank N m long (default 8, N <= 40; 0.2 x 0.6 m, 40 kg) dropped end first from 0.5 m onto a pile of "
        "4 x 4 x 3 unit cubes",

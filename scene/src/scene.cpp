@@ -12,6 +12,7 @@ const char* shape_kind_name(ShapeKind kind) {
     case ShapeKind::Capsule: return "capsule";
     case ShapeKind::Cylinder: return "cylinder";
     case ShapeKind::ConvexHull: return "convex_hull";
+    case ShapeKind::Compound: return "compound";
   }
   return "unknown";
 }
@@ -64,6 +65,13 @@ Shape Shape::convex_hull(std::vector<Vec3> points) {
   return s;
 }
 
+Shape Shape::compound(std::vector<CompoundChild> children) {
+  Shape s;
+  s.kind = ShapeKind::Compound;
+  s.children = std::move(children);
+  return s;
+}
+
 Vec3 Shape::local_half_extents() const {
   switch (kind) {
     case ShapeKind::Box:
@@ -76,6 +84,16 @@ Vec3 Shape::local_half_extents() const {
     case ShapeKind::ConvexHull: {
       Vec3 h = Vec3::Zero();
       for (const Vec3& p : points) h = h.cwiseMax(p.cwiseAbs());
+      return h;
+    }
+    case ShapeKind::Compound: {
+      // Each child's box at its pose (|R| h bounds the rotated box), about
+      // the body's origin.
+      Vec3 h = Vec3::Zero();
+      for (const CompoundChild& c : children) {
+        const Eigen::Matrix3d abs_r = c.orientation.normalized().toRotationMatrix().cwiseAbs();
+        h = h.cwiseMax(c.position.cwiseAbs() + abs_r * c.shape.local_half_extents());
+      }
       return h;
     }
   }
@@ -95,6 +113,11 @@ double Shape::bounding_radius() const {
     case ShapeKind::ConvexHull: {
       double r = 0.0;
       for (const Vec3& p : points) r = std::max(r, p.norm());
+      return r;
+    }
+    case ShapeKind::Compound: {
+      double r = 0.0;
+      for (const CompoundChild& c : children) r = std::max(r, c.position.norm() + c.shape.bounding_radius());
       return r;
     }
   }

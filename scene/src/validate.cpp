@@ -33,22 +33,24 @@ void check_positive(const std::string& where, const std::string& field, double v
   if (!(v > 0.0)) fail(where, field, "must be > 0");
 }
 
-void check_shape(const std::string& where, const Shape& shape) {
+// `at` names the shape's field: "shape", or "shape.children[i].shape" in a
+// compound.
+void check_shape(const std::string& where, const Shape& shape, const std::string& at = "shape") {
   switch (shape.kind) {
     case ShapeKind::Box:
     case ShapeKind::Cylinder:
-      for (int i = 0; i < 3; ++i) check_positive(where, "shape.half_extents", shape.half_extents[i]);
+      for (int i = 0; i < 3; ++i) check_positive(where, at + ".half_extents", shape.half_extents[i]);
       break;
     case ShapeKind::Sphere:
-      check_positive(where, "shape.radius", shape.radius);
+      check_positive(where, at + ".radius", shape.radius);
       break;
     case ShapeKind::Capsule:
-      check_positive(where, "shape.radius", shape.radius);
-      check_positive(where, "shape.height", shape.height);
+      check_positive(where, at + ".radius", shape.radius);
+      check_positive(where, at + ".height", shape.height);
       break;
     case ShapeKind::ConvexHull: {
-      if (shape.points.size() < 4) fail(where, "shape.points", "a convex hull needs at least 4 points");
-      for (const Vec3& p : shape.points) check_finite(where, "shape.points", p);
+      if (shape.points.size() < 4) fail(where, at + ".points", "a convex hull needs at least 4 points");
+      for (const Vec3& p : shape.points) check_finite(where, at + ".points", p);
       // Not all coplanar: some triple of edges from point 0 spans volume.
       const Vec3 extent = shape.local_half_extents();
       bool spans = false;
@@ -60,7 +62,25 @@ void check_shape(const std::string& where, const Shape& shape) {
             const Vec3 c = shape.points[k] - shape.points[0];
             spans = std::abs(a.cross(b).dot(c)) > 1e-12 * std::pow(extent.maxCoeff(), 3);
           }
-      if (!spans) fail(where, "shape.points", "points are coplanar: the hull has no volume");
+      if (!spans) fail(where, at + ".points", "points are coplanar: the hull has no volume");
+      break;
+    }
+    case ShapeKind::Compound: {
+      if (shape.children.empty()) fail(where, at + ".children", "a compound needs at least one child shape");
+      for (std::size_t i = 0; i < shape.children.size(); ++i) {
+        const CompoundChild& c = shape.children[i];
+        const std::string child = at + ".children[" + std::to_string(i) + "]";
+        if (c.shape.kind == ShapeKind::Compound)
+          fail(where, child + ".shape",
+               "nested compounds are not supported: a compound's children are convex shapes (box, sphere, "
+               "capsule, cylinder, convex_hull)");
+        check_finite(where, child + ".position", c.position);
+        const Eigen::Vector4d q = c.orientation.coeffs();
+        for (int k = 0; k < 4; ++k)
+          if (!std::isfinite(q[k])) fail(where, child + ".orientation", "must be finite numbers");
+        if (q.norm() == 0.0) fail(where, child + ".orientation", "must not be the zero quaternion");
+        check_shape(where, c.shape, child + ".shape");
+      }
       break;
     }
   }

@@ -228,9 +228,9 @@ TEST(Checkpoint, TruncatedDamagedAndForeignFilesAreRefused) {
     expect_refused(flipped, "flip-" + std::to_string(at), length_field ? "truncated" : "damaged: the checksum");
   }
   // Another version (any later one keeps magic, version, precision first).
-  std::vector<std::uint8_t> v2 = good;
-  v2[8] = 2;
-  expect_refused(v2, "version-2", "format version 2; this build reads version 1 only");
+  std::vector<std::uint8_t> v3 = good;
+  v3[8] = 4;
+  expect_refused(v3, "version-4", "format version 4; this build reads versions 1 to 3");
   // Another precision: the other build's btScalar size, the frame intact.
   std::vector<std::uint8_t> other = good;
   other[12] = sizeof(btScalar) == 8 ? 4 : 8;
@@ -309,6 +309,39 @@ TEST(InputLog, ReplaysToTheSameHash) {
   give_late_input(c, saved().ids);
   EXPECT_EQ(c.input_log().size(), 1u);
   std::filesystem::remove(path);
+}
+
+// A version-1 checkpoint (written by the float build before bodies carried
+// a collision filter: cube-pile 40 saved at step 30 by `soda run --scene
+// cube-pile --n 40 --steps 60 --checkpoint-at 30 --checkpoint ...`) still
+// resumes: its bodies read back with the default filter, and the run
+// reaches that command's hash at step 60, f0eac91474662d74.
+TEST(Checkpoint, VersionOneFilesResumeWithTheDefaultFilter) {
+  const std::string path = std::string(SODA_RUNTIME_TEST_DATA) + "/cube-pile-40-step30.v1.ckpt";
+  const std::vector<std::uint8_t> bytes = file_bytes(path);
+  ASSERT_FALSE(bytes.empty()) << path;
+  if (sizeof(btScalar) != 4) {
+    EXPECT_THROW((void)decode_checkpoint(bytes, path), CheckpointError);  // the float build's file
+    return;
+  }
+  EXPECT_EQ(checkpoint_header(bytes, path).version, 1u);
+  const SimulationSnapshot snap = decode_checkpoint(bytes, path);
+  ASSERT_EQ(snap.state.bodies.size(), 41u);
+  for (const BodySnapshot& b : snap.state.bodies) {
+    EXPECT_EQ(b.description.collision_group, kDefaultCollisionGroup);
+    EXPECT_EQ(b.description.collision_mask, kAllCollisionGroups);
+  }
+  for (int territories : {1, 2}) {
+    Simulation sim = Simulation::resume(path, SimulationConfig{.territories = territories});
+    ASSERT_TRUE(sim.advance_to(sim.time_of(60)));
+    std::printf("[ version-1 checkpoint, K %d ] step 60: %s (the run that wrote it: f0eac91474662d74)\n", territories,
+                hash_hex(sim.state_hash()).c_str());
+    EXPECT_EQ(hash_hex(sim.state_hash()), "f0eac91474662d74");
+  }
+  // Written again, it is version 2 and reads back the same.
+  const std::vector<std::uint8_t> again = encode_checkpoint(snap);
+  EXPECT_EQ(checkpoint_header(again, "again").version, kCheckpointVersion);
+  EXPECT_EQ(encode_checkpoint(decode_checkpoint(again, "again")), again);
 }
 
 }  // namespace

@@ -152,5 +152,29 @@ TEST(SceneQuery, FiltersAndCanonicalOrder) {
   EXPECT_THROW(q.ray_cast(sim.time_of(30), Vec3(0, NAN, 0), Vec3(0, 0, 0)), std::invalid_argument);
 }
 
+// QueryFilter::mask sees the bodies whose collision group shares a bit
+// with it: the pile's cubes in group 2 (they still land on the ground, whose
+// group is the default 1), the ground in 1.
+TEST(SceneQuery, MaskSelectsBodiesByCollisionGroup) {
+  Scene s = test::scene("cube-pile", 60);
+  for (Body& b : s.bodies)
+    if (!b.is_static) b.collision_group = 2;
+  Simulation sim(s, SimulationConfig{.territories = 2});
+  SceneQuery q = sim.add_query();
+  ASSERT_TRUE(sim.advance_to(sim.time_of(30)));
+  const Vec3 from(0, 40, 0), to(0, -2, 0);
+  auto all = q.ray_cast_all(sim.time_of(30), from, to);
+  auto cubes = q.ray_cast_all(sim.time_of(30), from, to, QueryFilter{.mask = 2});
+  auto ground = q.ray_cast_all(sim.time_of(30), from, to, QueryFilter{.mask = 1});
+  auto none = q.ray_cast_all(sim.time_of(30), from, to, QueryFilter{.mask = 4});
+  ASSERT_TRUE(all && cubes && ground && none);
+  ASSERT_GE(all->items.size(), 2u);
+  EXPECT_EQ(cubes->items.size() + 1, all->items.size());
+  for (const QueryHit& h : cubes->items) EXPECT_NE(h.id, 0u);
+  ASSERT_EQ(ground->items.size(), 1u);
+  EXPECT_EQ(ground->items[0].id, 0u);
+  EXPECT_TRUE(none->items.empty());
+}
+
 }  // namespace
 }  // namespace soda

@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -235,6 +237,104 @@ TEST(SceneErrors, UnknownFieldIsRejected) {
       R"({"id": 7, "type": "dynamic", "mass": 1, "fricton": 0.3, "shape": {"type": "sphere", "radius": 0.5},
           "position": [0, 2, 0]})"));
   EXPECT_NE(e.find("'fricton': unknown field"), std::string::npos) << e;
+}
+
+// Collision filters (docs/scene-format.md, "Collision filtering"): read,
+// written only where not the default, and 32-bit integers or an error
+// naming the body and the field.
+TEST(SceneJson, CollisionFilterParsesAndRoundTrips) {
+  const Scene s = parse_scene_json(
+      scene_text(R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0.5, 0.5]},
+                     "position": [0, 2, 0], "collision_group": 4, "collision_mask": 4294967291})"),
+      "filter.json");
+  EXPECT_EQ(s.bodies[0].collision_group, kDefaultCollisionGroup);
+  EXPECT_EQ(s.bodies[0].collision_mask, kAllCollisionGroups);
+  EXPECT_EQ(s.bodies[1].collision_group, 4u);
+  EXPECT_EQ(s.bodies[1].collision_mask, 0xfffffffbu);
+  const std::string text = scene_to_json(s);
+  EXPECT_EQ(text.find("collision_group"), text.rfind("collision_group")) << "written once, for body 7 only";
+  const Scene back = parse_scene_json(text, "roundtrip");
+  EXPECT_EQ(back.bodies[1].collision_group, 4u);
+  EXPECT_EQ(back.bodies[1].collision_mask, 0xfffffffbu);
+  EXPECT_EQ(back.bodies[0].collision_mask, kAllCollisionGroups);
+  EXPECT_EQ(scene_to_json(make_scene("falling-cubes", SceneParams{20, 1, true})).find("collision_"), std::string::npos);
+}
+
+TEST(SceneErrors, BadCollisionFilterIsRejected) {
+  const std::string body = R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5},
+                               "position": [0, 2, 0], )";
+  for (const auto& [field, value, why] : std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"collision_group", "-1", "must be an integer in [0, 2^32)"},
+           {"collision_mask", "4294967296", "must be an integer in [0, 2^32)"},
+           {"collision_mask", "1.5", "must be an integer in [0, 2^32), got number"},
+           {"collision_group", "\"all\"", "must be an integer in [0, 2^32), got string"}}) {
+    const std::string e = error_of(scene_text(body + "\"" + field + "\": " + value + "}"));
+    EXPECT_NE(e.find("bad.json"), std::string::npos) << e;
+    EXPECT_NE(e.find("(id 7)"), std::string::npos) << e;
+    EXPECT_NE(e.find("'" + field + "': " + why), std::string::npos) << e;
+  }
+}
+
+// Compound shapes (docs/scene-format.md, "Compound shapes"): children with
+// poses round trip bit for bit; an empty compound, a nested one and bad
+// child poses are errors naming the body and the field.
+TEST(SceneJson, CompoundRoundTrips) {
+  Scene s;
+  s.name = "compound";
+  Body b;
+  b.id = 3;
+  b.shape = Shape::compound({CompoundChild{Shape::box(Vec3(0.5, 0.1, 0.5)), Vec3(0, 0.4, 0), Quat::Identity()},
+                             CompoundChild{Shape::capsule(0.1, 0.6), Vec3(0.3, -0.2, 0.1),
+                                           Quat(Eigen::AngleAxisd(0.3, Vec3::UnitZ()))}});
+  b.position = Vec3(0, 2, 0);
+  s.bodies.push_back(b);
+  validate_scene(s, "compound");
+  const Scene r = parse_scene_json(scene_to_json(s), "compound");
+  const Shape& c = r.bodies[0].shape;
+  ASSERT_EQ(c.kind, ShapeKind::Compound);
+  ASSERT_EQ(c.children.size(), 2u);
+  EXPECT_EQ(c.children[0].shape.kind, ShapeKind::Box);
+  EXPECT_EQ(c.children[1].shape.height, 0.6);
+  EXPECT_EQ(c.children[1].position, Vec3(0.3, -0.2, 0.1));
+  EXPECT_EQ(c.children[1].orientation.coeffs(), b.shape.children[1].orientation.coeffs());
+  // Half extents about the origin hold every child: in y the capsule's
+  // (0.2 below the origin, 0.1 x 0.4 turned 0.3 rad), not the box's 0.5.
+  EXPECT_NEAR(c.local_half_extents().y(), 0.2 + 0.1 * std::sin(0.3) + 0.4 * std::cos(0.3), 1e-12);
+  EXPECT_GE(c.bounding_radius(), 0.5);
+}
+
+TEST(SceneErrors, BadCompoundsAreRejected) {
+  auto body = [](const std::string& shape) {
+    return R"({"id": 7, "type": "dynamic", "mass": 1, "position": [0, 2, 0], "shape": )" + shape + "}";
+  };
+  std::string e = error_of(scene_text(body(R"({"type": "compound", "children": []})")));
+  EXPECT_NE(e.find("(id 7): field 'shape.children': a compound needs at least one child shape"), std::string::npos) << e;
+  e = error_of(scene_text(body(
+      R"({"type": "compound", "children": [{"shape": {"type": "compound", "children": [{"shape": {"type": "sphere", "radius": 1}}]}}]})")));
+  EXPECT_NE(e.find("(id 7): field 'shape.children[0].shape.type': nested compounds are not supported"),
+            std::string::npos) << e;
+  e = error_of(scene_text(body(
+      R"({"type": "compound", "children": [{"shape": {"type": "sphere", "radius": 1}}, {"shape": {"type": "box", "half_extents": [1, -1, 1]}}]})")));
+  EXPECT_NE(e.find("(id 7): field 'shape.children[1].shape.half_extents': must be > 0"), std::string::npos) << e;
+  e = error_of(scene_text(body(
+      R"({"type": "compound", "children": [{"shape": {"type": "sphere", "radius": 1}, "pose": [0, 0, 0]}]})")));
+  EXPECT_NE(e.find("'shape.children[0].pose': unknown field"), std::string::npos) << e;
+  // NaN poses cannot be written in JSON; through the API they are refused.
+  Scene s;
+  Body b;
+  b.id = 4;
+  b.shape = Shape::compound({CompoundChild{Shape::sphere(0.5), Vec3(0, NAN, 0), Quat::Identity()}});
+  s.bodies.push_back(b);
+  try {
+    validate_scene(s, "api");
+    ADD_FAILURE() << "a NaN child position was accepted";
+  } catch (const SceneError& err) {
+    EXPECT_NE(std::string(err.what()).find("body #0 (id 4): field 'shape.children[0].position'"), std::string::npos)
+        << err.what();
+  }
+  s.bodies[0].shape.children[0].position = Vec3::Zero();
+  s.bodies[0].shape.children[0].orientation = Quat(0, 0, 0, 0);
+  EXPECT_THROW(validate_scene(s, "api"), SceneError);
 }
 
 TEST(SceneErrors, MalformedJsonIsRejected) {

@@ -30,6 +30,18 @@ nlohmann::json shape_json(const Shape& s) {
       j["points"] = std::move(pts);
       break;
     }
+    case ShapeKind::Compound: {
+      // Drawn as the box of its local AABB; the children follow for a
+      // viewer that draws them.
+      j["half_extents"] = vec(s.local_half_extents());
+      nlohmann::json kids = nlohmann::json::array();
+      for (const CompoundChild& c : s.children)
+        kids.push_back({{"shape", shape_json(c.shape)},
+                        {"position", vec(c.position)},
+                        {"orientation", {c.orientation.x(), c.orientation.y(), c.orientation.z(), c.orientation.w()}}});
+      j["children"] = std::move(kids);
+      break;
+    }
   }
   return j;
 }

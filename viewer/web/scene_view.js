@@ -19,7 +19,8 @@ const STATIC_FIT_LIMIT = 40;
 // A body's mesh group key, its unit geometry maker and its instance scale.
 function shapeKind(shape) {
   switch (shape.kind) {
-    case 'box': {
+    case 'box':
+    case 'compound': {  // a compound: the box of its local AABB (its children are in shape.children)
       const e = shape.half_extents;
       return { key: 'box', scale: [2 * e[0], 2 * e[1], 2 * e[2]], make: () => new THREE.BoxBufferGeometry(1, 1, 1) };
     }

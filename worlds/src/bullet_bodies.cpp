@@ -1,6 +1,7 @@
 #include "soda/worlds/bullet_bodies.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace soda {
@@ -14,6 +15,26 @@ btTransform to_bt_transform(const Vec3& position, const Quat& orientation) {
   return btTransform(btQuaternion(btScalar(q.x()), btScalar(q.y()), btScalar(q.z()), btScalar(q.w())),
                      to_bt(position));
 }
+
+namespace {
+
+// A btCompoundShape that owns its children (Bullet's holds pointers only).
+// Its dynamic AABB tree (Bullet's default) is built from the children in
+// order: the same tree, and so the same order of child tests, in every
+// world that builds the shape.
+class OwningCompoundShape final : public btCompoundShape {
+ public:
+  explicit OwningCompoundShape(int children) : btCompoundShape(true, children) {}
+  void add(std::unique_ptr<btCollisionShape> child, const btTransform& pose) {
+    addChildShape(pose, child.get());
+    owned_.push_back(std::move(child));
+  }
+
+ private:
+  std::vector<std::unique_ptr<btCollisionShape>> owned_;
+};
+
+}  // namespace
 
 std::unique_ptr<btCollisionShape> make_collision_shape(const Shape& shape) {
   switch (shape.kind) {
@@ -31,6 +52,15 @@ std::unique_ptr<btCollisionShape> make_collision_shape(const Shape& shape) {
       hull->recalcLocalAabb();
       return hull;
     }
+    case ShapeKind::Compound: {
+      auto compound = std::make_unique<OwningCompoundShape>(static_cast<int>(shape.children.size()));
+      for (const CompoundChild& c : shape.children) {
+        if (c.shape.kind == ShapeKind::Compound)
+          throw std::invalid_argument("make_collision_shape: nested compounds are not supported");
+        compound->add(make_collision_shape(c.shape), to_bt_transform(c.position, c.orientation));
+      }
+      return compound;
+    }
   }
   throw std::invalid_argument("make_collision_shape: unknown shape kind");
 }
@@ -42,6 +72,11 @@ double inner_radius(const Shape& shape) {
     case ShapeKind::Capsule: return shape.radius;
     case ShapeKind::Cylinder: return std::min(shape.half_extents.x(), shape.half_extents.y());
     case ShapeKind::ConvexHull: return 0.5 * shape.local_half_extents().minCoeff();
+    case ShapeKind::Compound: {
+      double r = INFINITY;  // the thinnest child's
+      for (const CompoundChild& c : shape.children) r = std::min(r, inner_radius(c.shape));
+      return shape.children.empty() ? 0.0 : r;
+    }
   }
   return 0.0;
 }

@@ -31,11 +31,11 @@ constexpr int kTopDownThreshold = 2;
 }  // namespace
 
 void add_body_with_canonical_proxy(btDiscreteDynamicsWorld& world, btDbvtBroadphase& broadphase,
-                                   btRigidBody* body) {
+                                   btRigidBody* body, int group, int mask) {
   // btDbvtBroadphase::createProxy numbers proxies with ++m_gid; pair caches
   // order a pair's proxies by that number (body0 = smaller).
   broadphase.m_gid = body->getUserIndex();
-  world.addRigidBody(body);
+  world.addRigidBody(body, group, mask);
   // The tree's shape decides only the order in which overlaps are found,
   // never which (pairs are canonical: remove_stale_pairs, sorted islands).
   btDbvt& tree = broadphase.m_sets[0];
@@ -86,8 +86,8 @@ CanonicalDynamicsWorld::CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtB
   getSolverInfo().m_minimumSolverBatchSize = 1;
 }
 
-void CanonicalDynamicsWorld::add_body(btRigidBody* body) {
-  add_body_with_canonical_proxy(*this, *broadphase_, body);
+void CanonicalDynamicsWorld::add_body(btRigidBody* body, int group, int mask) {
+  add_body_with_canonical_proxy(*this, *broadphase_, body, group, mask);
   if (!body->isStaticOrKinematicObject()) {
     if (bodies_sorted_) sorted_count_ = dynamic_bodies_.size();
     dynamic_bodies_.push_back(body);

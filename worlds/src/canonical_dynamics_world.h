@@ -55,8 +55,10 @@ namespace soda {
 /// Adds a body whose user index is its global id to a world over a dbvt
 /// broadphase: its proxy gets unique id = global id + 1, so every pair's body0
 /// is its lower id (shared with the territory world).
+/// The proxy carries the body's collision filter, group and mask
+/// (collision_filter.h: the world's pair cache asks BodyFilter).
 void add_body_with_canonical_proxy(btDiscreteDynamicsWorld& world, btDbvtBroadphase& broadphase,
-                                   btRigidBody* body);
+                                   btRigidBody* body, int group, int mask);
 
 /// Removes every pair whose dbvt leaf volumes no longer overlap (stock Bullet
 /// removes a fraction per step), so that the pair set is a function of the
@@ -76,8 +78,9 @@ class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost 
                          ColouredSolver* solver, btCollisionConfiguration* config);
 
   /// Inserts a body whose user index is its global id: its broadphase proxy
-  /// gets unique id = global id + 1, so every pair's body0 is its lower id.
-  void add_body(btRigidBody* body);
+  /// gets unique id = global id + 1, so every pair's body0 is its lower id,
+  /// and the collision filter `group`, `mask` (collision_filter.h).
+  void add_body(btRigidBody* body, int group, int mask);
 
   const StepStats& stats() const { return stats_; }
 
@@ -106,7 +109,7 @@ class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost 
   /// The dynamic bodies in the world.
   const std::vector<btRigidBody*>& dynamic_bodies() const { return dynamic_bodies_; }
   /// ParkingHost: a parked body back (add_body).
-  void return_body(btRigidBody* body) override { add_body(body); }
+  void return_body(btRigidBody* body, int group, int mask) override { add_body(body, group, mask); }
   /// ParkingHost: drops every body whose broadphase proxy was destroyed
   /// (handle null) from the world's lists, in one pass over each.
   void forget_detached_bodies() override;

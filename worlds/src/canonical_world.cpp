@@ -104,7 +104,8 @@ void CanonicalWorld::insert_body(const Body& description, const BodyDynamicState
     // Activation state: restored after the manifolds (see import_manifolds).
     entry->body = make_body_from_state(description, *entry->shape, *state);
   }
-  parts_->world.add_body(entry->body.get());
+  parts_->world.add_body(entry->body.get(), proxy_bits(description.collision_group),
+                         proxy_bits(description.collision_mask));
   entries_.push_back(std::move(entry));
 }
 

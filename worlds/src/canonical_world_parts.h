@@ -8,6 +8,7 @@
 
 #include "body_factory.h"
 #include "canonical_dynamics_world.h"
+#include "collision_filter.h"
 #include "pair_cache.h"
 #include "coloured_solver.h"
 #include "parking.h"
@@ -22,13 +23,14 @@ namespace soda {
 /// before the bodies it holds (~btCollisionWorld reads them), pairs first
 /// so that teardown is linear in bodies (world_teardown.h).
 struct CanonicalWorldParts {
-  CanonicalWorldParts() = default;
+  CanonicalWorldParts() { pairs.setOverlapFilterCallback(&filter); }
   ~CanonicalWorldParts() { release_all_pairs(broadphase, dispatcher); }
   CanonicalWorldParts(const CanonicalWorldParts&) = delete;
   CanonicalWorldParts& operator=(const CanonicalWorldParts&) = delete;
 
   btDefaultCollisionConfiguration config;
   CappedDispatcher dispatcher{&config};  // contact_threshold.h
+  BodyFilter filter;  // the pair cache's (collision_filter.h)
   PairCache pairs;  // before the broadphase, which uses it (pair_cache.h)
   btDbvtBroadphase broadphase{&pairs};
   ColouredSolver solver;  // docs/coloured-solve.md

@@ -28,6 +28,8 @@
 
 #include <btBulletCollisionCommon.h>
 
+#include "compound_contact.h"
+
 namespace soda {
 
 /// The largest contact breaking threshold inside the exactness contract,
@@ -40,9 +42,12 @@ btScalar manifold_breaking_threshold(const btCollisionObject& a, const btCollisi
 
 /// A btCollisionDispatcher whose new manifolds break at
 /// manifold_breaking_threshold (everything else as Bullet's).
+/// Compound pairs keep one manifold (compound_contact.h).
 class CappedDispatcher : public btCollisionDispatcher {
  public:
-  using btCollisionDispatcher::btCollisionDispatcher;
+  explicit CappedDispatcher(btCollisionConfiguration* config) : btCollisionDispatcher(config) {
+    register_compound_algorithms(*this);
+  }
   btPersistentManifold* getNewManifold(const btCollisionObject* b0, const btCollisionObject* b1) override;
 };
 

@@ -76,6 +76,8 @@ std::size_t Parking::add_island(btCollisionObject* const* bodies, int n) {
   for (int j = 0; j < n; ++j) {
     btRigidBody* b = btRigidBody::upcast(bodies[j]);
     island.bodies.push_back(b);
+    const btBroadphaseProxy* proxy = b->getBroadphaseHandle();
+    island.filters.push_back({proxy->m_collisionFilterGroup, proxy->m_collisionFilterMask});
     leaving_.push_back(b);
     btVector3 lo, hi;
     bullet_aabb(*b, lo, hi);
@@ -177,8 +179,9 @@ void Parking::unpark_bodies(std::size_t slot) {
   Island& island = islands_[slot];
   for (btDbvtNode* leaf : island.leaves) tree_.remove(leaf);
   island.leaves.clear();
-  for (btRigidBody* b : island.bodies) {
-    host_.return_body(b);
+  for (std::size_t j = 0; j < island.bodies.size(); ++j) {
+    btRigidBody* b = island.bodies[j];
+    host_.return_body(b, island.filters[j].first, island.filters[j].second);
     world_.updateSingleAabb(b);  // as this step's AABB update (the body did not move)
   }
   island.parked = false;
@@ -220,6 +223,7 @@ void Parking::restore_woken_contacts() {
       write_manifold_points(ms, pair_manifold(*pair, dispatcher_, world_.getDispatchInfo()));
     }
     island.bodies.clear();
+    island.filters.clear();
     island.manifolds.clear();
     island.pair_objects.clear();
     free_.push_back(slot);

@@ -61,9 +61,10 @@ class CanonicalDynamicsWorld;
 class ParkingHost {
  public:
   /// Puts a parked dynamic body back into the Bullet world with its
-  /// canonical proxy (add_body_with_canonical_proxy) and into the world's own
-  /// lists.
-  virtual void return_body(btRigidBody* body) = 0;
+  /// canonical proxy (add_body_with_canonical_proxy) and collision filter
+  /// (its proxy's group and mask when it was parked) and into the world's
+  /// own lists.
+  virtual void return_body(btRigidBody* body, int group, int mask) = 0;
   /// Drops every body whose broadphase proxy was destroyed (handle null)
   /// from the Bullet world's lists and the world's own, in one pass each.
   virtual void forget_detached_bodies() = 0;
@@ -131,6 +132,7 @@ class Parking {
  private:
   struct Island {
     std::vector<btRigidBody*> bodies;
+    std::vector<std::pair<int, int>> filters;  // per body: its proxy's collision group and mask
     std::vector<ManifoldState> manifolds;
     // Per manifold: its two bodies (statics are never removed from the world).
     std::vector<std::pair<btCollisionObject*, btCollisionObject*>> pair_objects;

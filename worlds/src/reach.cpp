@@ -18,14 +18,22 @@ double step_length(const Scene& scene) { return scene.settings.dt / std::max(1, 
 // AABB at any orientation: its bounding radius, plus the collision margin
 // for a hull (Bullet adds it around the points; spheres, capsules, boxes and
 // cylinders hold it inside their dimensions).
+// A compound's: its farthest child's, from the body's origin.
+double reach_radius(const Shape& shape) {
+  if (shape.kind == ShapeKind::Compound) {
+    double r = 0;
+    for (const CompoundChild& c : shape.children) r = std::max(r, c.position.norm() + reach_radius(c.shape));
+    return r;
+  }
+  const double margin =
+      shape.kind == ShapeKind::ConvexHull ? double(make_collision_shape(shape)->getMargin()) : 0.0;
+  return shape.bounding_radius() + margin;
+}
+
 double largest_reach_radius(const Scene& scene) {
   double r = 0;
-  for (const Body& b : scene.bodies) {
-    if (b.is_static) continue;
-    const double margin =
-        b.shape.kind == ShapeKind::ConvexHull ? double(make_collision_shape(b.shape)->getMargin()) : 0.0;
-    r = std::max(r, b.shape.bounding_radius() + margin);
-  }
+  for (const Body& b : scene.bodies)
+    if (!b.is_static) r = std::max(r, reach_radius(b.shape));
   return r;
 }
 

@@ -20,8 +20,10 @@ namespace soda {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'W', 'S', 'N', '1'};
-constexpr std::uint32_t kVersion = 1;        // no joints
-constexpr std::uint32_t kJointsVersion = 2;  // with joints
+// 3 and 4: bodies carry their collision filter and compound children (1
+// and 2 before).
+constexpr std::uint32_t kVersion = 3;        // no joints
+constexpr std::uint32_t kJointsVersion = 4;  // with joints
 constexpr std::size_t kMinJointBytes = 4 + 1 + 4 + 4 + 2 * 7 * 8 + 1 + 8 + 1 + 4 * 8 + 1 + 2 * 8 + 3 * 8 + 36 * 8 + 1;
 
 void write_joint(ByteWriter& w, const JointSnapshot& js) {
@@ -126,7 +128,7 @@ std::vector<std::uint8_t> serialize(const WorldSnapshot& s) {
 
 WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes) {
   ByteReader r(bytes, "deserialize_snapshot", raise_snapshot_error);
-  // The header, version 1 or 2 (read_header takes one version).
+  // The header, kVersion or kJointsVersion (read_header takes one version).
   char magic[8];
   r.get(magic);
   if (std::memcmp(magic, kMagic, sizeof magic) != 0) r.fail("not a SODA world snapshot (bad magic)");

@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include "joint_factory.h"
+#include "collision_filter.h"
 #include "soda/worlds/bullet_allocator.h"
 #include "world_teardown.h"
 
@@ -29,14 +30,21 @@ StockWorld::StockWorld(const Scene& scene, const std::vector<std::size_t>& inser
       solver_(std::make_unique<btSequentialImpulseConstraintSolver>()),
       world_(std::make_unique<btDiscreteDynamicsWorld>(dispatcher_.get(), broadphase_.get(),
                                                        solver_.get(), config_.get())),
-      bodies_(scene) {
+      bodies_(scene),
+      filter_(std::make_unique<BodyFilter>()) {
+  // The same collision filter as SODA's worlds (collision_filter.h).
+  broadphase_->getOverlappingPairCache()->setOverlapFilterCallback(filter_.get());
+  const auto add = [&](std::size_t i) {
+    const Body& d = scene.bodies.at(i);
+    world_->addRigidBody(bodies_.bodies.at(i).get(), proxy_bits(d.collision_group), proxy_bits(d.collision_mask));
+  };
   world_->setGravity(to_bt(settings_.gravity));
   world_->getSolverInfo().m_numIterations = settings_.iterations;
   try {
     if (insertion_order.empty()) {
-      for (auto& b : bodies_.bodies) world_->addRigidBody(b.get());
+      for (std::size_t i = 0; i < bodies_.bodies.size(); ++i) add(i);
     } else {
-      for (std::size_t i : insertion_order) world_->addRigidBody(bodies_.bodies.at(i).get());
+      for (std::size_t i : insertion_order) add(i);
     }
     std::unordered_map<BodyId, btRigidBody*> by_id;
     for (std::size_t i = 0; i < scene.bodies.size(); ++i) by_id[scene.bodies[i].id] = bodies_.bodies[i].get();

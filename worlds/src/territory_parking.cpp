@@ -151,7 +151,8 @@ void TerritoryWorld::unpark_for_input(Entry& e) {
 void TerritoryWorld::return_parked(btRigidBody* body) {
   Entry& e = entry_of(body);
   if (!e.parked) throw std::logic_error("TerritoryWorld: returning a body that is not parked");
-  add_body_with_canonical_proxy(parts_->world, parts_->broadphase, body);
+  add_body_with_canonical_proxy(parts_->world, parts_->broadphase, body, proxy_bits(e.description.collision_group),
+                                proxy_bits(e.description.collision_mask));
   Entry* last = parked_.back();
   parked_[e.parked_index] = last;
   last->parked_index = e.parked_index;

@@ -109,7 +109,8 @@ void TerritoryWorld::insert_static(const Body& b) {
   e->body = make_rigid_body(b, *e->shape);
   e->role = Role::Static;
   e->body->setUserPointer(e.get());
-  add_body_with_canonical_proxy(parts_->world, parts_->broadphase, e->body.get());
+  add_body_with_canonical_proxy(parts_->world, parts_->broadphase, e->body.get(), proxy_bits(b.collision_group),
+                                proxy_bits(b.collision_mask));
   Entry* raw = e.get();
   if (!entries_.emplace(b.id, std::move(e)).second)
     throw PartitionError("TerritoryWorld: duplicate body id " + std::to_string(b.id));
@@ -128,7 +129,8 @@ TerritoryWorld::Entry& TerritoryWorld::insert_dynamic(const Body& description, c
   e->role = owned ? Role::Owned : Role::Ghost;
   e->owner = owner;
   e->body->setUserPointer(e.get());
-  add_body_with_canonical_proxy(parts_->world, parts_->broadphase, e->body.get());
+  add_body_with_canonical_proxy(parts_->world, parts_->broadphase, e->body.get(),
+                                proxy_bits(description.collision_group), proxy_bits(description.collision_mask));
   if (state) {
     // After insertion: addRigidBody leaves a dynamic body's state alone, but
     // the construction made it ACTIVE_TAG.

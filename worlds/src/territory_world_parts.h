@@ -19,6 +19,7 @@
 #include "contact_threshold.h"
 #include "island_builder.h"
 #include "island_replay.h"
+#include "collision_filter.h"
 #include "pair_cache.h"
 #include "parking.h"
 #include "coloured_solver.h"
@@ -73,7 +74,7 @@ class TerritoryWorld::Dispatcher final : public CappedDispatcher {
 /// What a territory world does for its Parking (parking.h).
 struct TerritoryWorld::ParkingLink final : ParkingHost {
   explicit ParkingLink(TerritoryWorld* w) : world(w) {}
-  void return_body(btRigidBody* body) override { world->return_parked(body); }
+  void return_body(btRigidBody* body, int, int) override { world->return_parked(body); }
   void forget_detached_bodies() override { world->forget_parked(); }
   TerritoryWorld* world;
 };
@@ -101,12 +102,15 @@ struct TerritoryWorld::Parts {
         dispatcher(config.get(), owner),
         parking_link(owner),
         border_link(owner),
-        border(owner->id(), border_link) {}
+        border(owner->id(), border_link) {
+    pairs.setOverlapFilterCallback(&filter);
+  }
   ~Parts() { release_all_pairs(broadphase, dispatcher); }
   Parts(const Parts&) = delete;
   Parts& operator=(const Parts&) = delete;
   std::shared_ptr<btDefaultCollisionConfiguration> config;  // first: outlives every user of its pools
   Dispatcher dispatcher;
+  BodyFilter filter;  // the pair cache's (collision_filter.h)
   PairCache pairs;  // before the broadphase, which uses it (pair_cache.h)
   btDbvtBroadphase broadphase{&pairs};
   ColouredSolver solver;  // docs/coloured-solve.md

@@ -83,26 +83,75 @@ void read_header(ByteReader& r, const char (&magic)[8], std::uint32_t version, c
     r.fail(what + " precision differs from this build's (" + (sizeof(btScalar) == 8 ? "double" : "float") + ")");
 }
 
+namespace {
+
+void write_quat(ByteWriter& w, const Quat& q) { w.put(q.w()), w.put(q.x()), w.put(q.y()), w.put(q.z()); }
+
+Quat read_quat(ByteReader& r) {
+  const double qw = r.finite(), qx = r.finite(), qy = r.finite(), qz = r.finite();
+  return Quat(qw, qx, qy, qz);
+}
+
+// Kind, dimensions, hull points and (Current format) compound children.
+void write_shape(ByteWriter& w, const Shape& s) {
+  w.put(static_cast<std::uint8_t>(s.kind));
+  w.vec3(s.half_extents);
+  w.put(s.radius);
+  w.put(s.height);
+  w.put(static_cast<std::uint32_t>(s.points.size()));
+  for (const Vec3& p : s.points) w.vec3(p);
+  w.put(static_cast<std::uint32_t>(s.children.size()));
+  for (const CompoundChild& c : s.children) {
+    write_shape(w, c.shape);
+    w.vec3(c.position);
+    write_quat(w, c.orientation);
+  }
+}
+
+Shape read_shape(ByteReader& r, BodyFormat format, bool in_compound) {
+  Shape s;
+  const auto kind = r.get<std::uint8_t>();
+  if (kind > static_cast<std::uint8_t>(ShapeKind::Compound)) r.fail("unknown shape kind");
+  s.kind = static_cast<ShapeKind>(kind);
+  if (s.kind == ShapeKind::Compound && (in_compound || format < BodyFormat::Current))
+    r.fail(in_compound ? "a compound inside a compound" : "a compound shape in a format without compounds");
+  s.half_extents = r.vec3();
+  s.radius = r.finite();
+  s.height = r.finite();
+  const std::uint32_t np = r.count(24);
+  s.points.resize(np);
+  for (Vec3& p : s.points) p = r.vec3();
+  if (format < BodyFormat::Current) return s;
+  const std::uint32_t nc = r.count(kMinChildBytes);
+  if (nc > 0 && s.kind != ShapeKind::Compound) r.fail("children in a shape that is not a compound");
+  if (s.kind == ShapeKind::Compound && nc == 0) r.fail("a compound without children");
+  s.children.resize(nc);
+  for (CompoundChild& c : s.children) {
+    c.shape = read_shape(r, format, true);
+    c.position = r.vec3();
+    c.orientation = read_quat(r);
+  }
+  return s;
+}
+
+}  // namespace
+
 void write_body(ByteWriter& w, const BodySnapshot& b) {
   const Body& d = b.description;
   w.put(d.id);
   w.put(static_cast<std::uint8_t>(d.is_static));
-  w.put(static_cast<std::uint8_t>(d.shape.kind));
-  w.vec3(d.shape.half_extents);
-  w.put(d.shape.radius);
-  w.put(d.shape.height);
-  w.put(static_cast<std::uint32_t>(d.shape.points.size()));
-  for (const Vec3& p : d.shape.points) w.vec3(p);
+  write_shape(w, d.shape);
   w.put(d.mass), w.put(d.friction), w.put(d.restitution);
   w.vec3(d.position);
   w.put(d.orientation.w()), w.put(d.orientation.x()), w.put(d.orientation.y()), w.put(d.orientation.z());
   w.vec3(d.linear_velocity);
   w.vec3(d.angular_velocity);
+  w.put(d.collision_group), w.put(d.collision_mask);
   auto io = [&w](const auto& field) { w.put(field); };
   visit_state(io, b.state);
 }
 
-BodySnapshot read_body(ByteReader& r) {
+BodySnapshot read_body(ByteReader& r, BodyFormat format) {
   BodySnapshot b;
   Body& d = b.description;
   d.id = r.get<BodyId>();
@@ -110,21 +159,17 @@ BodySnapshot read_body(ByteReader& r) {
   const auto is_static = r.get<std::uint8_t>();
   if (is_static > 1) r.fail("bad static flag");
   d.is_static = is_static == 1;
-  const auto kind = r.get<std::uint8_t>();
-  if (kind > static_cast<std::uint8_t>(ShapeKind::ConvexHull)) r.fail("unknown shape kind");
-  d.shape.kind = static_cast<ShapeKind>(kind);
-  d.shape.half_extents = r.vec3();
-  d.shape.radius = r.finite();
-  d.shape.height = r.finite();
-  const std::uint32_t np = r.count(24);
-  d.shape.points.resize(np);
-  for (Vec3& p : d.shape.points) p = r.vec3();
+  d.shape = read_shape(r, format, false);
   d.mass = r.finite(), d.friction = r.finite(), d.restitution = r.finite();
   d.position = r.vec3();
   const double qw = r.finite(), qx = r.finite(), qy = r.finite(), qz = r.finite();
   d.orientation = Quat(qw, qx, qy, qz);
   d.linear_velocity = r.vec3();
   d.angular_velocity = r.vec3();
+  if (format >= BodyFormat::WithoutCompounds) {
+    d.collision_group = r.get<std::uint32_t>();
+    d.collision_mask = r.get<std::uint32_t>();
+  }
   if (!d.is_static && !(d.mass > 0)) r.fail("dynamic body without positive mass");
   BodyDynamicState& s = b.state;
   r.get(s.basis), r.get(s.origin), r.get(s.interpolation_basis), r.get(s.interpolation_origin);
@@ -165,20 +210,42 @@ bool same_bits(const BodyDynamicState& a, const BodyDynamicState& b) {
   return same.equal;
 }
 
+namespace {
+
+void same_vec(SameBits& same, const Vec3& x, const Vec3& y) {
+  same(x.x(), y.x()), same(x.y(), y.y()), same(x.z(), y.z());
+}
+
+bool same_shape(SameBits& same, const Shape& a, const Shape& b) {
+  same(a.kind, b.kind);
+  same_vec(same, a.half_extents, b.half_extents);
+  same(a.radius, b.radius), same(a.height, b.height);
+  if (a.points.size() != b.points.size() || a.children.size() != b.children.size()) return false;
+  for (std::size_t i = 0; i < a.points.size(); ++i) same_vec(same, a.points[i], b.points[i]);
+  for (std::size_t i = 0; i < a.children.size(); ++i) {
+    const CompoundChild &x = a.children[i], &y = b.children[i];
+    if (!same_shape(same, x.shape, y.shape)) return false;
+    same_vec(same, x.position, y.position);
+    same(x.orientation.w(), y.orientation.w()), same(x.orientation.x(), y.orientation.x());
+    same(x.orientation.y(), y.orientation.y()), same(x.orientation.z(), y.orientation.z());
+  }
+  return same.equal;
+}
+
+}  // namespace
+
 bool same_bits(const Body& a, const Body& b) {
   SameBits same;
-  auto vec = [&](const Vec3& x, const Vec3& y) { same(x.x(), y.x()), same(x.y(), y.y()), same(x.z(), y.z()); };
-  same(a.id, b.id), same(a.is_static, b.is_static), same(a.shape.kind, b.shape.kind);
-  vec(a.shape.half_extents, b.shape.half_extents);
-  same(a.shape.radius, b.shape.radius), same(a.shape.height, b.shape.height);
-  if (a.shape.points.size() != b.shape.points.size()) return false;
-  for (std::size_t i = 0; i < a.shape.points.size(); ++i) vec(a.shape.points[i], b.shape.points[i]);
+  auto vec = [&](const Vec3& x, const Vec3& y) { same_vec(same, x, y); };
+  same(a.id, b.id), same(a.is_static, b.is_static);
+  if (!same_shape(same, a.shape, b.shape)) return false;
   same(a.mass, b.mass), same(a.friction, b.friction), same(a.restitution, b.restitution);
   vec(a.position, b.position);
   same(a.orientation.w(), b.orientation.w()), same(a.orientation.x(), b.orientation.x());
   same(a.orientation.y(), b.orientation.y()), same(a.orientation.z(), b.orientation.z());
   vec(a.linear_velocity, b.linear_velocity);
   vec(a.angular_velocity, b.angular_velocity);
+  same(a.collision_group, b.collision_group), same(a.collision_mask, b.collision_mask);
   return same.equal;
 }
 

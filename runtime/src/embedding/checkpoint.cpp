@@ -67,7 +67,7 @@ void write_input(ByteWriter& w, const UserInput& in) {
   if (in.kind == UserInput::Kind::AddBody) write_body(w, BodySnapshot{in.body, BodyDynamicState{}});
 }
 
-UserInput read_input(ByteReader& r) {
+UserInput read_input(ByteReader& r, BodyFormat format) {
   UserInput in;
   const auto kind = r.get<std::uint8_t>();
   if (kind > static_cast<std::uint8_t>(UserInput::Kind::ApplyImpulse)) r.fail("unknown input kind");
@@ -78,7 +78,7 @@ UserInput read_input(ByteReader& r) {
   in.linear = r.vec3();
   in.angular = r.vec3();
   if (in.kind == UserInput::Kind::AddBody) {
-    in.body = read_body(r).description;
+    in.body = read_body(r, format).description;
     if (in.body.is_static) r.fail("an input adding a static body");
   }
   return in;
@@ -96,9 +96,9 @@ CheckpointHeader check_frame(const std::vector<std::uint8_t>& bytes, const std::
   CheckpointHeader h;
   h.version = load<std::uint32_t>(bytes, 8);
   h.scalar_bytes = load<std::uint32_t>(bytes, 12);
-  if (h.version != kCheckpointVersion)
-    refuse(source, "format version " + std::to_string(h.version) + "; this build reads version " +
-                       std::to_string(kCheckpointVersion) + " only");
+  if (h.version < kOldestCheckpointVersion || h.version > kCheckpointVersion)
+    refuse(source, "format version " + std::to_string(h.version) + "; this build reads versions " +
+                       std::to_string(kOldestCheckpointVersion) + " to " + std::to_string(kCheckpointVersion));
   if (h.scalar_bytes != sizeof(btScalar))
     refuse(source, std::string("written by a ") + precision_name(h.scalar_bytes) + "-precision build (btScalar of " +
                        std::to_string(h.scalar_bytes) + " bytes); this is the " + precision_name(sizeof(btScalar)) +
@@ -163,6 +163,9 @@ SimulationSnapshot decode_checkpoint(const std::vector<std::uint8_t>& bytes, con
   const CheckpointHeader h = check_frame(bytes, source);
   ByteReader r(bytes, "checkpoint " + source, raise_checkpoint_error);
   for (std::size_t i = 0; i < kHeaderBytes; ++i) r.get<std::uint8_t>();  // checked above
+  const BodyFormat format = h.version >= 3   ? BodyFormat::Current
+                            : h.version == 2 ? BodyFormat::WithoutCompounds
+                                             : BodyFormat::WithoutFilter;
   SimulationSnapshot out;
   WorldSnapshot& s = out.state;
   s.steps_done = h.step;
@@ -175,7 +178,7 @@ SimulationSnapshot decode_checkpoint(const std::vector<std::uint8_t>& bytes, con
   // No reserve from the header's counts: every element read is bytes the
   // file has, so memory follows the file's size.
   for (std::uint32_t i = 0; i < h.bodies; ++i) {
-    s.bodies.push_back(read_body(r));
+    s.bodies.push_back(read_body(r, format));
     if (i > 0 && s.bodies[i].description.id <= s.bodies[i - 1].description.id)
       r.fail("bodies not sorted by id or a duplicate id");
   }
@@ -192,7 +195,7 @@ SimulationSnapshot decode_checkpoint(const std::vector<std::uint8_t>& bytes, con
     s.manifolds.push_back(std::move(m));
   }
   for (std::uint32_t i = 0; i < h.inputs; ++i) {
-    UserInput in = read_input(r);
+    UserInput in = read_input(r, format);
     if (in.step < h.step) r.fail("an input at step " + std::to_string(in.step) + ", before the checkpoint's step");
     if (!out.inputs.empty() && in.step < out.inputs.back().step) r.fail("inputs not in step order");
     in.sequence = i;

@@ -58,7 +58,9 @@ struct SceneQuery::World {
     o.body.setWorldTransform(to_bt_transform(description.position, description.orientation));
     o.is_static = description.is_static;
     o.body.setCollisionFlags(o.is_static ? btCollisionObject::CF_STATIC_OBJECT : 0);
-    world.addCollisionObject(&o.body);
+    // The proxy carries the body's collision group (QueryFilter::mask reads
+    // it); queries never ask for pairs, so its mask is unused.
+    world.addCollisionObject(&o.body, static_cast<int>(description.collision_group), btBroadphaseProxy::AllFilter);
     return o;
   }
 };
@@ -74,9 +76,11 @@ void check_finite(const Vec3& v, const char* what) {
 
 BodyId id_of(const btCollisionObject* o) { return static_cast<BodyId>(o->getUserIndex()); }
 
-// The filter as Bullet's callbacks ask it: statics, dynamics, ignored ids.
+// The filter as Bullet's callbacks ask it: statics, dynamics, the body's
+// collision group against the query's mask, ignored ids.
 bool wanted(const QueryFilter& f, const btCollisionObject* o) {
   if (o->isStaticObject() ? !f.statics : !f.dynamics) return false;
+  if ((static_cast<std::uint32_t>(o->getBroadphaseHandle()->m_collisionFilterGroup) & f.mask) == 0) return false;
   return std::find(f.ignore.begin(), f.ignore.end(), id_of(o)) == f.ignore.end();
 }
 

@@ -36,8 +36,12 @@ class CheckpointError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// The checkpoint format version this build writes and reads.
-inline constexpr std::uint32_t kCheckpointVersion = 1;
+/// The checkpoint format version this build writes. It reads this one and
+/// every one from kOldestCheckpointVersion on (docs/checkpoints.md, "Versions").
+inline constexpr std::uint32_t kCheckpointVersion = 3;
+/// Version 1: body records without a collision filter (they read back with
+/// the default one); version 2: without compound children.
+inline constexpr std::uint32_t kOldestCheckpointVersion = 1;
 
 /// What a checkpoint's fixed header says (docs/checkpoints.md, "Header").
 struct CheckpointHeader {

@@ -40,6 +40,9 @@ struct QueryFilter {
   bool statics = true;          // static bodies
   bool dynamics = true;         // dynamic bodies
   std::vector<BodyId> ignore;   // never these bodies (e.g. the caster itself)
+  /// Only bodies whose Body::collision_group shares a bit with this mask
+  /// (every body by default).
+  std::uint32_t mask = kAllCollisionGroups;
 };
 
 /// One body a ray or a sweep hits.

@@ -30,10 +30,12 @@ inline constexpr BodyId kMaxBodyId = (BodyId{1} << 31) - 1;
 using Vec3 = Eigen::Vector3d;
 using Quat = Eigen::Quaterniond;
 
-enum class ShapeKind { Box, Sphere, Capsule, Cylinder, ConvexHull };
+enum class ShapeKind { Box, Sphere, Capsule, Cylinder, ConvexHull, Compound };
 
 /// Name used in scene files and messages ("box", "sphere", ...).
 const char* shape_kind_name(ShapeKind kind);
+
+struct CompoundChild;
 
 /// Collision shape in the body's local frame. Units: metres.
 /// - Box:        half_extents (x, y, z).
@@ -43,24 +45,44 @@ const char* shape_kind_name(ShapeKind kind);
 /// - Cylinder:   half_extents (x = radius, y = half height, z = radius),
 ///               along y, as btCylinderShape.
 /// - ConvexHull: points (at least 4, not all coplanar).
+/// - Compound:   children (at least one): convex shapes (any kind above)
+///               at poses in the body's frame, as btCompoundShape. Its mass
+///               properties: docs/scene-format.md, "Compound shapes".
 struct Shape {
   ShapeKind kind = ShapeKind::Box;
   Vec3 half_extents = Vec3(0.5, 0.5, 0.5);
   double radius = 0.5;
   double height = 1.0;
   std::vector<Vec3> points;
+  std::vector<CompoundChild> children;  // Compound only, in order (a child's index is its place)
 
   static Shape box(const Vec3& half_extents);
   static Shape sphere(double radius);
   static Shape capsule(double radius, double height);
   static Shape cylinder(const Vec3& half_extents);
   static Shape convex_hull(std::vector<Vec3> points);
+  static Shape compound(std::vector<CompoundChild> children);
 
   /// Radius of a sphere around the local origin that holds the whole shape.
   double bounding_radius() const;
-  /// Half extents of the local-frame AABB of the shape.
+  /// Half extents of the local-frame AABB of the shape (around the local
+  /// origin: for a compound, the box centred there that holds every child).
   Vec3 local_half_extents() const;
 };
+
+/// One child of a compound shape: a convex shape at a pose in the body's
+/// frame.
+struct CompoundChild {
+  Shape shape;
+  Vec3 position = Vec3::Zero();         // m, in the body's frame
+  Quat orientation = Quat::Identity();  // unit quaternion (normalised on use)
+};
+
+/// The collision group a body belongs to unless its scene says otherwise
+/// (Bullet's btBroadphaseProxy::DefaultFilter).
+inline constexpr std::uint32_t kDefaultCollisionGroup = 1;
+/// Every group: the default mask (collide with every body).
+inline constexpr std::uint32_t kAllCollisionGroups = 0xffffffffu;
 
 /// One rigid body. Static bodies have mass 0 and never move.
 struct Body {
@@ -80,6 +102,12 @@ struct Body {
   /// created asleep must have zero velocities). It wakes as any sleeper does:
   /// when a contact joins it to an awake body, or by user input.
   bool asleep = false;
+  /// Collision filter (docs/scene-format.md, "Collision filtering"): two
+  /// bodies a and b may touch iff (a.collision_group & b.collision_mask) != 0
+  /// and (b.collision_group & a.collision_mask) != 0. Two static bodies never
+  /// touch. The defaults let a body touch every other one.
+  std::uint32_t collision_group = kDefaultCollisionGroup;
+  std::uint32_t collision_mask = kAllCollisionGroups;
 
   /// Half extents of the world-frame AABB of the body at its initial pose.
   Vec3 aabb_half_extents() const;

@@ -51,6 +51,7 @@ class StockWorld {
   std::unique_ptr<btDiscreteDynamicsWorld> world_;
   BulletBodies bodies_;
   std::vector<std::unique_ptr<btTypedConstraint>> joints_;  // the scene's joints, added in joint id order
+  std::unique_ptr<btOverlapFilterCallback> filter_;  // the pair cache's: SODA's collision filter
   std::int64_t steps_done_ = 0;
 };
 

@@ -89,11 +89,19 @@ void read_header(ByteReader& r, const char (&magic)[8], std::uint32_t version, c
 /// Lower bounds of encoded sizes, for count checks.
 inline constexpr std::size_t kMinBodyBytes = 4 + 1 + 1 + 8 * 5 + 4;
 inline constexpr std::size_t kMinManifoldBytes = 4 + 4 + 4;
+/// A compound's child: its shape (kind, dimensions, counts) and pose.
+inline constexpr std::size_t kMinChildBytes = 1 + 8 * 5 + 4 + 4 + 8 * 7;
 
-/// A body: description (shape, mass, friction, ...) and raw state.
+/// A body: description (shape, mass, friction, ..., collision filter) and
+/// raw state.
 void write_body(ByteWriter& w, const BodySnapshot& body);
+/// How a body record was written, oldest first: WithoutFilter (no
+/// collision group and mask: the body reads back with the default filter),
+/// WithoutCompounds (no child count after the hull points), Current
+/// (write_body).
+enum class BodyFormat { WithoutFilter, WithoutCompounds, Current };
 /// Checks ids, flags, shape kind, finite description numbers, activation state.
-BodySnapshot read_body(ByteReader& r);
+BodySnapshot read_body(ByteReader& r, BodyFormat format = BodyFormat::Current);
 
 /// A manifold: ids and every field of every point.
 void write_manifold(ByteWriter& w, const ManifoldState& manifold);
