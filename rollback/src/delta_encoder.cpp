@@ -63,6 +63,7 @@ std::shared_ptr<const TransformEntry<Real>> full_entry(const StoredEntry<Real>& 
   out->time = stored.time;
   out->revision = stored.revision;
   out->busy_seconds = stored.busy_seconds;
+  out->contacts = stored.contacts;
   const std::vector<BodyPose<Real>>& key = stored.key->poses;
   const std::vector<BodyPose<Real>>& changed = stored.changed;
   const std::vector<BodyId>& removed = stored.removed;
@@ -132,6 +133,8 @@ auto DeltaEncoder<Real>::encode(TransformEntry<Real>&& full) -> Encoded {
   stored->step = full.step;
   stored->time = full.time;
   stored->busy_seconds = full.busy_seconds;
+  stored->contacts = std::move(full.contacts);
+  stored->contacts.shrink_to_fit();
   stored->key = key_;
   previous_ = stored;
   return {std::move(stored), nullptr};

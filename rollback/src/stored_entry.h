@@ -31,6 +31,8 @@ struct StoredEntry {
   bool is_key = false;
   std::vector<BodyPose<Real>> changed;  // ascending id: not in key, or not bit-equal to key's pose
   std::vector<BodyId> removed;          // ascending: key's bodies this entry lacks
+  /// The entry's contacts when not is_key (a key holds its own), as published.
+  std::vector<PairContact<Real>> contacts;
   /// The rebuilt full entry while some reader holds it (readers of one entry
   /// share one copy).
   mutable std::mutex cache_mutex;
@@ -38,7 +40,8 @@ struct StoredEntry {
 
   /// Bytes this entry holds beyond its key (0 beyond the struct for a key).
   std::size_t delta_bytes() const {
-    return sizeof(*this) + changed.capacity() * sizeof(BodyPose<Real>) + removed.capacity() * sizeof(BodyId);
+    return sizeof(*this) + changed.capacity() * sizeof(BodyPose<Real>) + removed.capacity() * sizeof(BodyId) +
+           contacts.capacity() * sizeof(PairContact<Real>);
   }
 };
 
@@ -48,7 +51,7 @@ bool same_pose_bits(const BodyPose<Real>& a, const BodyPose<Real>& b);
 
 /// The entry as published: `stored.key` itself for a key entry, else the key's
 /// poses with `changed` merged in and `removed` left out, and the stored
-/// step, time, revision and busy_seconds. Exact: every pose is the bits
+/// step, time, revision, busy_seconds and contacts. Exact: every pose is the bits
 /// published. O(key poses) for a delta entry, once per entry while a
 /// reader holds the result. Any thread.
 template <class Real>

@@ -363,7 +363,8 @@ BufferMemory TransformBuffer<Real>::memory() const {
     m.delta_bytes += e.delta_bytes();
     if (std::find(keys.begin(), keys.end(), e.key.get()) != keys.end()) continue;
     keys.push_back(e.key.get());
-    m.key_bytes += sizeof(Entry) + e.key->poses.capacity() * sizeof(Pose);
+    m.key_bytes += sizeof(Entry) + e.key->poses.capacity() * sizeof(Pose) +
+                   e.key->contacts.capacity() * sizeof(PairContact<Real>);
   }
   m.key_entries = keys.size();
   return m;
@@ -387,6 +388,15 @@ void TransformBuffer<Real>::check_entry(const Entry& entry) {
                                   ": poses must be strictly increasing by body id (body " +
                                   std::to_string(entry.poses[i].id) + " follows body " +
                                   std::to_string(entry.poses[i - 1].id) + ")");
+    }
+  }
+  for (std::size_t i = 0; i < entry.contacts.size(); ++i) {
+    const PairContact<Real>& c = entry.contacts[i];
+    const bool ordered = i == 0 || std::make_pair(entry.contacts[i - 1].a, entry.contacts[i - 1].b) < std::make_pair(c.a, c.b);
+    if (!(c.a < c.b) || c.point_count < 1 || c.point_count > 4 || !ordered) {
+      throw std::invalid_argument("TransformBuffer::publish: step " + std::to_string(entry.step) + ": contact of pair " +
+                                  std::to_string(c.a) + "-" + std::to_string(c.b) +
+                                  " out of order, not a < b, or without 1-4 points");
     }
   }
 }

@@ -34,6 +34,14 @@ std::string difference(const TransformEntry<Real>& a, const TransformEntry<Real>
         std::memcmp(p.angular_velocity, q.angular_velocity, sizeof p.angular_velocity))
       return "step " + std::to_string(a.step) + ": body " + std::to_string(q.id) + " differs";
   }
+  if (a.contacts.size() != b.contacts.size())
+    return "step " + std::to_string(a.step) + ": " + std::to_string(a.contacts.size()) + " contacts vs " +
+           std::to_string(b.contacts.size());
+  for (std::size_t i = 0; i < a.contacts.size(); ++i)
+    if (a.contacts[i].a != b.contacts[i].a || a.contacts[i].b != b.contacts[i].b ||
+        a.contacts[i].point_count != b.contacts[i].point_count ||
+        std::memcmp(a.contacts[i].points, b.contacts[i].points, sizeof a.contacts[i].points) != 0)
+      return "step " + std::to_string(a.step) + ": contact " + std::to_string(i) + " differs";
   return "";
 }
 
@@ -77,6 +85,16 @@ struct World {
     e.time = static_cast<double>(step) * kDt;
     e.busy_seconds = static_cast<double>(salt % 7) * 1e-3;
     for (const auto& [id, p] : bodies) e.poses.push_back(p);
+    // Contacts of each step's own (no two steps alike): 0 to 4 pairs.
+    for (std::uint64_t k = 0; k < salt % 5; ++k) {
+      PairContact<Real> c;
+      c.a = static_cast<BodyId>(2 * k);
+      c.b = static_cast<BodyId>(2 * k + 1 + salt % 3);
+      c.point_count = 1 + static_cast<std::uint32_t>((salt >> 8) % 4);
+      c.points[0].impulse = static_cast<Real>(static_cast<double>(salt % 1000) + static_cast<double>(step));
+      c.points[0].normal_on_b[1] = 1;
+      e.contacts.push_back(c);
+    }
     return e;
   }
 };

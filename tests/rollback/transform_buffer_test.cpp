@@ -47,6 +47,31 @@ TYPED_TEST(TransformBufferTest, ZeroCapacityThrows) {
   EXPECT_THROW(TransformBuffer<TypeParam>(0), std::invalid_argument);
 }
 
+// Contacts must be ascending by pair, a < b, with 1 to 4 points.
+TYPED_TEST(TransformBufferTest, BadContactsAreRefused) {
+  auto contact = [](BodyId a, BodyId b, std::uint32_t points) {
+    PairContact<TypeParam> c;
+    c.a = a;
+    c.b = b;
+    c.point_count = points;
+    return c;
+  };
+  const std::vector<std::vector<PairContact<TypeParam>>> bad = {
+      {contact(2, 1, 1)}, {contact(1, 2, 0)}, {contact(1, 2, 5)}, {contact(1, 3, 1), contact(1, 2, 1)},
+      {contact(1, 2, 1), contact(1, 2, 1)}};
+  for (const auto& contacts : bad) {
+    TransformBuffer<TypeParam> buffer(4);
+    auto entry = make_entry<TypeParam>(0);
+    entry.contacts = contacts;
+    EXPECT_THROW(buffer.try_publish(std::move(entry)), std::invalid_argument);
+  }
+  TransformBuffer<TypeParam> buffer(4);
+  auto entry = make_entry<TypeParam>(0);
+  entry.contacts = {contact(1, 2, 1), contact(1, 3, 4), contact(2, 3, 2)};
+  EXPECT_TRUE(buffer.try_publish(std::move(entry)));
+  EXPECT_EQ(buffer.read_at(0.0)->contacts.size(), 3u);
+}
+
 TYPED_TEST(TransformBufferTest, TryPublishFalseWhenFullAndEntryUntouched) {
   TransformBuffer<TypeParam> buffer(3);
   this->fill(buffer, 0, 2);

@@ -97,22 +97,21 @@ void SceneReader::use_up_to(std::int64_t step) {
 }
 
 // One pass over every world (never stopping early: every cursor must move,
-// see the top of the file). With move_cursors, read_at(reader) moves this
+// see the top of the file). With move_cursors, read_at(reader) moves the
 // reader's cursor to the world's newest entry at or before the step;
 // without, entries are looked up without a cursor (for the step after the
 // reader's, which its cursor keeps from being freed).
-SceneReader::Got SceneReader::gather(std::int64_t step, bool move_cursors,
-                                     std::vector<std::shared_ptr<const TransformEntry<btScalar>>>& out) {
-  if (!core_ || ids_.empty()) throw std::logic_error("SceneReader: used after being moved from");
-  const double time = core_->time_of(step);
-  out.assign(ids_.size(), nullptr);
+Gathered gather_entries(SimulationCore& core, const std::vector<BufferReaderId>& ids, std::int64_t step,
+                        bool move_cursors, std::vector<std::shared_ptr<const TransformEntry<btScalar>>>& out) {
+  const double time = core.time_of(step);
+  out.assign(ids.size(), nullptr);
   bool gone = false, not_yet = false, moved = false;
-  for (std::size_t w = 0; w < ids_.size(); ++w) {
-    TransformBuffer<btScalar>& buffer = *core_->buffers[w];
+  for (std::size_t w = 0; w < ids.size(); ++w) {
+    TransformBuffer<btScalar>& buffer = *core.buffers[w];
     std::shared_ptr<const TransformEntry<btScalar>> e;
     if (move_cursors) {
-      const std::int64_t before = buffer.cursor(ids_[w]);
-      e = buffer.read_at(ids_[w], time);
+      const std::int64_t before = buffer.cursor(ids[w]);
+      e = buffer.read_at(ids[w], time);
       moved = moved || (e && e->step != before);
     } else {
       e = buffer.read_at(time);
@@ -123,9 +122,20 @@ SceneReader::Got SceneReader::gather(std::int64_t step, bool move_cursors,
     else if (e->step != step) not_yet = true;
     else out[w] = std::move(e);
   }
-  if (moved) core_->control.wake();
+  if (moved) core.control.wake();
   // A frame a rollback may still rewrite is not served (simulation_core.h).
-  return gone ? Got::Gone : (not_yet || !core_->is_final(step)) ? Got::NotYet : Got::Frame;
+  return gone ? Gathered::Gone : (not_yet || !core.is_final(step)) ? Gathered::NotYet : Gathered::Frame;
+}
+
+SceneReader::Got SceneReader::gather(std::int64_t step, bool move_cursors,
+                                     std::vector<std::shared_ptr<const TransformEntry<btScalar>>>& out) {
+  if (!core_ || ids_.empty()) throw std::logic_error("SceneReader: used after being moved from");
+  switch (gather_entries(*core_, ids_, step, move_cursors, out)) {
+    case Gathered::Frame: return Got::Frame;
+    case Gathered::Gone: return Got::Gone;
+    case Gathered::NotYet: break;
+  }
+  return Got::NotYet;
 }
 
 SceneFrame SceneReader::assemble(std::int64_t step,

@@ -155,6 +155,12 @@ void Simulation::write_input_log(const std::string& path) const {
 
 SceneReader Simulation::add_reader() { return SceneReader(engine_->core); }
 
+ContactReader Simulation::add_contact_reader(bool persist) {
+  if (!engine_->core->contacts)
+    throw std::logic_error("Simulation::add_contact_reader: contact events are off (SimulationConfig::contact_events)");
+  return ContactReader(engine_->core, persist);
+}
+
 SceneQuery Simulation::add_query() { return SceneQuery(engine_->core, add_reader()); }
 
 double Simulation::dt() const { return engine_->core->dt; }

@@ -33,7 +33,7 @@ namespace soda {
 struct SimulationCore {
   /// The first frame is that of scene step `start`.
   SimulationCore(const Scene& scene, int worlds, int substeps, std::int64_t start, std::size_t capacity, bool delta)
-      : dt(scene.settings.dt), substeps(substeps), census(scene), control(worlds, substeps, start) {
+      : dt(scene.settings.dt), substeps(substeps), first_step(start), census(scene), control(worlds, substeps, start) {
     for (int w = 0; w < worlds; ++w) buffers.push_back(std::make_unique<TransformBuffer<btScalar>>(capacity, delta));
   }
 
@@ -73,6 +73,7 @@ struct SimulationCore {
 
   const double dt;
   const int substeps;
+  const std::int64_t first_step;  // the scene step of the first frame
   Census census;  // the bodies each step's frame holds
   RunControl control;
   std::vector<std::unique_ptr<TransformBuffer<btScalar>>> buffers;  // by world id
@@ -80,6 +81,20 @@ struct SimulationCore {
   std::shared_ptr<CommitHorizon> horizon;
   bool gate = false;         // frames wait for the horizon (speculation or past inputs)
   bool reader_pins = false;  // readers pin the horizon (past inputs)
+  bool contacts = false;     // entries carry contacts (SimulationConfig::contact_events)
 };
+
+/// What one pass over every world's buffer found for a step.
+enum class Gathered { Frame, NotYet, Gone };
+
+/// One pass over every world's buffer for scene step `step` (never stopping
+/// early): with move_cursors, each reader cursor `ids[w]` moves to world w's
+/// newest entry at or before the step (scene_reader.cpp says why every
+/// cursor must move); without, entries are looked up without a cursor (for
+/// steps at or after the cursors, which keep them from being freed). Frame:
+/// every world's entry of `step` is in `out` and the step is final; Gone:
+/// some world holds nothing at or before it; NotYet otherwise. Any thread.
+Gathered gather_entries(SimulationCore& core, const std::vector<BufferReaderId>& ids, std::int64_t step,
+                        bool move_cursors, std::vector<std::shared_ptr<const TransformEntry<btScalar>>>& out);
 
 }  // namespace soda

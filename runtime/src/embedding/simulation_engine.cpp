@@ -38,6 +38,8 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
   if (c.past_inputs && c.runtime.validate)
     throw std::invalid_argument("SimulationConfig: past_inputs with validate is not supported (the validator "
                                 "cannot follow a rollback yet)");
+  if (c.on_contacts && !c.contact_events)
+    throw std::invalid_argument("SimulationConfig: on_contacts needs contact_events");
   if (c.runtime.anticipation < 0) throw std::invalid_argument("SimulationConfig: anticipation must be >= 0");
   if (c.runtime.anticipation > 0 && c.buffer_capacity < static_cast<std::size_t>(c.runtime.anticipation) + 3)
     throw std::invalid_argument("SimulationConfig: buffer_capacity (" + std::to_string(c.buffer_capacity) +
@@ -53,6 +55,7 @@ SimulationEngine::SimulationEngine(const Scene& scene, TerritoryMap map, Simulat
     : config_(std::move(config)), substeps_(scene.settings.substeps), ledger_(scene) {
   const PartitionedOptions options = partitioned_options(config_, map.world_count());
   set_up(scene, options, std::make_unique<PartitionedWorld>(scene, std::move(map), options), 0);
+  start_contact_callback();
 }
 
 // A snapshot's scene: its bodies and settings (their states are the
@@ -74,6 +77,25 @@ SimulationEngine::SimulationEngine(const SimulationSnapshot& snapshot, Territory
     core->census.record(in);
     inputs_.add(in);
   }
+  start_contact_callback();
+}
+
+// Reads every step from the first on and hands it over. A world's failure
+// ends it (every waiting call reports that); the callback's own exception
+// fails the run.
+void SimulationEngine::start_contact_callback() {
+  if (!config_.on_contacts) return;
+  contact_thread_ = std::thread([this, reader = ContactReader(core, config_.on_contacts_persist)]() mutable {
+    try {
+      while (std::optional<ContactStep> step = reader.read_next()) config_.on_contacts(*step);
+    } catch (const SimulationError&) {
+    } catch (...) {
+      // As a world's error: every thread ends, every waiting call throws it.
+      std::lock_guard lock(lifecycle_);
+      if (scheduler_) scheduler_->fail(kNoWorld, std::current_exception());
+      else fail(kNoWorld, std::current_exception());
+    }
+  });
 }
 
 // The partitioned world `w` of `scene` (built with `options`), at scene step `start`:
@@ -91,6 +113,7 @@ void SimulationEngine::set_up(const Scene& scene, const PartitionedOptions& opti
   core->horizon = parts().horizon;
   core->gate = config_.runtime.anticipation > 0 || config_.past_inputs;
   core->reader_pins = config_.past_inputs;
+  core->contacts = config_.contact_events;
   // As the horizon rises, so do the buffers' commit steps (a world blocked
   // for room cannot raise its own), and readers waiting for a final frame
   // look again.
@@ -115,12 +138,15 @@ void SimulationEngine::set_up(const Scene& scene, const PartitionedOptions& opti
   for (WorldId w = 0; w < k; ++w) {
     TransformBuffer<btScalar>& buffer = *core->buffers[static_cast<std::size_t>(w)];
     parts().process(w).attach({&core->control, &buffer, scene.settings.dt, config_.after_step, &inputs_,
-                               [this, w](const WorldSnapshot& state) { rewind_world(w, state); }});
+                               [this, w](const WorldSnapshot& state) { rewind_world(w, state); },
+                               config_.contact_events});
     // The first frame: the scene as given (or restored).
+    const TerritoryWorld& tw = world->world(w);
     TransformEntry<btScalar> entry;
     entry.step = start;
     entry.time = core->time_of(start);
-    for (const BodyState& b : world->world(w).owned_states()) entry.poses.push_back(body_pose(b));
+    for (const BodyState& b : tw.owned_states()) entry.poses.push_back(body_pose(b));
+    if (config_.contact_events) entry.contacts = reported_contacts(tw, tw.kept_contact_state(), tw.owned_ids());
     buffer.publish(std::move(entry));
     buffer.set_commit_step(start - 1);
   }
@@ -178,14 +204,22 @@ bool SimulationEngine::stopped() const {
 // release every waiter (buffers stopped: full writers drop their entries),
 // join.
 void SimulationEngine::stop() {
-  std::lock_guard lock(lifecycle_);
-  if (!stopped_) {
-    stopped_ = true;
-    core->control.freeze();
-    core->control.request_stop();
-    for (auto& b : core->buffers) b->stop();
-    core->control.wake();  // worlds parked for room see the stopped buffers
-    if (scheduler_) scheduler_->join();
+  {
+    std::lock_guard lock(lifecycle_);
+    if (!stopped_) {
+      stopped_ = true;
+      core->control.freeze();
+      core->control.request_stop();
+      for (auto& b : core->buffers) b->stop();
+      core->control.wake();  // worlds parked for room see the stopped buffers
+      if (scheduler_) scheduler_->join();
+    }
+  }
+  {
+    // Outside lifecycle_: the callback may still be giving inputs. It reads
+    // on what was final at the stop, and ends.
+    std::lock_guard join(join_);
+    if (contact_thread_.joinable() && contact_thread_.get_id() != std::this_thread::get_id()) contact_thread_.join();
   }
   core->control.rethrow_if_failed();
 }

@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <thread>
 #include <vector>
 
 #include "embedding/input_ledger.h"
@@ -57,6 +58,8 @@ class SimulationEngine {
   PartitionedWorld::Internals& parts() { return world->internals(); }
   void rollback_locked(std::int64_t scene_step);
   void rewind_world(WorldId w, const WorldSnapshot& state);
+  /// SimulationConfig::on_contacts: its thread, once the engine is built.
+  void start_contact_callback();
 
   SimulationConfig config_;
   int substeps_ = 1;
@@ -70,6 +73,9 @@ class SimulationEngine {
   std::uint64_t next_sequence_ = 0;
   std::uint64_t rollbacks_ = 0;
   std::vector<UserInput> given_;  // every input the calls gave and the run took, in call order
+  // on_contacts: the thread that calls it, joined by stop() (under join_).
+  std::thread contact_thread_;
+  std::mutex join_;
 };
 
 }  // namespace soda

@@ -130,10 +130,14 @@ class Scheduler {
   std::exception_ptr error() const;
   /// True once every thread launch() started has ended (any thread).
   bool finished() const { return ended_.load() == launched_; }
+  /// A failure from outside the worlds (world kNoWorld: e.g. a Simulation's
+  /// contact callback threw), handled as a world's: the first error is
+  /// reported to the error hook, the transport closes and every thread
+  /// ends. Any thread.
+  void fail(WorldId world, std::exception_ptr error);
 
  private:
   struct Pool;
-  void fail(WorldId world, std::exception_ptr error);
   void run_sequential();
   void run_world(WorldId world);
   void run_pool_worker(int index);

@@ -228,8 +228,16 @@ void Anticipation::rejoin(std::int64_t j,
   }
   for (auto it = old.reports.upper_bound(s); it != old.reports.end() && it->first <= j; ++it)
     if (it->first > reported_through_) reports_.insert_or_assign(it->first, std::move(it->second));
-  for (const auto& [scene_step, state] : entries)
+  for (const auto& [scene_step, state] : entries) {
     v.backlog.push_back(transform_entry(scene_step, c_.output.dt, body_states_of(*state)));
+    if (c_.output.contacts) {
+      // The part as kept holds what the live world would have reported from.
+      std::vector<BodyId> owned;
+      owned.reserve(state->bodies.size());
+      for (const BodySnapshot& b : state->bodies) owned.push_back(b.description.id);
+      v.backlog.back().contacts = reported_contacts(*s_.world, state->manifolds, owned);
+    }
+  }
   steps_rejoined_ += static_cast<std::uint64_t>(j - s);
   old_run_.reset();
   partial_step_.reset();

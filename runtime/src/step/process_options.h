@@ -54,10 +54,22 @@ struct ProcessOutput {
   /// A rollback pending for this world (RunControl::take_rewind): on the
   /// world's own thread, rebuild the world from the state and rewind().
   std::function<void(const WorldSnapshot&)> rewind;
+  /// Each entry also carries the contacts of the pairs this world reports
+  /// (reported_contacts): SimulationConfig::contact_events.
+  bool contacts = false;
 };
 
 /// The entry of scene step `scene_step` for a transform buffer: the poses
 /// of `states` (a world's owned bodies), at time scene_step * dt.
 TransformEntry<btScalar> transform_entry(std::int64_t scene_step, double dt, const std::vector<BodyState>& states);
+
+/// The contacts `world` reports at a step boundary: of `manifolds` (its
+/// kept_contact_state() there, ascending by pair), those with points whose
+/// key body is in `owned` (the bodies it owns there, ascending) — every pair
+/// of the scene in exactly one world, whatever the partition. Ascending by
+/// pair.
+std::vector<PairContact<btScalar>> reported_contacts(const TerritoryWorld& world,
+                                                     const std::vector<ManifoldState>& manifolds,
+                                                     const std::vector<BodyId>& owned);
 
 }  // namespace soda

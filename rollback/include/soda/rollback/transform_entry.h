@@ -26,6 +26,27 @@ struct BodyPose {
   bool sleeping = false;
 };
 
+/// One contact point of a pair at the end of a step, as Bullet's
+/// btManifoldPoint holds it after the step's solve (world frame, m, N s).
+template <class Real>
+struct PairContactPoint {
+  Real position_on_a[3] = {0, 0, 0};  // getPositionWorldOnA: on the lower-id body
+  Real position_on_b[3] = {0, 0, 0};  // getPositionWorldOnB: on the higher-id body
+  Real normal_on_b[3] = {0, 0, 0};    // m_normalWorldOnB: unit, from b towards a
+  Real distance = 0;                  // getDistance: < 0 penetrating, m
+  Real impulse = 0;                   // getAppliedImpulse: the normal impulse of the step's solve, N s
+};
+
+/// The contact state of one pair at the end of a step: a persistent manifold
+/// with points (at most 4, in Bullet's cache order). a < b are body ids.
+template <class Real>
+struct PairContact {
+  BodyId a = 0;
+  BodyId b = 0;
+  std::uint32_t point_count = 0;  // 1..4
+  PairContactPoint<Real> points[4];
+};
+
 /// What a world publishes for one step. Immutable once published.
 template <class Real>
 struct TransformEntry {
@@ -37,6 +58,10 @@ struct TransformEntry {
   /// stages, a rollback's re-runs included), seconds; 0 for step 0. For
   /// viewers' per-world load (replay files); no physics reads it.
   double busy_seconds = 0.0;
+  /// The contacts of the pairs this world reports at the end of `step`,
+  /// strictly increasing by (a, b); empty unless contacts are recorded
+  /// (SimulationConfig::contact_events). Carried as published.
+  std::vector<PairContact<Real>> contacts;
 };
 
 /// Poses at a time between two consecutive entries (see interpolate_entries).

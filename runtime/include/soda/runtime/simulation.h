@@ -43,13 +43,14 @@
 
 // What an embedder uses, and nothing more: the scene and its generators,
 // the grid options and territory map of the config, the runtime knobs, the
-// readers, queries and inputs, body states, snapshots and checkpoints. The
+// readers, queries, contact events and inputs, body states, snapshots and checkpoints. The
 // partitioned runtime behind it (partitioned_world.h, territory_world.h, the
 // policies) stays out; metrics() names WorldMetrics, declared here: include
 // soda/runtime/world_metrics.h to read them.
 #include "soda/grid/grid.h"
 #include "soda/grid/territory_map.h"
 #include "soda/runtime/checkpoint.h"
+#include "soda/runtime/contact_reader.h"
 #include "soda/runtime/runtime_options.h"
 #include "soda/runtime/schedule.h"
 #include "soda/runtime/scene_query.h"
@@ -90,6 +91,23 @@ struct SimulationConfig {
   /// screen is always accepted (docs/embedding.md, "The game loop"). Off:
   /// input only at steps no world has begun. Not with runtime.validate.
   bool past_inputs = false;
+  /// Contact events (contact_reader.h, docs/contact-events.md): every world
+  /// records after each scene step the contact points, normals and impulses
+  /// of the pairs it reports, for ContactReaders and on_contacts. Off: no
+  /// world records anything and the entries are as without events. Events
+  /// never change the simulation: the same state_hash either way.
+  bool contact_events = false;
+  /// Needs contact_events. Called with the events of every final step from
+  /// the run's first step on, in step order, once each, from one thread the
+  /// Simulation starts for it (not a world's thread), while the worlds run
+  /// on; stop() delivers every step final by then before it returns. It
+  /// holds the worlds back like a reader (back-pressure) while it runs.
+  /// Must not call stop() or a readout of this Simulation. An exception
+  /// thrown here fails the run (SimulationError, world kNoWorld).
+  std::function<void(const ContactStep&)> on_contacts = {};
+  /// on_contacts also gets Persist events (a pair touching at this step and
+  /// the one before).
+  bool on_contacts_persist = false;
   /// The knobs every way of running a scene shares (runtime_options.h).
   /// Under a Simulation: with speculation (runtime.anticipation > 0) a lost
   /// bet republishes the entries of the rolled-back steps with a new
@@ -264,6 +282,10 @@ class Simulation {
   /// A new reader with a cursor in every world's buffer; it pins every held
   /// entry until its first read. Any thread.
   SceneReader add_reader();
+  /// A reader of contact events per committed step (contact_reader.h);
+  /// `persist`: also report pairs that stay in contact. Throws
+  /// std::logic_error unless config.contact_events. Any thread.
+  ContactReader add_contact_reader(bool persist = false);
   /// Queries at a time — ray casts, sweeps, overlaps — answered from the
   /// committed frame of its step (scene_query.h); a reader of its own inside.
   /// Any thread.

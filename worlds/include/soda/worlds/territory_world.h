@@ -263,6 +263,10 @@ class TerritoryWorld {
   std::vector<std::pair<BodyId, BodyId>> held_contact_pairs() const;
   /// Every manifold with points held here plus the kept store, by (id0, id1).
   std::vector<ManifoldState> kept_contact_state() const;
+  /// The key body of pair (id0, id1) (rule H, territory_collide.cpp): the
+  /// dynamic body of a static-dynamic pair, else id0. Its owner keeps the
+  /// pair's contact state (invariant 4), so exactly one world owns it.
+  BodyId key_body(BodyId id0, BodyId id1) const { return key_of(id0, id1); }
   /// Sleeping owned bodies.
   std::size_t sleeping_count() const;
   /// This world's part of the scene's state at a step boundary (after
