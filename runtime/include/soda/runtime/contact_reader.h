@@ -103,8 +103,9 @@ class ContactReader {
   /// The events of scene step `step`, once every world has published it and
   /// it is final (waits). The first step of the run (0, or a snapshot's)
   /// begins every pair in contact there. nullopt if the step is gone (before
-  /// the last step read, or freed), or the Simulation was stopped before it
-  /// was published. Throws SimulationError if a world failed while it
+  /// the last step read, or it or the step before it freed — a reader made
+  /// late finds the steps freed before it was made), or the Simulation was
+  /// stopped before it was published. Throws SimulationError if a world failed while it
   /// waited, std::logic_error if contact events are off or two worlds
   /// report one pair, std::invalid_argument for a step before the run's
   /// first. Reader's thread.
