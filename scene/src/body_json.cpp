@@ -147,8 +147,6 @@ Body parse_body(std::string where, const json& j) {
 
 namespace {
 
-json vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
-
 json shape_json(const Shape& s) {
   json shape = {{"type", shape_kind_name(s.kind)}};
   switch (s.kind) {

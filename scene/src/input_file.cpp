@@ -15,6 +15,7 @@ namespace {
 
 using detail::Context;
 using detail::json;
+using detail::vec_json;
 
 constexpr const char* kInputsFormat = "soda-inputs";
 constexpr int kInputsVersion = 1;
@@ -72,8 +73,6 @@ UserInput parse_input(const std::string& source, std::size_t index, const json& 
   }
   return in;
 }
-
-json inputs_vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
 
 }  // namespace
 
@@ -140,12 +139,12 @@ std::string inputs_to_json(const std::vector<UserInput>& inputs) {
       case UserInput::Kind::RemoveBody: e["id"] = in.id; break;
       case UserInput::Kind::SetVelocity:
         e["id"] = in.id;
-        e["linear_velocity"] = inputs_vec_json(in.linear);
-        e["angular_velocity"] = inputs_vec_json(in.angular);
+        e["linear_velocity"] = vec_json(in.linear);
+        e["angular_velocity"] = vec_json(in.angular);
         break;
       case UserInput::Kind::ApplyImpulse:
         e["id"] = in.id;
-        e["impulse"] = inputs_vec_json(in.linear);
+        e["impulse"] = vec_json(in.linear);
         break;
     }
     list.push_back(std::move(e));

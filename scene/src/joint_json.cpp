@@ -11,8 +11,6 @@ namespace {
 constexpr JointKind kJointKinds[] = {JointKind::PointToPoint, JointKind::Hinge,     JointKind::Slider,
                                      JointKind::ConeTwist,    JointKind::Fixed,     JointKind::Spring6Dof};
 
-json vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
-
 json frame_json(const JointFrame& f) {
   return {{"position", vec_json(f.position)},
           {"orientation", json::array({f.orientation.x(), f.orientation.y(), f.orientation.z(), f.orientation.w()})}};

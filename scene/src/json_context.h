@@ -87,6 +87,9 @@ struct Context {
 /// which JSON cannot express. ("n" alone is the start of null.)
 bool looks_non_finite(const std::string& token);
 
+/// A vector as scene and input files write it: [x, y, z].
+inline json vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
+
 /// A body as the scene file writes it (numbers read back bit-identical).
 json body_json(const Body& b);
 

@@ -8,18 +8,18 @@
 
 #include <nlohmann/json.hpp>
 
+#include "json_context.h"
 #include "scene_sax.h"
 #include "soda/scene/validate.h"
 
 namespace soda {
 namespace {
 
+using detail::vec_json;
 using nlohmann::json;
 
 constexpr const char* kFormat = "soda-scene";
 constexpr int kVersion = 1;
-
-json vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
 
 // The scene from what the SAX reader kept: the top-level fields, checked
 // here, and the bodies, checked one by one as they were read.
