@@ -13,6 +13,7 @@
 #include <type_traits>
 #include <utility>
 
+#include "soda/scene/fnv1a.h"
 #include "soda/worlds/value_codec.h"
 #include "soda/worlds/world_snapshot.h"
 
@@ -196,14 +197,11 @@ std::uint64_t contact_hash(std::vector<ManifoldState> manifolds) {
   });
   // FNV-1a over the same bytes serialize() writes.
   ByteWriter w;
-  std::uint64_t h = 1469598103934665603ull;
+  std::uint64_t h = kFnv1aOffset;
   for (const ManifoldState& m : manifolds) {
     w.bytes.clear();
     write_manifold(w, m);
-    for (std::uint8_t byte : w.bytes) {
-      h ^= byte;
-      h *= 1099511628211ull;
-    }
+    fnv1a_mix(h, w.bytes.data(), w.bytes.size());
   }
   return h;
 }

@@ -20,6 +20,7 @@
 #include <system_error>
 
 #include "soda/runtime/simulation.h"
+#include "soda/scene/fnv1a.h"
 #include "soda/worlds/value_codec.h"
 
 namespace soda {
@@ -32,15 +33,6 @@ constexpr std::size_t kChecksumBytes = 8;
 
 const char* precision_name(std::uint32_t scalar_bytes) {
   return scalar_bytes == 8 ? "double" : scalar_bytes == 4 ? "float" : "unknown";
-}
-
-std::uint64_t fnv1a(const std::uint8_t* data, std::size_t n) {
-  std::uint64_t h = 1469598103934665603ull;
-  for (std::size_t i = 0; i < n; ++i) {
-    h ^= data[i];
-    h *= 1099511628211ull;
-  }
-  return h;
 }
 
 template <class T>

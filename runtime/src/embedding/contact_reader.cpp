@@ -16,6 +16,7 @@
 #include <utility>
 
 #include "embedding/simulation_core.h"
+#include "soda/scene/fnv1a.h"
 
 namespace soda {
 namespace {
@@ -69,17 +70,6 @@ std::vector<ContactEvent> diff(std::int64_t step, const std::vector<PairContact<
   return out;
 }
 
-constexpr std::uint64_t kFnvOffset = 1469598103934665603ull;
-constexpr std::uint64_t kFnvPrime = 1099511628211ull;
-
-void mix(std::uint64_t& h, const void* data, std::size_t n) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  for (std::size_t i = 0; i < n; ++i) {
-    h ^= p[i];
-    h *= kFnvPrime;
-  }
-}
-
 }  // namespace
 
 const char* to_string(ContactEventKind kind) {
@@ -98,22 +88,22 @@ btScalar ContactEvent::total_impulse() const {
 }
 
 std::uint64_t contact_stream_hash(const std::vector<ContactStep>& steps) {
-  std::uint64_t h = kFnvOffset;
+  std::uint64_t h = kFnv1aOffset;
   for (const ContactStep& s : steps) {
     for (const ContactEvent& e : s.events) {
-      mix(h, &e.step, sizeof e.step);
+      fnv1a_mix(h, &e.step, sizeof e.step);
       const auto kind = static_cast<std::uint8_t>(e.kind);
-      mix(h, &kind, sizeof kind);
-      mix(h, &e.a, sizeof e.a);
-      mix(h, &e.b, sizeof e.b);
-      mix(h, &e.point_count, sizeof e.point_count);
+      fnv1a_mix(h, &kind, sizeof kind);
+      fnv1a_mix(h, &e.a, sizeof e.a);
+      fnv1a_mix(h, &e.b, sizeof e.b);
+      fnv1a_mix(h, &e.point_count, sizeof e.point_count);
       for (std::uint32_t i = 0; i < e.point_count; ++i) {
         const ContactEventPoint& p = e.points[i];
-        mix(h, p.position_on_a, sizeof p.position_on_a);
-        mix(h, p.position_on_b, sizeof p.position_on_b);
-        mix(h, p.normal_on_b, sizeof p.normal_on_b);
-        mix(h, &p.distance, sizeof p.distance);
-        mix(h, &p.impulse, sizeof p.impulse);
+        fnv1a_mix(h, p.position_on_a, sizeof p.position_on_a);
+        fnv1a_mix(h, p.position_on_b, sizeof p.position_on_b);
+        fnv1a_mix(h, p.normal_on_b, sizeof p.normal_on_b);
+        fnv1a_mix(h, &p.distance, sizeof p.distance);
+        fnv1a_mix(h, &p.impulse, sizeof p.impulse);
       }
     }
   }

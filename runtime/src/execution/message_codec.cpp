@@ -5,6 +5,7 @@
 #include <cstring>
 #include <string>
 
+#include "soda/scene/fnv1a.h"
 #include "soda/worlds/value_codec.h"
 
 namespace soda {
@@ -286,9 +287,7 @@ std::uint64_t message_digest(const Message& m) {
   w.put(static_cast<std::uint8_t>(m.kind()));
   w.put(m.from), w.put(m.to), w.put(m.step);
   std::visit([](const auto& payload) { write_payload(w, payload); }, m.payload);
-  std::uint64_t h = 1469598103934665603ull;
-  for (std::uint8_t b : w.bytes) h = (h ^ b) * 1099511628211ull;
-  return h;
+  return fnv1a(w.bytes.data(), w.bytes.size());
 }
 
 Message decode_message(const std::vector<std::uint8_t>& bytes) {
