@@ -45,60 +45,30 @@ std::uint64_t reference(bool parking) {
   return w.state_hash();
 }
 
-struct FilterCase {
-  int territories;
-  int anticipation;
-  int sync_test;
-  bool parking;
-};
-
-class FilterDecomposition : public ::testing::TestWithParam<FilterCase> {};
+class FilterDecomposition : public ::testing::TestWithParam<test::MatrixCase> {};
 
 TEST_P(FilterDecomposition, EqualsTheOneWorldHash) {
-  const FilterCase c = GetParam();
+  const test::MatrixCase c = GetParam();
   static const std::uint64_t ref = reference(false);
-  const TerritoryMap map = make_partition("kmeans", pile(), c.territories, GridOptions{});
-  PartitionedOptions o;
-  o.runtime.anticipation = c.anticipation;
-  o.runtime.parking = c.parking;
-  o.runtime.validate = true;
-  o.sync_test = c.sync_test;
-  if (c.territories > 1) {
-    o.schedule = Schedule::Pool;
-    o.threads = 2;
-  }
-  PartitionedWorld w(pile(), map, o);
-  w.step(kSteps);
-  const WorldMetrics t = test::total(w.metrics());
-  std::printf("[ filtered cube-pile 150 %s, K %d, anticipation %d, sync-test %d, parking %d ] %s; %s, one world %s\n",
-              kPrecisionName, c.territories, c.anticipation, c.sync_test, int(c.parking), test::summary(t).c_str(),
-              hash_hex(w.state_hash()).c_str(), hash_hex(ref).c_str());
-  EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(ref));
-  if (w.state_hash() != ref && c.anticipation == 0 && c.sync_test == 0) {
-    PartitionedOptions lockstep;
-    lockstep.runtime.parking = c.parking;
-    ADD_FAILURE() << test::first_divergence(pile(), map, kSteps, lockstep);
-  }
+  const test::MatrixRun run = test::expect_one_world_hash(pile(), "filtered cube-pile 150", c, kSteps, ref);
+  const WorldMetrics& t = run.total;
   if (c.territories > 1) {
     EXPECT_GT(t.ghosts_sent, 0u);
     EXPECT_GT(t.migrations_out, 0u);
   }
   if (c.territories >= 8) EXPECT_GT(t.merged_islands, 0u);  // kmeans on 2 and 4 cuts no filtered island
   if (c.anticipation > 0 && c.territories > 1) EXPECT_GT(t.bets, 0u);
-  if (c.sync_test > 0) EXPECT_GT(w.sync_rollbacks(), 0u);
+  if (c.sync_test > 0) EXPECT_GT(run.sync_rollbacks, 0u);
 }
 
 INSTANTIATE_TEST_SUITE_P(
     Partitioned, FilterDecomposition,
-    ::testing::Values(FilterCase{1, 0, 0, true}, FilterCase{1, 0, 0, false}, FilterCase{2, 0, 0, true},
-                      FilterCase{4, 0, 0, true}, FilterCase{8, 0, 0, true}, FilterCase{4, 0, 0, false},
-                      FilterCase{8, 0, 0, false}, FilterCase{4, 8, 0, true}, FilterCase{8, 8, 0, false},
-                      FilterCase{4, 0, 2, true}),
-    [](const auto& info) {
-      const FilterCase& c = info.param;
-      return "K" + std::to_string(c.territories) + "_anticipation" + std::to_string(c.anticipation) + "_sync" +
-             std::to_string(c.sync_test) + (c.parking ? "_parking" : "_noparking");
-    });
+    ::testing::Values(test::MatrixCase{1, 0, 0, true}, test::MatrixCase{1, 0, 0, false},
+                      test::MatrixCase{2, 0, 0, true}, test::MatrixCase{4, 0, 0, true},
+                      test::MatrixCase{8, 0, 0, true}, test::MatrixCase{4, 0, 0, false},
+                      test::MatrixCase{8, 0, 0, false}, test::MatrixCase{4, 8, 0, true},
+                      test::MatrixCase{8, 8, 0, false}, test::MatrixCase{4, 0, 2, true}),
+    [](const auto& info) { return test::matrix_case_name(info.param); });
 
 // The one world with parking on gives the same hash as with it off; the
 // filter changes the result (the pile unfiltered ends elsewhere).

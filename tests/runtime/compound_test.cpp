@@ -31,40 +31,13 @@ std::uint64_t reference(bool parking) {
   return w.state_hash();
 }
 
-struct CompoundCase {
-  int territories;
-  int anticipation;
-  int sync_test;
-  bool parking;
-};
-
-class CompoundDecomposition : public ::testing::TestWithParam<CompoundCase> {};
+class CompoundDecomposition : public ::testing::TestWithParam<test::MatrixCase> {};
 
 TEST_P(CompoundDecomposition, EqualsTheOneWorldHash) {
-  const CompoundCase c = GetParam();
+  const test::MatrixCase c = GetParam();
   static const std::uint64_t ref = reference(false);
-  const TerritoryMap map = make_partition("kmeans", furniture(), c.territories, GridOptions{});
-  PartitionedOptions o;
-  o.runtime.anticipation = c.anticipation;
-  o.runtime.parking = c.parking;
-  o.runtime.validate = true;
-  o.sync_test = c.sync_test;
-  if (c.territories > 1) {
-    o.schedule = Schedule::Pool;
-    o.threads = 2;
-  }
-  PartitionedWorld w(furniture(), map, o);
-  w.step(kSteps);
-  const WorldMetrics t = test::total(w.metrics());
-  std::printf("[ compounds 60 %s, K %d, anticipation %d, sync-test %d, parking %d ] %s; %s, one world %s\n",
-              kPrecisionName, c.territories, c.anticipation, c.sync_test, int(c.parking), test::summary(t).c_str(),
-              hash_hex(w.state_hash()).c_str(), hash_hex(ref).c_str());
-  EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(ref));
-  if (w.state_hash() != ref && c.anticipation == 0 && c.sync_test == 0) {
-    PartitionedOptions lockstep;
-    lockstep.runtime.parking = c.parking;
-    ADD_FAILURE() << test::first_divergence(furniture(), map, kSteps, lockstep);
-  }
+  const test::MatrixRun run = test::expect_one_world_hash(furniture(), "compounds 60", c, kSteps, ref);
+  const WorldMetrics& t = run.total;
   if (c.territories > 1) {
     EXPECT_GT(t.ghosts_sent, 0u);
     EXPECT_GT(t.manifolds_seeded, 0u);
@@ -72,20 +45,17 @@ TEST_P(CompoundDecomposition, EqualsTheOneWorldHash) {
     EXPECT_GT(t.merged_islands, 0u);
   }
   if (c.anticipation > 0 && c.territories > 1) EXPECT_GT(t.bets, 0u);
-  if (c.sync_test > 0) EXPECT_GT(w.sync_rollbacks(), 0u);
+  if (c.sync_test > 0) EXPECT_GT(run.sync_rollbacks, 0u);
 }
 
 INSTANTIATE_TEST_SUITE_P(
     Partitioned, CompoundDecomposition,
-    ::testing::Values(CompoundCase{1, 0, 0, true}, CompoundCase{1, 0, 0, false}, CompoundCase{2, 0, 0, true},
-                      CompoundCase{4, 0, 0, true}, CompoundCase{8, 0, 0, true}, CompoundCase{4, 0, 0, false},
-                      CompoundCase{8, 0, 0, false}, CompoundCase{4, 8, 0, true}, CompoundCase{8, 8, 0, false},
-                      CompoundCase{4, 0, 2, true}),
-    [](const auto& info) {
-      const CompoundCase& c = info.param;
-      return "K" + std::to_string(c.territories) + "_anticipation" + std::to_string(c.anticipation) + "_sync" +
-             std::to_string(c.sync_test) + (c.parking ? "_parking" : "_noparking");
-    });
+    ::testing::Values(test::MatrixCase{1, 0, 0, true}, test::MatrixCase{1, 0, 0, false},
+                      test::MatrixCase{2, 0, 0, true}, test::MatrixCase{4, 0, 0, true},
+                      test::MatrixCase{8, 0, 0, true}, test::MatrixCase{4, 0, 0, false},
+                      test::MatrixCase{8, 0, 0, false}, test::MatrixCase{4, 8, 0, true},
+                      test::MatrixCase{8, 8, 0, false}, test::MatrixCase{4, 0, 2, true}),
+    [](const auto& info) { return test::matrix_case_name(info.param); });
 
 // Parking does not change the one world's result; the pieces land and
 // settle on the ground and the static tables (none falls through), in SODA's

@@ -14,6 +14,7 @@
 
 #include "soda/grid/partition.h"
 #include "soda/runtime/partitioned_world.h"
+#include "soda/scene/hash_text.h"
 #include "soda/scene/registry.h"
 #include "soda/worlds/canonical_world.h"
 
@@ -113,6 +114,59 @@ inline std::string summary(const WorldMetrics& t) {
     << ", migrations " << t.migrations_out << ", border islands " << t.islands_solved << " (max "
     << t.merged_island_worlds_max << " worlds), relay msgs " << t.relay_messages_sent;
   return s.str();
+}
+
+/// A case of a feature's decomposition matrix: K territories (kmeans; a pool
+/// of 2 threads above one), anticipation, SyncTest, parking.
+struct MatrixCase {
+  int territories;
+  int anticipation;
+  int sync_test;
+  bool parking;
+};
+
+/// "K4_anticipation8_sync0_parking": the name of a MatrixCase in a suite.
+inline std::string matrix_case_name(const MatrixCase& c) {
+  return "K" + std::to_string(c.territories) + "_anticipation" + std::to_string(c.anticipation) + "_sync" +
+         std::to_string(c.sync_test) + (c.parking ? "_parking" : "_noparking");
+}
+
+/// What a matrix run did, for the caller's checks that it exercised the
+/// machinery it is about (ghosts, merged islands, bets, rollbacks).
+struct MatrixRun {
+  WorldMetrics total;
+  std::uint64_t sync_rollbacks = 0;
+};
+
+/// Runs `s` for `steps` steps on c's partition with the validator on and
+/// expects the one-world hash `reference`; on a mismatch under lockstep,
+/// names the first step and bodies that differ. `label` names the scene in
+/// the printed line.
+inline MatrixRun expect_one_world_hash(const Scene& s, const char* label, const MatrixCase& c, int steps,
+                                       std::uint64_t reference) {
+  const TerritoryMap map = make_partition("kmeans", s, c.territories, GridOptions{});
+  PartitionedOptions o;
+  o.runtime.anticipation = c.anticipation;
+  o.runtime.parking = c.parking;
+  o.runtime.validate = true;
+  o.sync_test = c.sync_test;
+  if (c.territories > 1) {
+    o.schedule = Schedule::Pool;
+    o.threads = 2;
+  }
+  PartitionedWorld w(s, map, o);
+  w.step(steps);
+  const MatrixRun run{total(w.metrics()), w.sync_rollbacks()};
+  std::printf("[ %s %s, K %d, anticipation %d, sync-test %d, parking %d ] %s; %s, one world %s\n", label,
+              kPrecisionName, c.territories, c.anticipation, c.sync_test, int(c.parking), summary(run.total).c_str(),
+              hash_hex(w.state_hash()).c_str(), hash_hex(reference).c_str());
+  EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(reference));
+  if (w.state_hash() != reference && c.anticipation == 0 && c.sync_test == 0) {
+    PartitionedOptions lockstep;
+    lockstep.runtime.parking = c.parking;
+    ADD_FAILURE() << first_divergence(s, map, steps, lockstep);
+  }
+  return run;
 }
 
 }  // namespace soda::test
