@@ -303,14 +303,18 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
     }
     ++stats_.awake_islands;
     const int manifold_count = static_cast<int>(m - m_begin);
-    const int joint_count = m_constraints.size() != 0 ? island_joints_.count(k) : 0;
+    // Without joints island_joints_ is not built this step (collect_island_manifolds
+    // returns before it): its begin() and count() are not to be read.
+    const bool jointed = m_constraints.size() != 0;
+    const int joint_count = jointed ? island_joints_.count(k) : 0;
     if (body_count == 1 && manifold_count == 0 && joint_count == 0) {
       lone_bodies_.push_back(island_bodies_[body_begin]);
       continue;
     }
     stats_.solved_manifolds += static_cast<std::size_t>(manifold_count);
     stats_.solved_joints += static_cast<std::size_t>(joint_count);
-    const IslandJob job{body_begin, body_count, m_begin, manifold_count, island_joints_.begin(k), joint_count};
+    const IslandJob job{body_begin, body_count, m_begin, manifold_count, jointed ? island_joints_.begin(k) : 0,
+                        joint_count};
     bool small = pool != nullptr;
     int points = 0;
     for (std::size_t i = m_begin; i < m && small; ++i) {
