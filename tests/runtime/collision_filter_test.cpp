@@ -38,12 +38,7 @@ const Scene& pile() {
   return s;
 }
 
-std::uint64_t reference(bool parking) {
-  CanonicalWorld w(pile());
-  w.set_parking(parking);
-  for (int i = 0; i < kSteps; ++i) w.step();
-  return w.state_hash();
-}
+std::uint64_t reference(bool parking) { return test::reference_hash(pile(), kSteps, parking); }
 
 class FilterDecomposition : public ::testing::TestWithParam<test::MatrixCase> {};
 

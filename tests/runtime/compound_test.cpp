@@ -24,12 +24,7 @@ const Scene& furniture() {
   return s;
 }
 
-std::uint64_t reference(bool parking) {
-  CanonicalWorld w(furniture());
-  w.set_parking(parking);
-  for (int i = 0; i < kSteps; ++i) w.step();
-  return w.state_hash();
-}
+std::uint64_t reference(bool parking) { return test::reference_hash(furniture(), kSteps, parking); }
 
 class CompoundDecomposition : public ::testing::TestWithParam<test::MatrixCase> {};
 

@@ -33,9 +33,11 @@ inline Scene scene(const std::string& name, int n, std::uint64_t seed = 1) {
   return make_scene(name, SceneParams{n, seed, false});
 }
 
-/// state_hash of the one-world reference after `steps` steps.
-inline std::uint64_t reference_hash(const Scene& s, int steps) {
+/// state_hash of the one-world reference after `steps` steps (parking off,
+/// CanonicalWorld's default, unless asked).
+inline std::uint64_t reference_hash(const Scene& s, int steps, bool parking = false) {
   CanonicalWorld w(s);
+  w.set_parking(parking);
   for (int i = 0; i < steps; ++i) w.step();
   return w.state_hash();
 }
