@@ -2,11 +2,13 @@
 // code — a ground, stacks of crates, a 5 m plank — runs on 4 territories
 // that speculate (anticipation 8) in the background. The render thread reads
 // every frame at 60 Hz of simulated time while the worlds run ahead of it,
-// and the "player" acts on the frame on screen: spawns crates and a 2 m
-// box, pushes a crate, removes one. Each input lands at the step the player
-// saw (the worlds that had passed it roll back), frames follow the bodies
-// that come and go, and the run ends on the hash of one world given the
-// same inputs.
+// and the "player" acts on the frame on screen: spawns crates (tagged with
+// user data) and a 2 m box, pushes a crate, removes one, turns the gravity
+// low for a second, makes a crate heavy, one icy and the plank bouncy, and
+// reads a crate back by id (body_at). Each input lands at the step the
+// player saw (the worlds that had passed it roll back), frames follow the
+// bodies that come and go, and the run ends on the hash of one world given
+// the same inputs.
 // Usage: game_loop [SECONDS] [--paced] [--stepping]
 //   default 5 s; --paced: 60 frames per wall-clock second, as a real game
 //   would draw them; --stepping: no start(), the render thread advances the
@@ -64,20 +66,30 @@ soda::Scene level() {
 
 // What the player did, in the order the calls were made.
 struct Action {
-  enum class Kind { Spawn, Push, Remove } kind;
+  enum class Kind { Spawn, Push, Remove, Gravity, Mass, Friction, Restitution, Tag } kind;
   double time;
   soda::Body body;  // Spawn
   soda::BodyId id = 0;
-  soda::Vec3 impulse = soda::Vec3::Zero();
+  soda::Vec3 vector = soda::Vec3::Zero();  // Push: the impulse; Gravity: the gravity
+  double value = 0;                        // Mass, Friction, Restitution
+  std::uint64_t tag = 0;                   // Tag
 };
 
 void give(soda::Simulation& sim, const Action& a) {
   switch (a.kind) {
     case Action::Kind::Spawn: sim.add_body(a.time, a.body); break;
-    case Action::Kind::Push: sim.apply_impulse(a.time, a.id, a.impulse); break;
+    case Action::Kind::Push: sim.apply_impulse(a.time, a.id, a.vector); break;
     case Action::Kind::Remove: sim.remove_body(a.time, a.id); break;
+    case Action::Kind::Gravity: sim.set_gravity(a.time, a.vector); break;
+    case Action::Kind::Mass: sim.set_mass(a.time, a.id, a.value); break;
+    case Action::Kind::Friction: sim.set_friction(a.time, a.id, a.value); break;
+    case Action::Kind::Restitution: sim.set_restitution(a.time, a.id, a.value); break;
+    case Action::Kind::Tag: sim.set_user_data(a.time, a.id, a.tag); break;
   }
 }
+
+// The tag the player gives the crates it spawns: an entity handle of its own.
+constexpr std::uint64_t kSpawnedTag = 0x5350000000000000ull;
 
 }  // namespace
 
@@ -120,11 +132,26 @@ int main(int argc, char** argv) {
             for (const soda::ScenePose& p : frame->poses) top = std::max(top, double(p.position[1]));
             std::printf("t = %.2f s (step %lld): %zu bodies, the highest at %.2f m\n", frame->time,
                         static_cast<long long>(frame->step), frame->poses.size(), top);
+            // Crate 3 read back by id at this frame: pose, owner, properties.
+            if (const std::optional<soda::BodyAt> b = reader.body_at(frame->time, 3))
+              std::printf("  crate 3 at (%.2f, %.2f, %.2f) m in world %d: %.0f kg, friction %.2f, tag %llx\n",
+                          double(b->pose.position[0]), double(b->pose.position[1]), double(b->pose.position[2]),
+                          b->owner, b->mass, b->friction, static_cast<unsigned long long>(b->user_data));
           }
           // The player acts on the frame on screen: its time is the input's.
           std::vector<Action> now;
-          if (k == 60 || k == 90) now.push_back({Action::Kind::Spawn, frame->time, crate(next_id++, {0, 8, 0})});
-          if (k == 120) now.push_back({Action::Kind::Push, frame->time, {}, 3, soda::Vec3(200, 80, 0)});
+          if (k == 60 || k == 90) {
+            soda::Body spawned = crate(next_id, {0, 8, 0});
+            spawned.user_data = kSpawnedTag | next_id++;
+            now.push_back({Action::Kind::Spawn, frame->time, spawned});
+          }
+          if (k == 100) now.push_back({Action::Kind::Mass, frame->time, {}, 3, {}, 200.0});   // a heavy crate
+          if (k == 110) now.push_back({Action::Kind::Friction, frame->time, {}, 3, {}, 0.02});  // on ice
+          if (k == 115) now.push_back({Action::Kind::Tag, frame->time, {}, 3, {}, 0, 0xc0ffee});
+          if (k == 120) now.push_back({Action::Kind::Push, frame->time, {}, 3, soda::Vec3(2000, 800, 0)});
+          if (k == 130) now.push_back({Action::Kind::Restitution, frame->time, {}, 81, {}, 0.7});  // the plank
+          if (k == 150) now.push_back({Action::Kind::Gravity, frame->time, {}, 0, soda::Vec3(0, -2.0, 0)});
+          if (k == 210 + 30) now.push_back({Action::Kind::Gravity, frame->time, {}, 0, soda::Vec3(0, -9.81, 0)});
           if (k == 180) now.push_back({Action::Kind::Remove, frame->time, {}, 42});
           if (k == 210) {
             soda::Body box = crate(next_id++, {3, 10, 3});

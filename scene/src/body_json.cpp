@@ -116,7 +116,7 @@ Body parse_body(std::string where, const json& j) {
   ctx.where += " (id " + std::to_string(id) + ")";
   ctx.only_known(j, {"id", "type", "shape", "mass", "friction", "restitution", "position",
                      "orientation", "linear_velocity", "angular_velocity", "asleep", "collision_group",
-                     "collision_mask"});
+                     "collision_mask", "user_data"});
   const std::string type = ctx.string(j, "type", true, "");
   if (type != "static" && type != "dynamic") ctx.fail("type", "must be \"static\" or \"dynamic\"");
   b.is_static = type == "static";
@@ -142,6 +142,11 @@ Body parse_body(std::string where, const json& j) {
   }
   b.collision_group = filter_bits(ctx, j, "collision_group", b.collision_group);
   b.collision_mask = filter_bits(ctx, j, "collision_mask", b.collision_mask);
+  if (const json* u = ctx.find(j, "user_data", false)) {
+    if (!u->is_number_unsigned() && !(u->is_number_integer() && u->get<std::int64_t>() >= 0))
+      ctx.fail("user_data", "must be an integer in [0, 2^64)");
+    b.user_data = u->get<std::uint64_t>();
+  }
   return b;
 }
 
@@ -199,6 +204,7 @@ json body_json(const Body& b) {
   // as they were.
   if (b.collision_group != kDefaultCollisionGroup) jb["collision_group"] = b.collision_group;
   if (b.collision_mask != kAllCollisionGroups) jb["collision_mask"] = b.collision_mask;
+  if (b.user_data != 0) jb["user_data"] = b.user_data;  // absent: 0
   return jb;
 }
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -20,11 +21,29 @@ using detail::vec_json;
 constexpr const char* kInputsFormat = "soda-inputs";
 constexpr int kInputsVersion = 1;
 
+constexpr UserInput::Kind kAllKinds[] = {
+    UserInput::Kind::AddBody,     UserInput::Kind::RemoveBody,     UserInput::Kind::SetVelocity,
+    UserInput::Kind::ApplyImpulse, UserInput::Kind::SetGravity,    UserInput::Kind::SetMass,
+    UserInput::Kind::SetFriction, UserInput::Kind::SetRestitution, UserInput::Kind::SetUserData};
+
+// The file's field of a setter's value.
+const char* value_field(UserInput::Kind kind) {
+  switch (kind) {
+    case UserInput::Kind::SetMass: return "mass";
+    case UserInput::Kind::SetFriction: return "friction";
+    case UserInput::Kind::SetRestitution: return "restitution";
+    case UserInput::Kind::SetGravity: return "gravity";
+    case UserInput::Kind::SetUserData: return "user_data";
+    default: return "";
+  }
+}
+
 UserInput::Kind parse_kind(const Context& ctx, const std::string& name) {
-  for (UserInput::Kind k : {UserInput::Kind::AddBody, UserInput::Kind::RemoveBody, UserInput::Kind::SetVelocity,
-                            UserInput::Kind::ApplyImpulse})
+  for (UserInput::Kind k : kAllKinds)
     if (name == input_kind_name(k)) return k;
-  ctx.fail("type", "unknown input '" + name + "' (known: add_body, remove_body, set_velocity, apply_impulse)");
+  ctx.fail("type", "unknown input '" + name +
+                       "' (known: add_body, remove_body, set_velocity, apply_impulse, set_gravity, set_mass, "
+                       "set_friction, set_restitution, set_user_data)");
 }
 
 BodyId parse_id(const Context& ctx, const json& j) {
@@ -70,7 +89,31 @@ UserInput parse_input(const std::string& source, std::size_t index, const json& 
       in.id = parse_id(ctx, j);
       in.linear = finite_vec3(ctx, j, "impulse", true);
       break;
+    case UserInput::Kind::SetGravity:
+      ctx.only_known(j, {"type", "step", "gravity"});
+      in.linear = finite_vec3(ctx, j, "gravity", true);
+      break;
+    case UserInput::Kind::SetMass:
+    case UserInput::Kind::SetFriction:
+    case UserInput::Kind::SetRestitution: {
+      const char* field = value_field(in.kind);
+      ctx.only_known(j, {"type", "step", "id", field});
+      in.id = parse_id(ctx, j);
+      ctx.where += ": body " + std::to_string(in.id);
+      in.value = ctx.number(j, field, true, 0.0);
+      break;
+    }
+    case UserInput::Kind::SetUserData: {
+      ctx.only_known(j, {"type", "step", "id", "user_data"});
+      in.id = parse_id(ctx, j);
+      const json* u = ctx.find(j, "user_data", true);
+      if (!u->is_number_unsigned() && !(u->is_number_integer() && u->get<std::int64_t>() >= 0))
+        ctx.fail("user_data", "must be an integer in [0, 2^64)");
+      in.user_data = u->get<std::uint64_t>();
+      break;
+    }
   }
+  if (const std::string why = check_input_value(in); !why.empty()) ctx.fail(value_field(in.kind), why);
   return in;
 }
 
@@ -82,8 +125,39 @@ const char* input_kind_name(UserInput::Kind kind) {
     case UserInput::Kind::RemoveBody: return "remove_body";
     case UserInput::Kind::SetVelocity: return "set_velocity";
     case UserInput::Kind::ApplyImpulse: return "apply_impulse";
+    case UserInput::Kind::SetGravity: return "set_gravity";
+    case UserInput::Kind::SetMass: return "set_mass";
+    case UserInput::Kind::SetFriction: return "set_friction";
+    case UserInput::Kind::SetRestitution: return "set_restitution";
+    case UserInput::Kind::SetUserData: return "set_user_data";
   }
   return "unknown";
+}
+
+bool names_body(UserInput::Kind kind) { return kind != UserInput::Kind::AddBody && kind != UserInput::Kind::SetGravity; }
+
+std::string check_input_value(const UserInput& in) {
+  const auto got = [](double v) {
+    std::ostringstream s;
+    s << v;
+    return ", got " + s.str();
+  };
+  switch (in.kind) {
+    case UserInput::Kind::SetMass:
+      if (!(in.value > 0) || !std::isfinite(in.value)) return "mass must be > 0 and finite" + got(in.value);
+      break;
+    case UserInput::Kind::SetFriction:
+      if (!(in.value >= 0) || !std::isfinite(in.value)) return "friction must be >= 0 and finite" + got(in.value);
+      break;
+    case UserInput::Kind::SetRestitution:
+      if (!(in.value >= 0 && in.value <= 1)) return "restitution must be in [0, 1]" + got(in.value);
+      break;
+    case UserInput::Kind::SetGravity:
+      if (!in.linear.allFinite()) return "gravity must be finite numbers";
+      break;
+    default: break;
+  }
+  return {};
 }
 
 std::vector<UserInput> parse_inputs_json(const std::string& text, const std::string& source) {
@@ -145,6 +219,17 @@ std::string inputs_to_json(const std::vector<UserInput>& inputs) {
       case UserInput::Kind::ApplyImpulse:
         e["id"] = in.id;
         e["impulse"] = vec_json(in.linear);
+        break;
+      case UserInput::Kind::SetGravity: e["gravity"] = inputs_vec_json(in.linear); break;
+      case UserInput::Kind::SetMass:
+      case UserInput::Kind::SetFriction:
+      case UserInput::Kind::SetRestitution:
+        e["id"] = in.id;
+        e[value_field(in.kind)] = in.value;
+        break;
+      case UserInput::Kind::SetUserData:
+        e["id"] = in.id;
+        e["user_data"] = in.user_data;
         break;
     }
     list.push_back(std::move(e));

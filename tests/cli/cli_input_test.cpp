@@ -86,7 +86,12 @@ class CliInputs : public CliTest {
         "linear_velocity": [0, -2, 0]}},
       {"type": "set_velocity", "step": 60, "id": )" + p + R"(, "linear_velocity": [3, 4, 0],
         "angular_velocity": [0, 1, 0]},
-      {"type": "apply_impulse", "step": 70, "id": )" + a + R"(, "impulse": [-2, 0, 1]}
+      {"type": "apply_impulse", "step": 70, "id": )" + a + R"(, "impulse": [-2, 0, 1]},
+      {"type": "set_mass", "step": 80, "id": )" + a + R"(, "mass": 3.5},
+      {"type": "set_gravity", "step": 90, "gravity": [1, -9.81, 0]},
+      {"type": "set_friction", "step": 95, "id": )" + a + R"(, "friction": 0.1},
+      {"type": "set_restitution", "step": 95, "id": )" + a + R"(, "restitution": 0.5},
+      {"type": "set_user_data", "step": 100, "id": )" + a + R"(, "user_data": 12345678901234567890}
     ]})");
   }
   // The API: the calls an embedding application makes.
@@ -95,6 +100,11 @@ class CliInputs : public CliTest {
     sim.add_body(sim.time_of(40), cube());
     sim.set_velocity(sim.time_of(60), pushed_, soda::Vec3(3, 4, 0), soda::Vec3(0, 1, 0));
     sim.apply_impulse(sim.time_of(70), added_, soda::Vec3(-2, 0, 1));
+    sim.set_mass(sim.time_of(80), added_, 3.5);
+    sim.set_gravity(sim.time_of(90), soda::Vec3(1, -9.81, 0));
+    sim.set_friction(sim.time_of(95), added_, 0.1);
+    sim.set_restitution(sim.time_of(95), added_, 0.5);
+    sim.set_user_data(sim.time_of(100), added_, 12345678901234567890ull);
     sim.remove_body(sim.time_of(120), pushed_);
     EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
     return soda::hash_hex(sim.state_hash());
@@ -134,6 +144,12 @@ TEST_F(CliInputs, BadInputsNameTheFileTheEntryAndTheField) {
       "shape": {"type": "sphere", "radius": 0.5}, "position": [0, 30, 0]}})", "--territories 2", "is in use");
   refused(R"({"type": "add_body", "step": 5, "body": {"id": 5000, "type": "dynamic", "mass": 1e-300,
       "shape": {"type": "sphere", "radius": 0.5}, "position": [0, 30, 0]}})", "", "field 'mass'");
+  refused(R"({"type": "set_mass", "step": 5, "id": 1, "mass": -1})", "",
+          "input #0 (set_mass at step 5): body 1: field 'mass': mass must be > 0 and finite, got -1");
+  refused(R"({"type": "set_restitution", "step": 5, "id": 1, "restitution": 1.5})", "--territories 2",
+          "body 1: field 'restitution': restitution must be in [0, 1]");
+  refused(R"({"type": "set_friction", "step": 5, "id": 0, "friction": 0.2})", "",
+          "set the friction of body 0 at step 5: the body is static");
   const Outcome stock = run_cli(run_ + "--inputs " + inputs_file() + " --world stock");
   EXPECT_EQ(stock.exit_code, 2) << stock.output;
   EXPECT_NE(stock.output.find("--inputs runs the canonical world only"), std::string::npos) << stock.output;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "runtime/partitioned_test_util.h"
+#include "runtime/setter_plan.h"
 #include "soda/runtime/simulation.h"
 #include "soda/scene/registry.h"
 #include "step/validator.h"
@@ -164,6 +165,42 @@ TEST(PartitionedInputs, EveryKindGivesTheApiHash) {
       world.step(steps);
       EXPECT_EQ(hash_hex(world.state_hash()), api) << "K=" << k << " anticipation " << anticipation;
       EXPECT_EQ(world.body_count(), s.bodies.size() - 1);  // one added, two removed
+    }
+}
+
+// The setters (gravity, mass, friction, restitution, user data;
+// runtime/setter_plan.h) under SyncTest (every step restored and re-run)
+// and churn (cells ceded every 10 steps: bodies migrate with their new
+// properties), lockstep and speculating: the API's one-territory hash.
+TEST(PartitionedInputs, SettersUnderSyncTestAndChurnGiveTheApiHash) {
+  const Scene s = test::scene("falling-cubes", 80);
+  const std::vector<UserInput> inputs = test::setter_plan(s);
+  const int steps = 100;
+  const std::string api = hash_hex(simulation_hash(s, inputs, steps, 1));
+  const std::string none = hash_hex(simulation_hash(s, {}, steps, 1));
+  EXPECT_NE(api, none);
+  for (int k : {2, 4})
+    for (int anticipation : {0, 8}) {
+      PartitionedOptions o;
+      o.schedule = Schedule::ThreadPerWorld;
+      o.runtime.validate = true;
+      o.runtime.anticipation = anticipation;
+      o.sync_test = 1;
+      o.runtime.balance.policy = "churn";
+      o.runtime.balance.period = 10;
+      o.runtime.balance.seed = 7;
+      o.inputs = inputs;
+      PartitionedWorld world(s, make_partition("grid:" + std::to_string(k) + "x1x1", s, k, GridOptions{}), o);
+      world.step(steps);
+      const BalanceTotals t = balance_totals(world.balance_log());
+      std::printf("[ setters, falling-cubes 80, churn K=%d anticipation %d ] %lld bodies moved, %llu sync rollbacks; "
+                  "%s (API one territory %s)\n",
+                  k, anticipation, static_cast<long long>(t.bodies_moved),
+                  static_cast<unsigned long long>(world.sync_rollbacks()), hash_hex(world.state_hash()).c_str(),
+                  api.c_str());
+      EXPECT_GT(t.bodies_moved, 0);
+      EXPECT_EQ(world.sync_rollbacks(), static_cast<std::uint64_t>(steps));
+      EXPECT_EQ(hash_hex(world.state_hash()), api) << "K=" << k << " anticipation " << anticipation;
     }
 }
 

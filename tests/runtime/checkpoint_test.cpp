@@ -228,9 +228,9 @@ TEST(Checkpoint, TruncatedDamagedAndForeignFilesAreRefused) {
     expect_refused(flipped, "flip-" + std::to_string(at), length_field ? "truncated" : "damaged: the checksum");
   }
   // Another version (any later one keeps magic, version, precision first).
-  std::vector<std::uint8_t> v3 = good;
-  v3[8] = 4;
-  expect_refused(v3, "version-4", "format version 4; this build reads versions 1 to 3");
+  std::vector<std::uint8_t> later = good;
+  later[8] = 5;
+  expect_refused(later, "version-5", "format version 5; this build reads versions 1 to 4");
   // Another precision: the other build's btScalar size, the frame intact.
   std::vector<std::uint8_t> other = good;
   other[12] = sizeof(btScalar) == 8 ? 4 : 8;

@@ -1,6 +1,8 @@
 // Bullet objects <-> values (see body_factory.h).
 #include "body_factory.h"
 
+#include <cstring>
+
 #include <BulletCollision/CollisionDispatch/btCollisionWorld.h>
 
 #include "soda/worlds/bullet_bodies.h"
@@ -143,6 +145,25 @@ std::unique_ptr<btRigidBody> make_body_from_state(const Body& description, btCol
   rb.setDeactivationTime(s.deactivation_time);
   rb.setHitFraction(s.hit_fraction);
   return body;
+}
+
+void apply_material(btRigidBody& rb, const Body& description, const btVector3& gravity) {
+  if (!description.is_static) {
+    const btScalar mass = btScalar(description.mass);
+    btVector3 inertia(0, 0, 0);
+    rb.getCollisionShape()->calculateLocalInertia(mass, inertia);
+    rb.setMassProps(mass, inertia);
+    rb.updateInertiaTensor();
+    rb.setGravity(gravity);  // m_gravity = gravity * (1 / inverse mass), as addRigidBody leaves it
+  }
+  rb.setFriction(btScalar(description.friction));
+  rb.setRestitution(btScalar(description.restitution));
+}
+
+bool same_material(const Body& a, const Body& b) {
+  auto eq = [](double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; };
+  return eq(a.mass, b.mass) && eq(a.friction, b.friction) && eq(a.restitution, b.restitution) &&
+         a.user_data == b.user_data;
 }
 
 void write_dynamic_state(btRigidBody& rb, const BodyDynamicState& s) {

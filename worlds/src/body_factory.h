@@ -27,6 +27,18 @@ btTransform interpolation_transform_of(const BodyDynamicState& state);
 std::unique_ptr<btRigidBody> make_body_from_state(const Body& description, btCollisionShape& shape,
                                                   const BodyDynamicState& state);
 
+/// Gives an existing dynamic body the mass (inertia from its shape, as
+/// make_body_from_state computes it), friction and restitution of
+/// `description`, and re-applies `gravity` (the world's, as addRigidBody
+/// sets it: its weight follows the new mass). Afterwards the body is, bit
+/// for bit, what make_body_from_state(description, ...) plus addRigidBody
+/// would make of its state.
+void apply_material(btRigidBody& body, const Body& description, const btVector3& gravity);
+
+/// True if a and b have the same mass, friction, restitution and user
+/// data, bit for bit.
+bool same_material(const Body& a, const Body& b);
+
 /// Overwrites every field of a raw state on an existing body, activation state
 /// and timer included, and recomputes its world-space inertia from the new
 /// transform: afterwards the body is indistinguishable, for a step, from one

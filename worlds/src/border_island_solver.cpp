@@ -162,6 +162,10 @@ void BorderIslandSolver::place_bodies(const Gathered& g, SolverPool* pool, std::
       c->shape = make_collision_shape(b.description.shape);
       c->body = make_body_from_state(b.description, *c->shape, b.state);
       c->body->setUserIndex(static_cast<int>(b.description.id));
+      c->description = b.description;
+    } else if (!same_material(c->description, b.description)) {  // an input changed it at its owner
+      c->description = b.description;
+      apply_material(*c->body, b.description, btVector3(0, 0, 0));  // a copy is in no world: no gravity
     }
     bodies[i] = c->body.get();
   }

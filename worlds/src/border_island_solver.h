@@ -114,6 +114,7 @@ class BorderIslandSolver {
   struct Copy {
     std::unique_ptr<btCollisionShape> shape;
     std::unique_ptr<btRigidBody> body;
+    Body description;  // what the copy's mass, friction and restitution were made from
   };
   // One body of the island, its sort key beside it (comparing through the
   // pointers missed the cache at every step of the sort; this runs on the

@@ -2,6 +2,8 @@
 // old run solved alike, and writing (or checking) the old run's results.
 #include "island_replay.h"
 
+#include <cstring>
+
 #include <algorithm>
 #include <stdexcept>
 #include <string>
@@ -22,14 +24,19 @@ void IslandReplay::set(const StepReplay& replay) {
 
 // A pair whose contact state differs from the old run's, or that has
 // contact state in one run only, makes both its bodies dirty.
-void IslandReplay::mark_clean(const std::vector<btRigidBody*>& owned, const std::vector<ManifoldState>& contacts) {
+void IslandReplay::mark_clean(const std::vector<btRigidBody*>& owned, const std::vector<const Body*>& descriptions,
+                              const std::vector<ManifoldState>& contacts, const Vec3& gravity) {
   const WorldSnapshot& before = *replay_.before;
   clean_.clear();
+  const Vec3& old_gravity = before.settings.gravity;
+  const bool same_gravity = std::memcmp(old_gravity.data(), gravity.data(), 3 * sizeof(double)) == 0;
   auto b = before.bodies.begin();
-  for (btRigidBody* body : owned) {
+  for (std::size_t i = 0; i < owned.size(); ++i) {
+    btRigidBody* body = owned[i];
     const BodyId id = id_of(body);
     while (b != before.bodies.end() && b->description.id < id) ++b;
-    clean_.emplace_back(id, b != before.bodies.end() && b->description.id == id &&
+    clean_.emplace_back(id, same_gravity && b != before.bodies.end() && b->description.id == id &&
+                                same_material(*descriptions[i], b->description) &&
                                 same_bits(read_dynamic_state(*body), b->state));
   }
   std::sort(clean_.begin(), clean_.end());

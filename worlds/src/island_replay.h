@@ -3,8 +3,9 @@
 // verbs, in the order of the step:
 //
 //   mark_clean   before anything moves (predict): which owned bodies are
-//                clean — raw state and every contact they are in, at the
-//                step's start, equal to the old run's bit for bit
+//                clean — raw state, mass, friction and restitution and
+//                every contact they are in, at the step's start, equal to
+//                the old run's bit for bit, under the same gravity
 //   take         for each island about to be solved in place: if every body
 //                is clean and the old run solved an island of exactly these
 //                bodies, queue its bodies' and manifolds' old results
@@ -52,9 +53,13 @@ class IslandReplay {
   /// True while replayed bodies wait for finish().
   bool pending() const { return !bodies_.empty(); }
 
-  /// The owned bodies at the step's start, ascending id, and every contact
-  /// state of the world now (held and kept, by (id0, id1)).
-  void mark_clean(const std::vector<btRigidBody*>& owned, const std::vector<ManifoldState>& contacts);
+  /// The owned bodies at the step's start, ascending id, their descriptions
+  /// (same order), every contact state of the world now (held and kept, by
+  /// (id0, id1)) and the world's gravity now: an input may have changed a
+  /// body's material or the gravity at this boundary, which its raw state
+  /// does not show.
+  void mark_clean(const std::vector<btRigidBody*>& owned, const std::vector<const Body*>& descriptions,
+                  const std::vector<ManifoldState>& contacts, const Vec3& gravity);
   /// An island about to be solved in place: its bodies (ascending id) and
   /// the manifolds it holds (`held`'s island `island`, by key). True if it
   /// is replayed (invariant 1): queued for finish().

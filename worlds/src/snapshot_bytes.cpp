@@ -2,8 +2,9 @@
 //
 // Layout (little-endian, no padding): "SODAWSN1", u32 version, u32
 // sizeof(btScalar), settings, i64 steps_done, u32 body count, bodies, u32
-// manifold count, manifolds; version 2 (written only for a snapshot with
-// joints) then u32 joint count, joints. Every read is bounds-checked; counts are checked
+// manifold count, manifolds; version 6 (written only for a snapshot with
+// joints) then u32 joint count, joints. Bodies as write_body writes them
+// (collision filter, compound children, user data). Every read is bounds-checked; counts are checked
 // against the bytes left before anything is allocated.
 #include <algorithm>
 #include <bit>
@@ -22,9 +23,9 @@ namespace {
 
 constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'W', 'S', 'N', '1'};
 // 3 and 4: bodies carry their collision filter and compound children (1
-// and 2 before).
-constexpr std::uint32_t kVersion = 3;        // no joints
-constexpr std::uint32_t kJointsVersion = 4;  // with joints
+// and 2 before); 5 and 6: and their user data. Only these two are read.
+constexpr std::uint32_t kVersion = 5;        // no joints
+constexpr std::uint32_t kJointsVersion = 6;  // with joints
 constexpr std::size_t kMinJointBytes = 4 + 1 + 4 + 4 + 2 * 7 * 8 + 1 + 8 + 1 + 4 * 8 + 1 + 2 * 8 + 3 * 8 + 36 * 8 + 1;
 
 void write_joint(ByteWriter& w, const JointSnapshot& js) {
@@ -169,7 +170,7 @@ WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes) {
   }
   if (version == kJointsVersion) {
     const std::uint32_t nj = r.count(kMinJointBytes);
-    if (nj == 0) r.fail("a version 2 snapshot without joints");
+    if (nj == 0) r.fail("a version " + std::to_string(kJointsVersion) + " snapshot without joints");
     s.joints.reserve(nj);
     for (std::uint32_t i = 0; i < nj; ++i) {
       JointSnapshot j = read_joint(r);

@@ -199,8 +199,12 @@ void TerritoryWorld::set_replay(const StepReplay& replay) { parts_->replay.set(r
 // predict(), before anything moves: which owned bodies are clean.
 void TerritoryWorld::mark_clean() {
   std::vector<btRigidBody*> owned(owned_.size());
-  for (std::size_t i = 0; i < owned_.size(); ++i) owned[i] = owned_[i]->body.get();
-  parts_->replay.mark_clean(owned, kept_contact_state());
+  std::vector<const Body*> descriptions(owned_.size());
+  for (std::size_t i = 0; i < owned_.size(); ++i) {
+    owned[i] = owned_[i]->body.get();
+    descriptions[i] = &owned_[i]->description;
+  }
+  parts_->replay.mark_clean(owned, descriptions, kept_contact_state(), settings_.gravity);
 }
 
 // --- border islands (border_island_solver.h) ---------------------------------

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "safe_box.h"
+#include "soda/worlds/bullet_bodies.h"
 #include "territory_world_parts.h"
 
 namespace soda {
@@ -197,6 +198,10 @@ void TerritoryWorld::apply_ghosts(const std::vector<std::pair<WorldId, GhostBatc
                                ": ghost of body " + std::to_string(d.id) + " received from worlds " +
                                std::to_string(e->owner) + " and " + std::to_string(from));
         write_dynamic_state(*e->body, g.record.body.state);
+        if (!same_material(e->description, d)) {  // an input changed it at its owner
+          e->description = d;
+          apply_material(*e->body, d, to_bt(settings_.gravity));
+        }
         e->owner = from;
       } else if (speculative) {
         continue;

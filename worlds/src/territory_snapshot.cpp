@@ -140,6 +140,60 @@ bool TerritoryWorld::apply_impulse(BodyId id, const Vec3& impulse) {
   return true;
 }
 
+void TerritoryWorld::set_gravity(const Vec3& gravity) {
+  settings_.gravity = gravity;
+  quiet_ = -1;
+  const btVector3 g = to_bt(gravity);
+  // The world's, for bodies added later (addRigidBody), and every body's
+  // own: btDiscreteDynamicsWorld::setGravity skips inactive bodies, and a
+  // sleeper must wake with the gravity a body rebuilt from a snapshot or a
+  // migration gets.
+  parts_->world.setGravity(g);
+  for (const auto& [id, e] : entries_)
+    if (e->role != Role::Static) e->body->setGravity(g);
+}
+
+TerritoryWorld::Entry* TerritoryWorld::owned_for_input(BodyId id) {
+  auto it = entries_.find(id);
+  if (it == entries_.end() || it->second->role != Role::Owned) return nullptr;
+  unpark_for_input(*it->second);
+  quiet_ = -1;
+  return it->second.get();
+}
+
+// A property input: the description first (what every copy of the body
+// elsewhere is built from), then the Bullet body.
+bool TerritoryWorld::set_mass(BodyId id, double mass) {
+  Entry* e = owned_for_input(id);
+  if (!e) return false;
+  e->description.mass = mass;
+  apply_material(*e->body, e->description, to_bt(settings_.gravity));
+  return true;
+}
+
+bool TerritoryWorld::set_friction(BodyId id, double friction) {
+  Entry* e = owned_for_input(id);
+  if (!e) return false;
+  e->description.friction = friction;
+  apply_material(*e->body, e->description, to_bt(settings_.gravity));
+  return true;
+}
+
+bool TerritoryWorld::set_restitution(BodyId id, double restitution) {
+  Entry* e = owned_for_input(id);
+  if (!e) return false;
+  e->description.restitution = restitution;
+  apply_material(*e->body, e->description, to_bt(settings_.gravity));
+  return true;
+}
+
+bool TerritoryWorld::set_user_data(BodyId id, std::uint64_t user_data) {
+  Entry* e = owned_for_input(id);
+  if (!e) return false;
+  e->description.user_data = user_data;
+  return true;
+}
+
 bool TerritoryWorld::add_body(const Body& body) {
   if (body.is_static) throw PartitionError("TerritoryWorld::add_body: static bodies cannot be added to a running scene");
   if (body.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");

@@ -92,17 +92,19 @@ Quat read_quat(ByteReader& r) {
   return Quat(qw, qx, qy, qz);
 }
 
-// Kind, dimensions, hull points and (Current format) compound children.
-void write_shape(ByteWriter& w, const Shape& s) {
+// Kind, dimensions, hull points and (formats from WithoutUserData on)
+// compound children.
+void write_shape(ByteWriter& w, const Shape& s, BodyFormat format) {
   w.put(static_cast<std::uint8_t>(s.kind));
   w.vec3(s.half_extents);
   w.put(s.radius);
   w.put(s.height);
   w.put(static_cast<std::uint32_t>(s.points.size()));
   for (const Vec3& p : s.points) w.vec3(p);
+  if (format < BodyFormat::WithoutUserData) return;
   w.put(static_cast<std::uint32_t>(s.children.size()));
   for (const CompoundChild& c : s.children) {
-    write_shape(w, c.shape);
+    write_shape(w, c.shape, format);
     w.vec3(c.position);
     write_quat(w, c.orientation);
   }
@@ -113,7 +115,7 @@ Shape read_shape(ByteReader& r, BodyFormat format, bool in_compound) {
   const auto kind = r.get<std::uint8_t>();
   if (kind > static_cast<std::uint8_t>(ShapeKind::Compound)) r.fail("unknown shape kind");
   s.kind = static_cast<ShapeKind>(kind);
-  if (s.kind == ShapeKind::Compound && (in_compound || format < BodyFormat::Current))
+  if (s.kind == ShapeKind::Compound && (in_compound || format < BodyFormat::WithoutUserData))
     r.fail(in_compound ? "a compound inside a compound" : "a compound shape in a format without compounds");
   s.half_extents = r.vec3();
   s.radius = r.finite();
@@ -121,7 +123,7 @@ Shape read_shape(ByteReader& r, BodyFormat format, bool in_compound) {
   const std::uint32_t np = r.count(24);
   s.points.resize(np);
   for (Vec3& p : s.points) p = r.vec3();
-  if (format < BodyFormat::Current) return s;
+  if (format < BodyFormat::WithoutUserData) return s;
   const std::uint32_t nc = r.count(kMinChildBytes);
   if (nc > 0 && s.kind != ShapeKind::Compound) r.fail("children in a shape that is not a compound");
   if (s.kind == ShapeKind::Compound && nc == 0) r.fail("a compound without children");
@@ -136,17 +138,27 @@ Shape read_shape(ByteReader& r, BodyFormat format, bool in_compound) {
 
 }  // namespace
 
-void write_body(ByteWriter& w, const BodySnapshot& b) {
+std::string body_format_loss(const Body& d, BodyFormat format) {
+  if (format < BodyFormat::WithoutCompounds &&
+      (d.collision_group != kDefaultCollisionGroup || d.collision_mask != kAllCollisionGroups))
+    return "its collision filter";
+  if (format < BodyFormat::WithoutUserData && d.shape.kind == ShapeKind::Compound) return "its compound shape";
+  if (format < BodyFormat::Current && d.user_data != 0) return "its user data";
+  return "";
+}
+
+void write_body(ByteWriter& w, const BodySnapshot& b, BodyFormat format) {
   const Body& d = b.description;
   w.put(d.id);
   w.put(static_cast<std::uint8_t>(d.is_static));
-  write_shape(w, d.shape);
+  write_shape(w, d.shape, format);
   w.put(d.mass), w.put(d.friction), w.put(d.restitution);
   w.vec3(d.position);
   w.put(d.orientation.w()), w.put(d.orientation.x()), w.put(d.orientation.y()), w.put(d.orientation.z());
   w.vec3(d.linear_velocity);
   w.vec3(d.angular_velocity);
-  w.put(d.collision_group), w.put(d.collision_mask);
+  if (format >= BodyFormat::WithoutCompounds) w.put(d.collision_group), w.put(d.collision_mask);
+  if (format >= BodyFormat::Current) w.put(d.user_data);
   auto io = [&w](const auto& field) { w.put(field); };
   visit_state(io, b.state);
 }
@@ -170,6 +182,7 @@ BodySnapshot read_body(ByteReader& r, BodyFormat format) {
     d.collision_group = r.get<std::uint32_t>();
     d.collision_mask = r.get<std::uint32_t>();
   }
+  if (format >= BodyFormat::Current) d.user_data = r.get<std::uint64_t>();
   if (!d.is_static && !(d.mass > 0)) r.fail("dynamic body without positive mass");
   BodyDynamicState& s = b.state;
   r.get(s.basis), r.get(s.origin), r.get(s.interpolation_basis), r.get(s.interpolation_origin);
@@ -246,6 +259,7 @@ bool same_bits(const Body& a, const Body& b) {
   vec(a.linear_velocity, b.linear_velocity);
   vec(a.angular_velocity, b.angular_velocity);
   same(a.collision_group, b.collision_group), same(a.collision_mask, b.collision_mask);
+  same(a.user_data, b.user_data);
   return same.equal;
 }
 

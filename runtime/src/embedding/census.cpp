@@ -36,7 +36,40 @@ void Census::record(const UserInput& in) {
   } else if (in.kind == UserInput::Kind::RemoveBody) {
     // A scene body has first = 0 (default); an added one keeps its first.
     changed_[in.id].end = in.step + 1;
+  } else if (in.kind == UserInput::Kind::SetMass || in.kind == UserInput::Kind::SetFriction ||
+             in.kind == UserInput::Kind::SetRestitution || in.kind == UserInput::Kind::SetUserData) {
+    std::vector<UserInput>& list = property_changes_[in.id];
+    const auto key = [](const UserInput& i) { return std::make_pair(i.step, i.sequence); };
+    list.insert(std::upper_bound(list.begin(), list.end(), in,
+                                 [&](const UserInput& a, const UserInput& b) { return key(a) < key(b); }),
+                in);
   }
+}
+
+bool Census::properties(BodyId id, std::int64_t step, Body& out) const {
+  std::lock_guard lock(mutex_);
+  auto it = dynamics_.find(id);
+  if (it == dynamics_.end()) {
+    auto s = std::lower_bound(statics_.begin(), statics_.end(), id, [](const Body& b, BodyId i) { return b.id < i; });
+    if (s == statics_.end() || s->id != id) return false;
+    out = *s;
+    return true;
+  }
+  out = it->second;
+  auto changes = property_changes_.find(id);
+  if (changes == property_changes_.end()) return true;
+  // An input at boundary s is in frames s + 1 onwards.
+  for (const UserInput& in : changes->second) {
+    if (in.step >= step) break;
+    switch (in.kind) {
+      case UserInput::Kind::SetMass: out.mass = in.value; break;
+      case UserInput::Kind::SetFriction: out.friction = in.value; break;
+      case UserInput::Kind::SetRestitution: out.restitution = in.value; break;
+      case UserInput::Kind::SetUserData: out.user_data = in.user_data; break;
+      default: break;
+    }
+  }
+  return true;
 }
 
 bool Census::holds_locked(BodyId id, std::int64_t step) const {

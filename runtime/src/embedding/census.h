@@ -30,8 +30,9 @@ class Census {
  public:
   /// The scene's dynamic bodies are in every frame from step 0.
   explicit Census(const Scene& scene);
-  /// Takes an accepted AddBody or RemoveBody input into account (other
-  /// kinds change nobody's presence and are ignored).
+  /// Takes an accepted input into account: AddBody and RemoveBody change
+  /// presence, SetMass, SetFriction, SetRestitution and SetUserData a body's
+  /// properties; other kinds are ignored.
   void record(const UserInput& input);
   /// Number of dynamic bodies in the frame of `step`.
   std::size_t count_at(std::int64_t step) const;
@@ -45,6 +46,11 @@ class Census {
   const Body* description(BodyId id) const;
   /// The scene's static bodies (they never change), ascending id.
   const std::vector<Body>& statics() const { return statics_; }
+  /// Body `id` as the frame of `step` holds it: its description with the
+  /// mass, friction, restitution and user data that inputs at boundaries
+  /// before `step` gave it, in (step, sequence) order. Null (false) for an
+  /// unknown id. Presence at `step` is not checked.
+  bool properties(BodyId id, std::int64_t step, Body& out) const;
 
  private:
   struct Span {
@@ -60,6 +66,9 @@ class Census {
   std::map<BodyId, Span> changed_;       // bodies an input added or removed
   std::vector<Body> statics_;
   std::map<BodyId, Body> dynamics_;      // every dynamic body ever, by id (node-stable)
+  // Property inputs (set_mass, ..., set_user_data) by body, each list in
+  // (step, sequence) order.
+  std::map<BodyId, std::vector<UserInput>> property_changes_;
 };
 
 }  // namespace soda

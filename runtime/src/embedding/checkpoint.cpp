@@ -21,6 +21,7 @@
 
 #include "soda/runtime/simulation.h"
 #include "soda/scene/fnv1a.h"
+#include "soda/runtime/user_input.h"
 #include "soda/worlds/value_codec.h"
 
 namespace soda {
@@ -48,29 +49,59 @@ T load(const std::vector<std::uint8_t>& bytes, std::size_t at) {
   throw CheckpointError("checkpoint " + source + ": " + why);
 }
 
+// The first version whose inputs have a value and user data, and kinds
+// after apply_impulse.
+constexpr std::uint32_t kSettersVersion = 4;
+
+// The newest input kind a version knows.
+UserInput::Kind last_kind(std::uint32_t version) {
+  return version >= kSettersVersion ? UserInput::Kind::SetUserData : UserInput::Kind::ApplyImpulse;
+}
+
+// How a version writes a body record: 1 without a collision filter, 2
+// without compound children, 3 without user data.
+BodyFormat body_format(std::uint32_t version) {
+  switch (version) {
+    case 1: return BodyFormat::WithoutFilter;
+    case 2: return BodyFormat::WithoutCompounds;
+    case 3: return BodyFormat::WithoutUserData;
+    default: return BodyFormat::Current;
+  }
+}
+
 // Input records: u8 kind, i64 step, u32 id, linear and angular as 3 f64 each;
-// an added body's record (write_body, its raw state unused) follows.
-void write_input(ByteWriter& w, const UserInput& in) {
+// from version 4: f64 value, u64 user data; an added body's record
+// (write_body, its raw state unused) follows.
+void write_input(ByteWriter& w, const UserInput& in, std::uint32_t version) {
   w.put(static_cast<std::uint8_t>(in.kind));
   w.put(in.step);
   w.put(in.id);
   w.vec3(in.linear);
   w.vec3(in.angular);
-  if (in.kind == UserInput::Kind::AddBody) write_body(w, BodySnapshot{in.body, BodyDynamicState{}});
+  if (version >= kSettersVersion) w.put(in.value), w.put(in.user_data);
+  if (in.kind == UserInput::Kind::AddBody)
+    write_body(w, BodySnapshot{in.body, BodyDynamicState{}}, body_format(version));
 }
 
-UserInput read_input(ByteReader& r, BodyFormat format) {
+UserInput read_input(ByteReader& r, std::uint32_t version) {
   UserInput in;
   const auto kind = r.get<std::uint8_t>();
-  if (kind > static_cast<std::uint8_t>(UserInput::Kind::ApplyImpulse)) r.fail("unknown input kind");
+  if (kind > static_cast<std::uint8_t>(last_kind(version)))
+    r.fail("unknown input kind " + std::to_string(kind) + " for version " + std::to_string(version));
   in.kind = static_cast<UserInput::Kind>(kind);
   in.step = r.get<std::int64_t>();
   in.id = r.get<BodyId>();
   if (in.id > kMaxBodyId) r.fail("input naming a body id above kMaxBodyId");
   in.linear = r.vec3();
   in.angular = r.vec3();
+  if (version >= kSettersVersion) {
+    in.value = r.get<double>();
+    in.user_data = r.get<std::uint64_t>();
+    if (const std::string why = check_input_value(in); !why.empty())
+      r.fail("an input to " + describe(in) + ": " + why);
+  }
   if (in.kind == UserInput::Kind::AddBody) {
-    in.body = read_body(r, format).description;
+    in.body = read_body(r, body_format(version)).description;
     if (in.body.is_static) r.fail("an input adding a static body");
   }
   return in;
@@ -125,9 +156,24 @@ CheckpointHeader check_frame(const std::vector<std::uint8_t>& bytes, const std::
 }  // namespace
 
 std::vector<std::uint8_t> encode_checkpoint(const SimulationSnapshot& snapshot) {
+  return encode_checkpoint(snapshot, kCheckpointVersion);
+}
+
+std::vector<std::uint8_t> encode_checkpoint(const SimulationSnapshot& snapshot, std::uint32_t version) {
+  if (version < kOldestCheckpointVersion || version > kCheckpointVersion)
+    throw CheckpointError("encode_checkpoint: no checkpoint format version " + std::to_string(version));
   const WorldSnapshot& s = snapshot.state;
+  const BodyFormat format = body_format(version);
+  const std::string cannot = "encode_checkpoint: version " + std::to_string(version) + " cannot hold ";
+  for (const BodySnapshot& b : s.bodies)
+    if (const std::string what = body_format_loss(b.description, format); !what.empty())
+      throw CheckpointError(cannot + "body " + std::to_string(b.description.id) + " (" + what + ")");
+  for (const UserInput& in : snapshot.inputs)
+    if (in.kind > last_kind(version) ||
+        (in.kind == UserInput::Kind::AddBody && !body_format_loss(in.body, format).empty()))
+      throw CheckpointError(cannot + "the input to " + describe(in));
   ByteWriter w;
-  write_header(w, kCheckpointMagic, kCheckpointVersion);
+  write_header(w, kCheckpointMagic, version);
   w.put(s.steps_done);
   w.count(s.bodies.size());
   w.count(s.manifolds.size());
@@ -137,9 +183,9 @@ std::vector<std::uint8_t> encode_checkpoint(const SimulationSnapshot& snapshot) 
   w.put(s.settings.dt), w.put(s.settings.substeps), w.put(s.settings.iterations);
   w.vec3(s.settings.gravity);
   w.put(s.settings.steps);
-  for (const BodySnapshot& b : s.bodies) write_body(w, b);
+  for (const BodySnapshot& b : s.bodies) write_body(w, b, format);
   for (const ManifoldState& m : s.manifolds) write_manifold(w, m);
-  for (const UserInput& in : snapshot.inputs) write_input(w, in);
+  for (const UserInput& in : snapshot.inputs) write_input(w, in, version);
   for (BodyId id : snapshot.retired_ids) w.put(id);
   const std::uint64_t length = w.bytes.size() - kHeaderBytes;
   std::memcpy(w.bytes.data() + 40, &length, sizeof length);
@@ -155,9 +201,7 @@ SimulationSnapshot decode_checkpoint(const std::vector<std::uint8_t>& bytes, con
   const CheckpointHeader h = check_frame(bytes, source);
   ByteReader r(bytes, "checkpoint " + source, raise_checkpoint_error);
   for (std::size_t i = 0; i < kHeaderBytes; ++i) r.get<std::uint8_t>();  // checked above
-  const BodyFormat format = h.version >= 3   ? BodyFormat::Current
-                            : h.version == 2 ? BodyFormat::WithoutCompounds
-                                             : BodyFormat::WithoutFilter;
+  const BodyFormat format = body_format(h.version);
   SimulationSnapshot out;
   WorldSnapshot& s = out.state;
   s.steps_done = h.step;
@@ -187,7 +231,7 @@ SimulationSnapshot decode_checkpoint(const std::vector<std::uint8_t>& bytes, con
     s.manifolds.push_back(std::move(m));
   }
   for (std::uint32_t i = 0; i < h.inputs; ++i) {
-    UserInput in = read_input(r, format);
+    UserInput in = read_input(r, h.version);
     if (in.step < h.step) r.fail("an input at step " + std::to_string(in.step) + ", before the checkpoint's step");
     if (!out.inputs.empty() && in.step < out.inputs.back().step) r.fail("inputs not in step order");
     in.sequence = i;

@@ -29,6 +29,10 @@ void InputLedger::check(const UserInput& in) const {
     }
     return;
   }
+  if (in.kind == UserInput::Kind::SetGravity) {
+    if (const std::string why = check_input_value(in); !why.empty()) throw std::invalid_argument(what + ": " + why);
+    return;
+  }
   auto it = lives_.find(in.id);
   if (it == lives_.end()) throw std::invalid_argument(what + ": no body has that id");
   const Life& life = it->second;
@@ -44,9 +48,11 @@ void InputLedger::check(const UserInput& in) const {
     throw std::invalid_argument(what + ": the body has an input at the later step " + std::to_string(life.last_input));
   if (!in.linear.allFinite() || !in.angular.allFinite())
     throw std::invalid_argument(what + ": velocities and impulses must be finite");
+  if (const std::string why = check_input_value(in); !why.empty()) throw std::invalid_argument(what + ": " + why);
 }
 
 void InputLedger::record(const UserInput& in) {
+  if (in.kind == UserInput::Kind::SetGravity) return;  // names no body
   const BodyId id = in.kind == UserInput::Kind::AddBody ? in.body.id : in.id;
   Life& life = lives_[id];
   if (in.kind == UserInput::Kind::AddBody) life.added = in.step;

@@ -202,6 +202,42 @@ std::optional<SceneFrame> SceneReader::read(double time, bool wait) {
 
 std::optional<SceneFrame> SceneReader::read_at(double time) { return read(time, true); }
 
+std::optional<BodyAt> SceneReader::properties(std::int64_t step, BodyId id) const {
+  Body d;
+  if (!core_ || !core_->census.properties(id, step, d)) return std::nullopt;
+  BodyAt out;
+  out.step = step;
+  out.time = core_->time_of(step);
+  out.pose.id = id;
+  out.mass = d.mass;
+  out.friction = d.friction;
+  out.restitution = d.restitution;
+  out.user_data = d.user_data;
+  return out;
+}
+
+namespace {
+
+std::optional<BodyAt> body_of(const SceneReader& reader, const std::optional<SceneFrame>& frame, BodyId id) {
+  if (!frame) return std::nullopt;
+  const ScenePose* pose = frame->find(id);
+  if (!pose) return std::nullopt;
+  std::optional<BodyAt> out = reader.properties(frame->step, id);
+  if (!out) return std::nullopt;
+  out->time = frame->time;
+  out->pose = *pose;
+  out->owner = frame->owners[static_cast<std::size_t>(pose - frame->poses.data())];
+  return out;
+}
+
+}  // namespace
+
+std::optional<BodyAt> SceneReader::body_at(double time, BodyId id) { return body_of(*this, read(time, true), id); }
+
+std::optional<BodyAt> SceneReader::try_body_at(double time, BodyId id) {
+  return body_of(*this, read(time, false), id);
+}
+
 std::optional<SceneFrame> SceneReader::try_read_at(double time) { return read(time, false); }
 
 std::optional<SceneSample> SceneReader::interpolate(double time) {

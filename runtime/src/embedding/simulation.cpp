@@ -122,6 +122,45 @@ void Simulation::apply_impulse(double time, BodyId id, const Vec3& impulse) {
   engine_->input(in);
 }
 
+void Simulation::set_gravity(double time, const Vec3& gravity) {
+  UserInput in;
+  in.kind = UserInput::Kind::SetGravity;
+  in.step = engine_->core->step_at(time);
+  in.linear = gravity;
+  engine_->input(in);
+}
+
+namespace {
+
+UserInput body_value(UserInput::Kind kind, std::int64_t step, BodyId id, double value) {
+  UserInput in;
+  in.kind = kind;
+  in.step = step;
+  in.id = id;
+  in.value = value;
+  return in;
+}
+
+}  // namespace
+
+void Simulation::set_mass(double time, BodyId id, double mass) {
+  engine_->input(body_value(UserInput::Kind::SetMass, engine_->core->step_at(time), id, mass));
+}
+
+void Simulation::set_friction(double time, BodyId id, double friction) {
+  engine_->input(body_value(UserInput::Kind::SetFriction, engine_->core->step_at(time), id, friction));
+}
+
+void Simulation::set_restitution(double time, BodyId id, double restitution) {
+  engine_->input(body_value(UserInput::Kind::SetRestitution, engine_->core->step_at(time), id, restitution));
+}
+
+void Simulation::set_user_data(double time, BodyId id, std::uint64_t user_data) {
+  UserInput in = body_value(UserInput::Kind::SetUserData, engine_->core->step_at(time), id, 0.0);
+  in.user_data = user_data;
+  engine_->input(in);
+}
+
 BodyId Simulation::give(const UserInput& input) {
   const double time = time_of(input.step);
   switch (input.kind) {
@@ -129,6 +168,11 @@ BodyId Simulation::give(const UserInput& input) {
     case UserInput::Kind::RemoveBody: remove_body(time, input.id); break;
     case UserInput::Kind::SetVelocity: set_velocity(time, input.id, input.linear, input.angular); break;
     case UserInput::Kind::ApplyImpulse: apply_impulse(time, input.id, input.linear); break;
+    case UserInput::Kind::SetGravity: set_gravity(time, input.linear); break;
+    case UserInput::Kind::SetMass: set_mass(time, input.id, input.value); break;
+    case UserInput::Kind::SetFriction: set_friction(time, input.id, input.value); break;
+    case UserInput::Kind::SetRestitution: set_restitution(time, input.id, input.value); break;
+    case UserInput::Kind::SetUserData: set_user_data(time, input.id, input.user_data); break;
   }
   return input.id;
 }

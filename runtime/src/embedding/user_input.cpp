@@ -9,6 +9,11 @@ std::string describe(const UserInput& input) {
     case UserInput::Kind::RemoveBody: return "remove body " + std::to_string(input.id) + at;
     case UserInput::Kind::SetVelocity: return "set the velocity of body " + std::to_string(input.id) + at;
     case UserInput::Kind::ApplyImpulse: return "impulse on body " + std::to_string(input.id) + at;
+    case UserInput::Kind::SetGravity: return "set the gravity" + at;
+    case UserInput::Kind::SetMass: return "set the mass of body " + std::to_string(input.id) + at;
+    case UserInput::Kind::SetFriction: return "set the friction of body " + std::to_string(input.id) + at;
+    case UserInput::Kind::SetRestitution: return "set the restitution of body " + std::to_string(input.id) + at;
+    case UserInput::Kind::SetUserData: return "set the user data of body " + std::to_string(input.id) + at;
   }
   return "input" + at;
 }

@@ -55,7 +55,8 @@ void PartitionedWorld::Process::rewind(TerritoryWorld& world, std::int64_t scene
 
 // Inputs at this boundary, in sequence order; each world applies those that
 // concern its territory (the owner of a body, the owner of a new body's home
-// cell), so that exactly one world applies each.
+// cell), so that exactly one world applies each; a gravity change concerns
+// every world, and each applies it at the same boundary.
 void PartitionedWorld::Process::apply_inputs() {
   for (const UserInput& in : output_.inputs->at(s_.step / substeps_)) {
     switch (in.kind) {
@@ -63,6 +64,11 @@ void PartitionedWorld::Process::apply_inputs() {
       case UserInput::Kind::RemoveBody: s_.world->remove_body(in.id); break;
       case UserInput::Kind::SetVelocity: s_.world->set_velocity(in.id, in.linear, in.angular); break;
       case UserInput::Kind::ApplyImpulse: s_.world->apply_impulse(in.id, in.linear); break;
+      case UserInput::Kind::SetGravity: s_.world->set_gravity(in.linear); break;  // every world
+      case UserInput::Kind::SetMass: s_.world->set_mass(in.id, in.value); break;
+      case UserInput::Kind::SetFriction: s_.world->set_friction(in.id, in.value); break;
+      case UserInput::Kind::SetRestitution: s_.world->set_restitution(in.id, in.value); break;
+      case UserInput::Kind::SetUserData: s_.world->set_user_data(in.id, in.user_data); break;
     }
   }
 }

@@ -60,6 +60,21 @@ struct SceneFrame {
   const ScenePose* find(BodyId id) const;
 };
 
+/// What an application reads back of one body at one committed step
+/// (SceneReader::body_at): its pose and velocities from the frame, the
+/// world that owned it, and the properties inputs gave it. The same for
+/// any number of territories.
+struct BodyAt {
+  std::int64_t step = 0;     // the frame's scene step
+  double time = 0.0;         // step * dt, seconds
+  ScenePose pose;            // as SceneFrame::find(id) gives it, bit for bit
+  WorldId owner = kNoWorld;  // the world whose entry held it
+  double mass = 0.0;         // kg, as the scene or set_mass gave it before `step`
+  double friction = 0.0;     // as the scene or set_friction gave it before `step`
+  double restitution = 0.0;  // as the scene or set_restitution gave it before `step`
+  std::uint64_t user_data = 0;  // Body::user_data, as set_user_data gave it before `step`
+};
+
 struct SimulationCore;  // internal, shared by a Simulation and its readers
 
 /// A cursor into every world's transform buffer (one reader per buffer),
@@ -111,6 +126,23 @@ class SceneReader {
   /// it holds the horizon at the later frame (give inputs at its time).
   /// nullopt and errors as read_at. Reader's thread.
   std::optional<SceneSample> interpolate(double time);
+
+  /// One body at the closest step at or before `time`: read_at(time) (it
+  /// waits, moves the cursor and holds the horizon as read_at does) and
+  /// that body of the frame, with its properties at that step. nullopt as
+  /// read_at, and when `id` is not a dynamic body of the scene at that
+  /// step. Costs a frame's assembly (O(bodies)): to read many bodies of one
+  /// step, read the frame and call properties(). Reader's thread.
+  ///   if (auto b = reader.body_at(2.0, 17)) aim_at(b->pose.position, b->user_data);
+  std::optional<BodyAt> body_at(double time, BodyId id);
+  /// As body_at, but never waits (try_read_at). Reader's thread.
+  std::optional<BodyAt> try_body_at(double time, BodyId id);
+  /// The mass, friction, restitution and user data body `id` has in the
+  /// frame of `step` (inputs at boundaries before `step`), in a BodyAt
+  /// whose step is `step` and pose and owner are left default; nullopt for an id the
+  /// run never had. Exact for any step the frame exists; never waits. Any
+  /// thread.
+  std::optional<BodyAt> properties(std::int64_t step, BodyId id) const;
 
   /// Step of the last frame this reader returned; -1 before its first read.
   /// Reader's thread.

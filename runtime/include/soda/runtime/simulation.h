@@ -243,8 +243,9 @@ class Simulation {
   // each takes on its own thread, nobody held. An input older than
   // the commit horizon (commit_horizon_step()) is refused. Errors:
   // std::invalid_argument naming the body and the step (unknown or reused
-  // id, a body not present at that step, a bad body, a step too old or past
-  // steps without past_inputs), SimulationError if a world failed,
+  // id, a body not present at that step or static, a bad body, a value out
+  // of range: the message names the field, a step too old or past steps
+  // without past_inputs); nothing of a refused input is applied, SimulationError if a world failed,
   // std::logic_error after stop().
 
   /// Adds a dynamic body; body.id must be an id never used in this run.
@@ -256,6 +257,26 @@ class Simulation {
   void set_velocity(double time, BodyId id, const Vec3& linear, const Vec3& angular = Vec3::Zero());
   /// Gives a dynamic body an impulse (N s) at its centre and wakes it.
   void apply_impulse(double time, BodyId id, const Vec3& impulse);
+  /// Sets the scene's gravity (m/s^2) from the next step on, in every world
+  /// at the same step: awake bodies feel it at once, sleepers when they
+  /// wake (it wakes nobody). Snapshots and checkpoints carry it. A stronger
+  /// gravity than the scene's may take bodies beyond the run's reach
+  /// (SimulationConfig::runtime's reach speed): that fails the run with a
+  /// PartitionError naming the body, as any too fast body does. Refused:
+  /// a non-finite vector.
+  void set_gravity(double time, const Vec3& gravity);
+  /// Sets a dynamic body's mass (kg; > 0 and finite), its inertia following
+  /// from its shape, from the next step on. Does not wake it.
+  void set_mass(double time, BodyId id, double mass);
+  /// Sets a dynamic body's friction coefficient (>= 0 and finite): contacts
+  /// take it at their next narrowphase. Does not wake it.
+  void set_friction(double time, BodyId id, double friction);
+  /// Sets a dynamic body's restitution coefficient (in [0, 1]), as
+  /// set_friction.
+  void set_restitution(double time, BodyId id, double restitution);
+  /// Sets a dynamic body's user data (Body::user_data): frames from the next
+  /// step on read it (SceneReader::body_at); no physics reads it.
+  void set_user_data(double time, BodyId id, std::uint64_t user_data);
   /// The call for `input`'s kind at time_of(input.step): an input record
   /// as an input file or input_log() holds it (user_input.h), given as the
   /// calls above give it, with their errors. Returns the body's id.

@@ -1,6 +1,7 @@
 // The input file format (`soda-inputs`, docs/inputs.md): a script of user
 // inputs — add a body, remove one, set a body's velocity, give it an
-// impulse — each at a scene step boundary, which `soda run --inputs FILE`
+// impulse, change the scene's gravity, a body's mass, friction, restitution
+// or user data — each at a scene step boundary, which `soda run --inputs FILE`
 // replays through the same calls as the embedding API
 // (soda::Simulation::add_body, ...), so the run ends on the same hash as the
 // API and as one territory.
@@ -16,20 +17,39 @@ namespace soda {
 
 /// One user input (runtime/user_input.h, the embedding API's Simulation).
 struct UserInput {
-  enum class Kind { AddBody, RemoveBody, SetVelocity, ApplyImpulse };
+  /// The order is the checkpoint encoding (docs/checkpoints.md): new kinds
+  /// go at the end.
+  enum class Kind {
+    AddBody,
+    RemoveBody,
+    SetVelocity,
+    ApplyImpulse,
+    SetGravity,      // the scene's gravity, in every world (no body)
+    SetMass,         // a dynamic body's mass (kg, > 0)
+    SetFriction,     // a body's friction coefficient (>= 0)
+    SetRestitution,  // a body's restitution coefficient (in [0, 1])
+    SetUserData,     // a body's user data (Body::user_data)
+  };
   Kind kind = Kind::SetVelocity;
   /// Applied at the boundary after scene step `step` (0: before the first
   /// step), before step + 1 begins.
   std::int64_t step = 0;
   std::uint64_t sequence = 0;  // call order; ties at one step resolve by it
   Body body;                   // AddBody: the new body (its id must be unused)
-  BodyId id = 0;               // RemoveBody, SetVelocity, ApplyImpulse
-  Vec3 linear = Vec3::Zero();  // SetVelocity: linear velocity; ApplyImpulse: impulse (N s) at the centre
+  BodyId id = 0;               // every kind but AddBody and SetGravity
+  Vec3 linear = Vec3::Zero();  // SetVelocity: linear velocity; ApplyImpulse: impulse (N s) at the centre;
+                               // SetGravity: the gravity (m/s^2)
   Vec3 angular = Vec3::Zero(); // SetVelocity: angular velocity
+  double value = 0.0;          // SetMass: mass; SetFriction: friction; SetRestitution: restitution
+  std::uint64_t user_data = 0; // SetUserData
 };
 
-/// "add_body" | "remove_body" | "set_velocity" | "apply_impulse", the
-/// names the file uses.
+/// True for the kinds that name a body by `id` (all but AddBody and SetGravity).
+bool names_body(UserInput::Kind kind);
+
+/// "add_body" | "remove_body" | "set_velocity" | "apply_impulse" |
+/// "set_gravity" | "set_mass" | "set_friction" | "set_restitution" |
+/// "set_user_data", the names the file uses.
 const char* input_kind_name(UserInput::Kind kind);
 
 /// Reads an input file. Returns its inputs sorted by step (stable: inputs of
@@ -38,9 +58,17 @@ const char* input_kind_name(UserInput::Kind kind);
 /// Throws SceneError naming the file, the entry (index, kind and step) and
 /// the field for: unreadable file, malformed JSON, wrong format or version,
 /// missing, mistyped or unknown fields, a negative step, non-finite numbers,
-/// an added body that is not a valid dynamic body (scene-format rules). Ids
+/// an added body that is not a valid dynamic body (scene-format rules), a
+/// value out of range (check_input_value). Ids
 /// are checked against the scene by the run (Simulation's input calls).
 std::vector<UserInput> load_input_file(const std::string& path);
+
+/// The range check of a set_mass, set_friction, set_restitution or
+/// set_gravity input's value (mass > 0 and finite, friction >= 0 and finite,
+/// restitution in [0, 1], gravity finite): empty when it holds, else the
+/// reason, naming the field ("mass must be > 0 and finite, got -1"). Other
+/// kinds: empty. Shared by the input file reader and the Simulation's calls.
+std::string check_input_value(const UserInput& input);
 
 /// As load_input_file, from JSON text; `source` names it in messages.
 std::vector<UserInput> parse_inputs_json(const std::string& text, const std::string& source);

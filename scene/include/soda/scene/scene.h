@@ -108,6 +108,12 @@ struct Body {
   /// touch. The defaults let a body touch every other one.
   std::uint32_t collision_group = kDefaultCollisionGroup;
   std::uint32_t collision_mask = kAllCollisionGroups;
+  /// The application's own tag for the body (an entity handle, an index):
+  /// carried with the body wherever it goes (ghosts, migrations, snapshots,
+  /// checkpoints) and readable at any step (SceneReader::body_at); no physics
+  /// reads it and the state hash does not cover it. Set at creation or by
+  /// input (Simulation::set_user_data).
+  std::uint64_t user_data = 0;
 
   /// Half extents of the world-frame AABB of the body at its initial pose.
   Vec3 aabb_half_extents() const;

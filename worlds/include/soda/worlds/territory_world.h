@@ -300,6 +300,17 @@ class TerritoryWorld {
   /// Input at a step boundary: gives an owned body an impulse at its centre
   /// and wakes it. False if the body is not owned here.
   bool apply_impulse(BodyId id, const Vec3& impulse);
+  /// Input at a step boundary, in every world: the scene's gravity from the
+  /// next step on (every body here, parked ones included, and snapshots).
+  void set_gravity(const Vec3& gravity);
+  /// Input at a step boundary: an owned body's mass (its inertia from its
+  /// shape), friction, restitution or user data, in its description (what
+  /// ghosts, migrants and snapshots carry) and in Bullet. Does not wake it.
+  /// False if the body is not owned here. The caller checks the value.
+  bool set_mass(BodyId id, double mass);
+  bool set_friction(BodyId id, double friction);
+  bool set_restitution(BodyId id, double restitution);
+  bool set_user_data(BodyId id, std::uint64_t user_data);
   /// Input at a step boundary: adds a dynamic body (as the scene constructor
   /// would) if the map gives its home cell to this world; true if it did.
   /// Throws PartitionError if the id is present here.
@@ -351,6 +362,9 @@ class TerritoryWorld {
   void park_settled_islands();
   void wake_parked();
   void unpark_for_input(Entry& e);
+  /// The owned entry of `id` for a property input, back from parking; null
+  /// if not owned here.
+  Entry* owned_for_input(BodyId id);
   void return_parked(btRigidBody* body);  // ParkingLink
   void forget_parked();                   // ParkingLink
   /// owned_ and parked_, by id.

@@ -92,14 +92,18 @@ inline constexpr std::size_t kMinManifoldBytes = 4 + 4 + 4;
 /// A compound's child: its shape (kind, dimensions, counts) and pose.
 inline constexpr std::size_t kMinChildBytes = 1 + 8 * 5 + 4 + 4 + 8 * 7;
 
-/// A body: description (shape, mass, friction, ..., collision filter) and
-/// raw state.
-void write_body(ByteWriter& w, const BodySnapshot& body);
-/// How a body record was written, oldest first: WithoutFilter (no
+/// How a body record is written, oldest first: WithoutFilter (no
 /// collision group and mask: the body reads back with the default filter),
-/// WithoutCompounds (no child count after the hull points), Current
-/// (write_body).
-enum class BodyFormat { WithoutFilter, WithoutCompounds, Current };
+/// WithoutCompounds (no child count after the hull points), WithoutUserData
+/// (no user data after the collision filter: it reads back as 0), Current.
+enum class BodyFormat { WithoutFilter, WithoutCompounds, WithoutUserData, Current };
+/// A body: description (shape, mass, friction, ..., collision filter, user
+/// data) and raw state. An older `format` leaves out what it has no field
+/// for; the caller checks that the body needs none of it (body_format_loss).
+void write_body(ByteWriter& w, const BodySnapshot& body, BodyFormat format = BodyFormat::Current);
+/// What of `body` `format` cannot hold ("" if nothing): a collision filter
+/// other than the default, a compound shape, user data other than 0.
+std::string body_format_loss(const Body& body, BodyFormat format);
 /// Checks ids, flags, shape kind, finite description numbers, activation state.
 BodySnapshot read_body(ByteReader& r, BodyFormat format = BodyFormat::Current);
 
