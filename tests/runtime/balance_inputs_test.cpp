@@ -173,7 +173,7 @@ TEST(PartitionedInputs, EveryKindGivesTheApiHash) {
 // and churn (cells ceded every 10 steps: bodies migrate with their new
 // properties), lockstep and speculating: the API's one-territory hash.
 TEST(PartitionedInputs, SettersUnderSyncTestAndChurnGiveTheApiHash) {
-  const Scene s = test::scene("falling-cubes", 80);
+  const Scene s = test::scene("cube-pile", 120);  // a pile across the borders: ghosts live through the changes
   const std::vector<UserInput> inputs = test::setter_plan(s);
   const int steps = 100;
   const std::string api = hash_hex(simulation_hash(s, inputs, steps, 1));
@@ -190,10 +190,10 @@ TEST(PartitionedInputs, SettersUnderSyncTestAndChurnGiveTheApiHash) {
       o.runtime.balance.period = 10;
       o.runtime.balance.seed = 7;
       o.inputs = inputs;
-      PartitionedWorld world(s, make_partition("grid:" + std::to_string(k) + "x1x1", s, k, GridOptions{}), o);
+      PartitionedWorld world(s, make_partition("kmeans", s, k, GridOptions{}), o);
       world.step(steps);
       const BalanceTotals t = balance_totals(world.balance_log());
-      std::printf("[ setters, falling-cubes 80, churn K=%d anticipation %d ] %lld bodies moved, %llu sync rollbacks; "
+      std::printf("[ setters, cube-pile 120, churn K=%d anticipation %d ] %lld bodies moved, %llu sync rollbacks; "
                   "%s (API one territory %s)\n",
                   k, anticipation, static_cast<long long>(t.bodies_moved),
                   static_cast<unsigned long long>(world.sync_rollbacks()), hash_hex(world.state_hash()).c_str(),

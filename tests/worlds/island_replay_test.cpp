@@ -67,6 +67,15 @@ struct Fixture {
     islands.ids = {1, 2, 3, 4};
     islands.begin = {0, 2, 3, 4};
   }
+  /// The bodies' descriptions now: the old run's unless a test changes one.
+  std::vector<Body> now;
+  std::vector<const Body*> descriptions() {
+    if (now.empty())
+      for (const BodySnapshot& b : before.bodies) now.push_back(b.description);
+    std::vector<const Body*> out;
+    for (const Body& b : now) out.push_back(&b);
+    return out;
+  }
   IslandItems<btPersistentManifold*> held_of_first() {
     IslandItems<btPersistentManifold*> held;
     held.add(0, {1, 2}, contact.get());
@@ -86,7 +95,7 @@ TEST(IslandReplay, ReplaysCleanIslandsTheOldRunSolvedAlike) {
   IslandReplay replay;
   replay.set(StepReplay{&f.before, &f.after, &f.islands});
   ASSERT_TRUE(replay.armed());
-  replay.mark_clean(f.owned, {f.contact_state});
+  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, f.before.settings.gravity);
   IslandItems<btPersistentManifold*> held = f.held_of_first();
   btCollisionObject* pair[] = {f.owned[0], f.owned[1]};
   EXPECT_TRUE(replay.take(pair, 2, held, 0));
@@ -114,7 +123,7 @@ TEST(IslandReplay, ADifferenceMakesBodiesDirty) {
   write_dynamic_state(*f.owned[2], moved(f.before.bodies[2].state, btScalar(0.5)));
   ManifoldState other = f.contact_state;
   other.points[0].applied_impulse = 9;
-  replay.mark_clean(f.owned, {other});
+  replay.mark_clean(f.owned, f.descriptions(), {other}, f.before.settings.gravity);
   IslandItems<btPersistentManifold*> held = f.held_of_first();
   IslandItems<btPersistentManifold*> none;
   none.finish(1);
@@ -125,8 +134,39 @@ TEST(IslandReplay, ADifferenceMakesBodiesDirty) {
   EXPECT_FALSE(replay.take(three, 1, none, 0));
   EXPECT_TRUE(replay.take(four, 1, none, 0));
   // A contact in one run only: both its bodies dirty.
-  replay.mark_clean(f.owned, {});
+  replay.mark_clean(f.owned, f.descriptions(), {}, f.before.settings.gravity);
   EXPECT_FALSE(replay.take(pair, 2, held, 0));
+}
+
+// An input changed a body's mass, friction or restitution (or the gravity)
+// at this boundary: its raw state agrees with the old run's, but its
+// island's step does not, so it is solved.
+TEST(IslandReplay, AChangedMaterialOrGravityMakesBodiesDirty) {
+  Fixture f;
+  IslandReplay replay;
+  replay.set(StepReplay{&f.before, &f.after, &f.islands});
+  f.descriptions();
+  f.now[2].mass = 4;       // body 3
+  f.now[3].friction = 0.1;  // body 4
+  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, f.before.settings.gravity);
+  IslandItems<btPersistentManifold*> held = f.held_of_first();
+  IslandItems<btPersistentManifold*> none;
+  none.finish(1);
+  btCollisionObject* pair[] = {f.owned[0], f.owned[1]};
+  btCollisionObject* three[] = {f.owned[2]};
+  btCollisionObject* four[] = {f.owned[3]};
+  EXPECT_FALSE(replay.take(three, 1, none, 0));
+  EXPECT_FALSE(replay.take(four, 1, none, 0));
+  EXPECT_TRUE(replay.take(pair, 2, held, 0));
+  replay.finish(0, 1);
+  // Another gravity: nothing is clean.
+  Fixture g;
+  IslandReplay again;
+  again.set(StepReplay{&g.before, &g.after, &g.islands});
+  again.mark_clean(g.owned, g.descriptions(), {g.contact_state}, Vec3(0, -1, 0));
+  IslandItems<btPersistentManifold*> g_held = g.held_of_first();
+  btCollisionObject* g_pair[] = {g.owned[0], g.owned[1]};
+  EXPECT_FALSE(again.take(g_pair, 2, g_held, 0));
 }
 
 TEST(IslandReplay, ABodyThatLeftIsSolvedAndAManifoldEmptyThenIsEmptied) {
@@ -135,7 +175,7 @@ TEST(IslandReplay, ABodyThatLeftIsSolvedAndAManifoldEmptyThenIsEmptied) {
   f.after.manifolds.clear();                           // the 1-2 manifold ended empty
   IslandReplay replay;
   replay.set(StepReplay{&f.before, &f.after, &f.islands});
-  replay.mark_clean(f.owned, {f.contact_state});
+  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, f.before.settings.gravity);
   IslandItems<btPersistentManifold*> held = f.held_of_first();
   IslandItems<btPersistentManifold*> none;
   none.finish(1);
@@ -152,7 +192,7 @@ TEST(IslandReplay, VerifyComparesAndNeverWrites) {
   Fixture f;
   IslandReplay replay;
   replay.set(StepReplay{&f.before, &f.after, &f.islands, false, true});
-  replay.mark_clean(f.owned, {f.contact_state});
+  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, f.before.settings.gravity);
   IslandItems<btPersistentManifold*> none;
   none.finish(1);
   btCollisionObject* four[] = {f.owned[3]};
