@@ -220,7 +220,7 @@ std::string inputs_to_json(const std::vector<UserInput>& inputs) {
         e["id"] = in.id;
         e["impulse"] = vec_json(in.linear);
         break;
-      case UserInput::Kind::SetGravity: e["gravity"] = inputs_vec_json(in.linear); break;
+      case UserInput::Kind::SetGravity: e["gravity"] = vec_json(in.linear); break;
       case UserInput::Kind::SetMass:
       case UserInput::Kind::SetFriction:
       case UserInput::Kind::SetRestitution:
