@@ -33,12 +33,12 @@ CellCoord get_cell(ByteReader& r) {
 }
 
 // One body's record, the same in HEAD and BODS.
-// A compound is recorded as the box of its local AABB (the replay format
-// draws convex shapes only).
+// A compound, a triangle mesh or a heightfield is recorded as the box of
+// its local AABB (the replay format draws convex shapes only).
 void put_body(ByteWriter& w, const ViewBody& b) {
   w.u32(b.id);
   w.u8(b.is_static ? 1 : 0);
-  const bool compound = b.shape.kind == ShapeKind::Compound;
+  const bool compound = b.shape.kind == ShapeKind::Compound || b.shape.is_concave();
   w.u8(static_cast<std::uint8_t>(compound ? ShapeKind::Box : b.shape.kind));
   put_vec(w, compound ? b.shape.local_half_extents() : b.shape.half_extents);
   w.f64(b.shape.radius);

@@ -1,21 +1,99 @@
 // The body object of scene files (and of input files' add_body entries).
+#include <filesystem>
 #include <set>
 #include <string>
 
 #include "json_context.h"
+#include "soda/scene/obj_mesh.h"
 
 namespace soda::detail {
 namespace {
 
 ShapeKind parse_shape_kind(const Context& ctx, const std::string& name, const std::string& at) {
   for (ShapeKind k : {ShapeKind::Box, ShapeKind::Sphere, ShapeKind::Capsule, ShapeKind::Cylinder,
-                      ShapeKind::ConvexHull, ShapeKind::Compound})
+                      ShapeKind::ConvexHull, ShapeKind::Compound, ShapeKind::TriangleMesh, ShapeKind::Heightfield})
     if (name == shape_kind_name(k)) return k;
-  ctx.fail(at + ".type", "unknown shape '" + name + "' (known: box, sphere, capsule, cylinder, convex_hull, compound)");
+  ctx.fail(at + ".type", "unknown shape '" + name +
+                             "' (known: box, sphere, capsule, cylinder, convex_hull, compound, triangle_mesh, "
+                             "heightfield)");
+}
+
+// A triangle mesh: inline vertices and indices, or an OBJ file beside the
+// scene file (`base_dir`).
+std::shared_ptr<const TriangleMeshData> parse_mesh(const Context& ctx, const json& j, const std::string& at,
+                                                   const std::string& base_dir) {
+  auto field = [&at](const std::string& f) { return at + "." + f; };
+  auto file = j.find("file");
+  if (file != j.end()) {
+    if (j.contains("vertices") || j.contains("indices"))
+      ctx.fail(field("file"), "a triangle mesh takes either a file or vertices and indices, not both");
+    if (!file->is_string() || file->get<std::string>().empty()) ctx.fail(field("file"), "must be a file name");
+    const std::string name = file->get<std::string>();
+    const std::filesystem::path path = std::filesystem::path(name).is_absolute()
+                                           ? std::filesystem::path(name)
+                                           : std::filesystem::path(base_dir) / name;
+    try {
+      return read_obj_mesh(path.string(), name);
+    } catch (const SceneError& e) {
+      ctx.fail(field("file"), e.what());
+    }
+  }
+  auto mesh = std::make_shared<TriangleMeshData>();
+  auto v = j.find("vertices");
+  if (v == j.end()) ctx.fail(field("vertices"), "missing (or give a file)");
+  if (!v->is_array()) ctx.fail(field("vertices"), "must be an array of [x, y, z] points");
+  mesh->vertices.reserve(v->size());
+  for (std::size_t i = 0; i < v->size(); ++i)
+    mesh->vertices.emplace_back(ctx.numbers((*v)[i], field("vertices[" + std::to_string(i) + "]"), 3));
+  auto ix = j.find("indices");
+  if (ix == j.end()) ctx.fail(field("indices"), "missing");
+  if (!ix->is_array()) ctx.fail(field("indices"), "must be an array of [a, b, c] vertex index triples");
+  mesh->triangles.reserve(ix->size());
+  for (std::size_t t = 0; t < ix->size(); ++t) {
+    const json& tri = (*ix)[t];
+    const std::string f = field("indices[" + std::to_string(t) + "]");
+    if (!tri.is_array() || tri.size() != 3) ctx.fail(f, "must be an array of 3 vertex indices");
+    std::array<std::uint32_t, 3> out{};
+    for (std::size_t k = 0; k < 3; ++k) {
+      const json& n = tri[k];
+      if (!n.is_number_integer() || (n.is_number_unsigned() ? n.get<std::uint64_t>() > 0xffffffffull
+                                                            : n.get<std::int64_t>() < 0))
+        ctx.fail(f, "vertex indices must be integers >= 0");
+      out[k] = static_cast<std::uint32_t>(n.get<std::uint64_t>());
+    }
+    mesh->triangles.push_back(out);
+  }
+  return mesh;
+}
+
+std::shared_ptr<const HeightfieldData> parse_heightfield(const Context& ctx, const json& j, const std::string& at) {
+  auto field = [&at](const char* f) { return at + "." + f; };
+  auto hf = std::make_shared<HeightfieldData>();
+  auto count = [&](const char* f) {
+    auto v = j.find(f);
+    if (v == j.end()) ctx.fail(field(f), "missing");
+    if (!v->is_number_integer() || v->get<std::int64_t>() < 2 || v->get<std::int64_t>() > 0x7fffffff)
+      ctx.fail(field(f), "must be an integer >= 2 (samples)");
+    return static_cast<int>(v->get<std::int64_t>());
+  };
+  hf->columns = count("columns");
+  hf->rows = count("rows");
+  if (auto sp = j.find("spacing"); sp != j.end()) hf->spacing = Vec3(ctx.numbers(*sp, field("spacing"), 3));
+  auto h = j.find("heights");
+  if (h == j.end()) ctx.fail(field("heights"), "missing");
+  if (!h->is_array()) ctx.fail(field("heights"), "must be an array of columns * rows numbers");
+  hf->heights.reserve(h->size());
+  for (std::size_t i = 0; i < h->size(); ++i) {
+    if (!(*h)[i].is_number()) ctx.fail(at + ".heights[" + std::to_string(i) + "]", "must be a number");
+    hf->heights.push_back((*h)[i].get<double>());
+  }
+  return hf;
 }
 
 // `at` names the shape's field: "shape", or "shape.children[i].shape".
-Shape parse_shape(const Context& body_ctx, const json& j, const std::string& at = "shape") {
+// `base_dir`: the folder a mesh's file is relative to.
+Shape parse_shape(const Context& body_ctx, const json& j, const std::string& at = "shape",
+                  const std::string& base_dir = "") {
   if (!j.is_object()) body_ctx.fail(at, "must be an object");
   Context ctx{body_ctx.where};
   // Field names inside the shape are reported as <at>.<name>.
@@ -87,6 +165,14 @@ Shape parse_shape(const Context& body_ctx, const json& j, const std::string& at 
       allowed.insert("children");
       break;
     }
+    case ShapeKind::TriangleMesh:
+      s.mesh = parse_mesh(ctx, j, at, base_dir);
+      allowed.insert({"vertices", "indices", "file"});
+      break;
+    case ShapeKind::Heightfield:
+      s.heightfield = parse_heightfield(ctx, j, at);
+      allowed.insert({"columns", "rows", "spacing", "heights"});
+      break;
   }
   for (auto f = j.begin(); f != j.end(); ++f)
     if (!allowed.count(f.key()))
@@ -106,7 +192,7 @@ std::uint32_t filter_bits(const Context& ctx, const json& j, const char* field, 
 
 }  // namespace
 
-Body parse_body(std::string where, const json& j) {
+Body parse_body(std::string where, const json& j, const std::string& base_dir) {
   Context ctx{std::move(where)};
   if (!j.is_object()) ctx.fail("(body)", "must be an object");
   const std::int64_t id = ctx.integer(j, "id", true, 0);
@@ -120,7 +206,7 @@ Body parse_body(std::string where, const json& j) {
   const std::string type = ctx.string(j, "type", true, "");
   if (type != "static" && type != "dynamic") ctx.fail("type", "must be \"static\" or \"dynamic\"");
   b.is_static = type == "static";
-  b.shape = parse_shape(ctx, *ctx.find(j, "shape", true));
+  b.shape = parse_shape(ctx, *ctx.find(j, "shape", true), "shape", base_dir);
   b.mass = ctx.number(j, "mass", !b.is_static, 0.0);
   b.friction = ctx.number(j, "friction", false, b.friction);
   b.restitution = ctx.number(j, "restitution", false, b.restitution);
@@ -176,6 +262,27 @@ json shape_json(const Shape& s) {
                         {"orientation", json::array({c.orientation.x(), c.orientation.y(), c.orientation.z(),
                                                      c.orientation.w()})}});
       shape["children"] = kids;
+      break;
+    }
+    case ShapeKind::TriangleMesh: {
+      if (!s.mesh) break;
+      if (!s.mesh->file.empty()) {  // as the scene named it: the file stays beside the scene
+        shape["file"] = s.mesh->file;
+        break;
+      }
+      json vertices = json::array(), indices = json::array();
+      for (const Vec3& v : s.mesh->vertices) vertices.push_back(vec_json(v));
+      for (const auto& t : s.mesh->triangles) indices.push_back(json::array({t[0], t[1], t[2]}));
+      shape["vertices"] = std::move(vertices);
+      shape["indices"] = std::move(indices);
+      break;
+    }
+    case ShapeKind::Heightfield: {
+      if (!s.heightfield) break;
+      shape["columns"] = s.heightfield->columns;
+      shape["rows"] = s.heightfield->rows;
+      shape["spacing"] = vec_json(s.heightfield->spacing);
+      shape["heights"] = s.heightfield->heights;
       break;
     }
   }

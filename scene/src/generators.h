@@ -84,6 +84,8 @@ Scene make_mixed_sizes(const SceneParams& params);
 Scene make_big_bodies(const SceneParams& params);
 // compounds_scene.cpp: chairs and tables made of boxes (compound shapes).
 Scene make_compounds(const SceneParams& params);
+// terrain_scene.cpp: boulders, balls and boxes rolling down a heightfield valley.
+Scene make_terrain(const SceneParams& params);
 Scene make_plank_pile(const SceneParams& params);
 Scene make_heavy_slide(const SceneParams& params);
 Scene make_free_fall(const SceneParams& params);

@@ -95,7 +95,8 @@ json body_json(const Body& b);
 
 /// A body in the scene file's format (docs/scene-format.md). `where` names
 /// it in messages, e.g. "cubes.json: body #3"; " (id N)" is appended.
-Body parse_body(std::string where, const json& j);
+/// A triangle mesh's file is read from `base_dir` (the scene file's folder).
+Body parse_body(std::string where, const json& j, const std::string& base_dir = "");
 
 /// A joint as the scene file writes it (joint_json.cpp).
 json joint_json(const Joint& joint);

@@ -140,6 +140,11 @@ const std::vector<SceneGenerator>& scene_registry() {
        "N chairs and tables made of boxes (compound shapes; default 200, every third a table) falling in a loose "
        "block onto a ground and two static tables, across territory borders",
        detail::make_compounds},
+      {"terrain",
+       "N boulders (convex hulls), balls and boxes (default 200) in a block on the high slope of a valley, a static "
+       "heightfield 80 x 40 m sampled every 0.5 m (both sides grow as sqrt(N / 200) above 200), rolling down "
+       "across territory borders into its basin",
+       detail::make_terrain},
       {"plank-pile",
        "a plank N m long (default 8, N <= 40; 0.2 x 0.6 m, 40 kg) dropped end first from 0.5 m onto a pile of "
        "4 x 4 x 3 unit cubes",

@@ -13,6 +13,8 @@ const char* shape_kind_name(ShapeKind kind) {
     case ShapeKind::Cylinder: return "cylinder";
     case ShapeKind::ConvexHull: return "convex_hull";
     case ShapeKind::Compound: return "compound";
+    case ShapeKind::TriangleMesh: return "triangle_mesh";
+    case ShapeKind::Heightfield: return "heightfield";
   }
   return "unknown";
 }
@@ -72,6 +74,26 @@ Shape Shape::compound(std::vector<CompoundChild> children) {
   return s;
 }
 
+Shape Shape::triangle_mesh(std::shared_ptr<const TriangleMeshData> mesh) {
+  Shape s;
+  s.kind = ShapeKind::TriangleMesh;
+  s.mesh = std::move(mesh);
+  return s;
+}
+
+Shape Shape::heightfield_of(std::shared_ptr<const HeightfieldData> heightfield) {
+  Shape s;
+  s.kind = ShapeKind::Heightfield;
+  s.heightfield = std::move(heightfield);
+  return s;
+}
+
+double HeightfieldData::max_abs_height() const {
+  double m = 0.0;
+  for (double h : heights) m = std::max(m, std::abs(h * spacing.y()));
+  return m;
+}
+
 Vec3 Shape::local_half_extents() const {
   switch (kind) {
     case ShapeKind::Box:
@@ -96,6 +118,16 @@ Vec3 Shape::local_half_extents() const {
       }
       return h;
     }
+    case ShapeKind::TriangleMesh: {
+      Vec3 h = Vec3::Zero();
+      if (mesh)
+        for (const Vec3& p : mesh->vertices) h = h.cwiseMax(p.cwiseAbs());
+      return h;
+    }
+    case ShapeKind::Heightfield:
+      if (!heightfield) return Vec3::Zero();
+      return Vec3(0.5 * (heightfield->columns - 1) * std::abs(heightfield->spacing.x()), heightfield->max_abs_height(),
+                  0.5 * (heightfield->rows - 1) * std::abs(heightfield->spacing.z()));
   }
   return Vec3::Zero();
 }
@@ -120,6 +152,14 @@ double Shape::bounding_radius() const {
       for (const CompoundChild& c : children) r = std::max(r, c.position.norm() + c.shape.bounding_radius());
       return r;
     }
+    case ShapeKind::TriangleMesh: {
+      double r = 0.0;
+      if (mesh)
+        for (const Vec3& p : mesh->vertices) r = std::max(r, p.norm());
+      return r;
+    }
+    case ShapeKind::Heightfield:
+      return local_half_extents().norm();
   }
   return 0.0;
 }

@@ -1,5 +1,7 @@
 #include "scene_sax.h"
 
+#include <filesystem>
+
 #include <cctype>
 
 namespace soda::detail {
@@ -102,7 +104,8 @@ bool SceneSax::scalar(json v) {
 }
 
 void SceneSax::finish_body() {
-  bodies.push_back(parse_body(source_ + ": body #" + std::to_string(frames_.back().index), body_));
+  bodies.push_back(parse_body(source_ + ": body #" + std::to_string(frames_.back().index), body_,
+                              std::filesystem::path(source_).parent_path().string()));
   body_ = json();
 }
 

@@ -33,6 +33,52 @@ void check_positive(const std::string& where, const std::string& field, double v
   if (!(v > 0.0)) fail(where, field, "must be > 0");
 }
 
+// Every vertex finite, every index in range, no triangle without area
+// (Bullet's contact normals come from the triangle's cross product).
+void check_mesh(const std::string& where, const TriangleMeshData* mesh, const std::string& at) {
+  if (!mesh) fail(where, at + ".vertices", "missing (a triangle mesh needs vertices and indices, or a file)");
+  const std::string from = mesh->file.empty() ? "" : " (from " + mesh->file + ")";
+  if (mesh->vertices.empty()) fail(where, at + ".vertices", "empty: a triangle mesh needs at least 3 vertices" + from);
+  if (mesh->triangles.empty()) fail(where, at + ".indices", "empty: a triangle mesh needs at least one triangle" + from);
+  if (mesh->vertices.size() > kMaxMeshVertices)
+    fail(where, at + ".vertices", std::to_string(mesh->vertices.size()) + " vertices: at most 2^31 - 1" + from);
+  for (std::size_t i = 0; i < mesh->vertices.size(); ++i)
+    for (int k = 0; k < 3; ++k)
+      if (!std::isfinite(mesh->vertices[i][k]))
+        fail(where, at + ".vertices[" + std::to_string(i) + "]", "must be finite numbers" + from);
+  for (std::size_t t = 0; t < mesh->triangles.size(); ++t) {
+    const auto& tri = mesh->triangles[t];
+    const std::string field = at + ".indices[" + std::to_string(t) + "]";
+    for (std::uint32_t v : tri)
+      if (v >= mesh->vertices.size())
+        fail(where, field,
+             "vertex index " + std::to_string(v) + " out of range (the mesh has " +
+                 std::to_string(mesh->vertices.size()) + " vertices)" + from);
+    const Vec3 &a = mesh->vertices[tri[0]], &b = mesh->vertices[tri[1]], &c = mesh->vertices[tri[2]];
+    const Vec3 n = (b - a).cross(c - a);
+    if (!(n.norm() > 0.0) || !std::isfinite(n.norm()))
+      fail(where, field,
+           "degenerate triangle (vertices " + std::to_string(tri[0]) + ", " + std::to_string(tri[1]) + ", " +
+               std::to_string(tri[2]) + " have no area)" + from);
+  }
+}
+
+void check_heightfield(const std::string& where, const HeightfieldData* hf, const std::string& at) {
+  if (!hf) fail(where, at + ".heights", "missing (a heightfield needs columns, rows, spacing and heights)");
+  if (hf->columns < 2) fail(where, at + ".columns", "must be >= 2 (samples along x)");
+  if (hf->rows < 2) fail(where, at + ".rows", "must be >= 2 (samples along z)");
+  if (static_cast<std::int64_t>(hf->columns) * hf->rows > kMaxHeightfieldSamples)
+    fail(where, at + ".rows", "columns * rows must be at most 2^31 - 1 samples");
+  const auto n = static_cast<std::size_t>(hf->columns) * static_cast<std::size_t>(hf->rows);
+  if (hf->heights.size() != n)
+    fail(where, at + ".heights",
+         "holds " + std::to_string(hf->heights.size()) + " heights, columns * rows = " + std::to_string(n));
+  for (std::size_t i = 0; i < n; ++i)
+    if (!std::isfinite(hf->heights[i])) fail(where, at + ".heights[" + std::to_string(i) + "]", "must be a finite number");
+  for (int k = 0; k < 3; ++k) check_positive(where, at + ".spacing", hf->spacing[k]);
+  if (!std::isfinite(hf->max_abs_height())) fail(where, at + ".heights", "heights times spacing[1] overflow");
+}
+
 // `at` names the shape's field: "shape", or "shape.children[i].shape" in a
 // compound.
 void check_shape(const std::string& where, const Shape& shape, const std::string& at = "shape") {
@@ -70,10 +116,11 @@ void check_shape(const std::string& where, const Shape& shape, const std::string
       for (std::size_t i = 0; i < shape.children.size(); ++i) {
         const CompoundChild& c = shape.children[i];
         const std::string child = at + ".children[" + std::to_string(i) + "]";
-        if (c.shape.kind == ShapeKind::Compound)
+        if (c.shape.kind == ShapeKind::Compound || c.shape.is_concave())
           fail(where, child + ".shape",
-               "nested compounds are not supported: a compound's children are convex shapes (box, sphere, "
-               "capsule, cylinder, convex_hull)");
+               std::string(c.shape.kind == ShapeKind::Compound ? "nested compounds are not supported"
+                                                               : "a compound's child cannot be concave") +
+                   ": a compound's children are convex shapes (box, sphere, capsule, cylinder, convex_hull)");
         check_finite(where, child + ".position", c.position);
         const Eigen::Vector4d q = c.orientation.coeffs();
         for (int k = 0; k < 4; ++k)
@@ -83,6 +130,12 @@ void check_shape(const std::string& where, const Shape& shape, const std::string
       }
       break;
     }
+    case ShapeKind::TriangleMesh:
+      check_mesh(where, shape.mesh.get(), at);
+      break;
+    case ShapeKind::Heightfield:
+      check_heightfield(where, shape.heightfield.get(), at);
+      break;
   }
 }
 
@@ -160,7 +213,8 @@ void check_body_envelope(const std::string& where, const Body& b, const Precisio
              " m, beyond which a body at " + num(kSlowestSpeed) + " m/s moves less than one ulp per step (x + v dt == x)" +
              in_envelope(e));
   const double smallest = local.minCoeff();
-  if (smallest < e.min_half_extent(coordinate))
+  // A mesh or heightfield may be flat (its triangles have no thickness).
+  if (!b.shape.is_concave() && smallest < e.min_half_extent(coordinate))
     fail(where, "shape",
          "smallest half extent " + num(smallest) + " m is below " + num(kMinSizeInUlps) + " ulps of its position (" +
              num(e.min_half_extent(coordinate)) + " m at " + num(coordinate) + " m from the origin)" + in_envelope(e));
@@ -253,6 +307,26 @@ void check_joint_values(const Joint& j, const std::string& where) {
   }
 }
 
+// A compound body's contact with a triangle mesh or heightfield would need
+// a manifold per child (compound_contact.h keeps one per pair): refused.
+void check_compounds_off_concave(const Scene& scene, const std::string& source) {
+  const Body* concave = nullptr;
+  for (const Body& b : scene.bodies)
+    if (b.is_static && b.shape.is_concave()) {
+      concave = &b;
+      break;
+    }
+  if (!concave) return;
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    const Body& b = scene.bodies[i];
+    if (!b.is_static && b.shape.kind == ShapeKind::Compound)
+      fail(body_prefix(source, i, b.id), "shape.type",
+           std::string("a dynamic compound cannot share a scene with a ") + shape_kind_name(concave->shape.kind) +
+               " (static body " + std::to_string(concave->id) +
+               "): contacts between compounds and concave statics are not supported; use a convex hull");
+  }
+}
+
 }  // namespace
 
 void validate_joint(const Joint& joint, const std::string& where, const BodyLookup& body) {
@@ -281,6 +355,11 @@ void validate_body(const Body& b, const std::string& where) {
   for (int k = 0; k < 4; ++k)
     if (!std::isfinite(q[k])) fail(where, "orientation", "must be finite numbers");
   if (!(q.norm() > 1e-6)) fail(where, "orientation", "must be a non-zero quaternion");
+  if (!b.is_static && b.shape.is_concave())
+    fail(where, "shape.type",
+         std::string("a dynamic body cannot be a ") + shape_kind_name(b.shape.kind) +
+             ": it is concave, and Bullet collides concave shapes only as static geometry; make the body static, or "
+             "build it as a compound of convex hulls");
   if (!b.is_static) {
     check_finite(where, "mass", b.mass);
     if (!(b.mass > 0.0)) fail(where, "mass", "must be > 0 for a dynamic body");
@@ -314,6 +393,7 @@ void validate_scene(const Scene& scene, const std::string& source, Precision pre
     if (!b.is_static) check_bullet_aabb(where, b, st.dt);
     check_body_envelope(where, b, envelope);
   }
+  check_compounds_off_concave(scene, source);
   if (scene.joints.empty()) return;
   const BodyLookup body = [&](BodyId id) -> const Body* {
     auto it = seen.find(id);

@@ -159,3 +159,43 @@ TEST_F(CliInputs, BadInputsNameTheFileTheEntryAndTheField) {
 }
 
 }  // namespace
+
+namespace {
+
+using namespace soda_cli_test;
+
+// Triangle meshes and heightfields (docs/scene-format.md, "Triangle meshes
+// and heightfields"): a dynamic mesh, a degenerate triangle, an index out of
+// range, a heightfield of the wrong size and an OBJ file that is not there
+// are bad input (exit 2) naming the body and the field; the shipped bowl
+// (tests/data/bowl.json and its bowl.obj) runs, on 2 territories to the
+// one territory's hash.
+TEST_F(CliTest, BadMeshesAndHeightfieldsAreBadInput) {
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "dynamic", "mass": 1, "position": [0, 2, 0], "shape":
+      {"type": "triangle_mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 0, 1]], "indices": [[0, 2, 1]]}})"),
+                   "body #1 (id 3): field 'shape.type': a dynamic body cannot be a triangle_mesh");
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "static", "position": [0, 2, 0], "shape":
+      {"type": "triangle_mesh", "vertices": [[0, 0, 0], [1, 0, 0], [2, 0, 0]], "indices": [[0, 2, 1]]}})"),
+                   "body #1 (id 3): field 'shape.indices[0]': degenerate triangle");
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "static", "position": [0, 2, 0], "shape":
+      {"type": "triangle_mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 0, 1]], "indices": [[0, 2, 9]]}})"),
+                   "body #1 (id 3): field 'shape.indices[0]': vertex index 9 out of range");
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "static", "position": [0, 2, 0], "shape":
+      {"type": "heightfield", "columns": 3, "rows": 2, "heights": [0, 1, 2, 3]}})"),
+                   "body #1 (id 3): field 'shape.heights': holds 4 heights, columns * rows = 6");
+  expect_bad_input(bad_scene(R"({"id": 3, "type": "static", "position": [0, 2, 0], "shape":
+      {"type": "triangle_mesh", "file": "nowhere.obj"}})"),
+                   "body #1 (id 3): field 'shape.file': ");
+}
+
+TEST_F(CliTest, ShippedBowlMeshRunsAlikeOnTwoTerritories) {
+  const std::string bowl = std::string(SODA_TEST_DATA) + "/bowl.json";
+  const Outcome one = run_cli("run --scene " + bowl + " --steps 120");
+  const Outcome two = run_cli("run --scene " + bowl + " --steps 120 --territories 2");
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  ASSERT_EQ(two.exit_code, 0) << two.output;
+  EXPECT_FALSE(hash_of(one).empty()) << one.output;
+  EXPECT_EQ(hash_of(one), hash_of(two)) << two.output;
+}
+
+}  // namespace

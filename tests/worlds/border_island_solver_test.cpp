@@ -32,7 +32,7 @@ namespace {
 
 // Bullet bodies made from snapshots, by id, with their shapes.
 struct Bodies {
-  std::vector<std::unique_ptr<btCollisionShape>> shapes;
+  std::vector<std::shared_ptr<btCollisionShape>> shapes;
   std::map<BodyId, std::unique_ptr<btRigidBody>> by_id;
   btRigidBody* add(const BodySnapshot& b) {
     shapes.push_back(make_collision_shape(b.description.shape));

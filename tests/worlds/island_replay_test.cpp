@@ -34,7 +34,7 @@ BodyDynamicState moved(BodyDynamicState s, btScalar dy) {
 // Four cubes, ids 1..4; the old run's islands {1, 2} and {3} and {4}; its
 // states before and after one step; a contact 1-2 in both.
 struct Fixture {
-  std::vector<std::unique_ptr<btCollisionShape>> shapes;
+  std::vector<std::shared_ptr<btCollisionShape>> shapes;
   std::vector<std::unique_ptr<btRigidBody>> bodies;
   std::vector<btRigidBody*> owned;
   WorldSnapshot before, after;

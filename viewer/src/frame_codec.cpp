@@ -42,6 +42,25 @@ nlohmann::json shape_json(const Shape& s) {
       j["children"] = std::move(kids);
       break;
     }
+    case ShapeKind::TriangleMesh: {
+      // Flat arrays: x, y, z per vertex; a, b, c per triangle.
+      nlohmann::json vertices = nlohmann::json::array(), indices = nlohmann::json::array();
+      if (s.mesh) {
+        for (const Vec3& v : s.mesh->vertices) vertices.push_back(v.x()), vertices.push_back(v.y()), vertices.push_back(v.z());
+        for (const auto& t : s.mesh->triangles) indices.push_back(t[0]), indices.push_back(t[1]), indices.push_back(t[2]);
+      }
+      j["vertices"] = std::move(vertices);
+      j["indices"] = std::move(indices);
+      break;
+    }
+    case ShapeKind::Heightfield:
+      if (s.heightfield) {
+        j["columns"] = s.heightfield->columns;
+        j["rows"] = s.heightfield->rows;
+        j["spacing"] = vec(s.heightfield->spacing);
+        j["heights"] = s.heightfield->heights;
+      }
+      break;
   }
   return j;
 }

@@ -37,10 +37,40 @@ function shapeKind(shape) {
       return { key: `capsule:${ratio}`, scale: [shape.radius, shape.radius, shape.radius],
                make: () => capsuleGeometry(ratio / 2) };
     }
+    case 'triangle_mesh':  // its own geometry, as the scene gives it
+      return { key: null, scale: [1, 1, 1], make: () => triangleMeshGeometry(shape.vertices, shape.indices) };
+    case 'heightfield':
+      return { key: null, scale: [1, 1, 1], make: () => heightfieldGeometry(shape) };
     default:  // convex hull: its own geometry
       return { key: null, scale: [1, 1, 1],
                make: () => new ConvexBufferGeometry(shape.points.map((p) => new THREE.Vector3(p[0], p[1], p[2]))) };
   }
+}
+
+function triangleMeshGeometry(vertices, indices) {
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.Float32BufferAttribute(vertices, 3));
+  g.setIndex(indices);
+  g.computeVertexNormals();
+  return g;
+}
+
+// Sample (i, j) at x = (i - (columns - 1) / 2) sx, z = (j - (rows - 1) / 2) sz,
+// y = height sy, two triangles a quad (docs/scene-format.md).
+function heightfieldGeometry(shape) {
+  const { columns, rows, spacing, heights } = shape;
+  const vertices = [];
+  for (let j = 0; j < rows; ++j)
+    for (let i = 0; i < columns; ++i)
+      vertices.push((i - (columns - 1) / 2) * spacing[0], heights[j * columns + i] * spacing[1],
+                    (j - (rows - 1) / 2) * spacing[2]);
+  const indices = [];
+  for (let j = 0; j + 1 < rows; ++j)
+    for (let i = 0; i + 1 < columns; ++i) {
+      const a = j * columns + i, b = a + 1, c = a + columns, d = c + 1;
+      indices.push(a, c, b, b, c, d);
+    }
+  return triangleMeshGeometry(vertices, indices);
 }
 
 // A capsule of radius 1 whose cylinder part spans y in [-halfLength, halfLength].

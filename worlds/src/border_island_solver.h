@@ -112,7 +112,7 @@ class BorderIslandSolver {
 
  private:
   struct Copy {
-    std::unique_ptr<btCollisionShape> shape;
+    std::shared_ptr<btCollisionShape> shape;
     std::unique_ptr<btRigidBody> body;
     Body description;  // what the copy's mass, friction and restitution were made from
   };

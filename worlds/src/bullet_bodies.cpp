@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "concave_shapes.h"
+
 namespace soda {
 
 btVector3 to_bt(const Vec3& v) {
@@ -25,18 +27,18 @@ namespace {
 class OwningCompoundShape final : public btCompoundShape {
  public:
   explicit OwningCompoundShape(int children) : btCompoundShape(true, children) {}
-  void add(std::unique_ptr<btCollisionShape> child, const btTransform& pose) {
+  void add(std::shared_ptr<btCollisionShape> child, const btTransform& pose) {
     addChildShape(pose, child.get());
     owned_.push_back(std::move(child));
   }
 
  private:
-  std::vector<std::unique_ptr<btCollisionShape>> owned_;
+  std::vector<std::shared_ptr<btCollisionShape>> owned_;
 };
 
 }  // namespace
 
-std::unique_ptr<btCollisionShape> make_collision_shape(const Shape& shape) {
+std::shared_ptr<btCollisionShape> make_collision_shape(const Shape& shape) {
   switch (shape.kind) {
     case ShapeKind::Box:
       return std::make_unique<btBoxShape>(to_bt(shape.half_extents));
@@ -61,6 +63,9 @@ std::unique_ptr<btCollisionShape> make_collision_shape(const Shape& shape) {
       }
       return compound;
     }
+    case ShapeKind::TriangleMesh:
+    case ShapeKind::Heightfield:
+      return shared_concave_shape(shape);
   }
   throw std::invalid_argument("make_collision_shape: unknown shape kind");
 }
@@ -77,6 +82,9 @@ double inner_radius(const Shape& shape) {
       for (const CompoundChild& c : shape.children) r = std::min(r, inner_radius(c.shape));
       return shape.children.empty() ? 0.0 : r;
     }
+    case ShapeKind::TriangleMesh:
+    case ShapeKind::Heightfield:
+      return 0.0;  // static only: no swept sphere
   }
   return 0.0;
 }

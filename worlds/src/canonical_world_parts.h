@@ -50,7 +50,7 @@ struct CanonicalWorld::JointEntry {
 
 struct CanonicalWorld::Entry {
   Body description;
-  std::unique_ptr<btCollisionShape> shape;
+  std::shared_ptr<btCollisionShape> shape;
   std::unique_ptr<btRigidBody> body;
 };
 

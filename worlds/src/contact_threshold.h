@@ -29,6 +29,7 @@
 #include <btBulletCollisionCommon.h>
 
 #include "compound_contact.h"
+#include "concave_contact.h"
 
 namespace soda {
 
@@ -42,11 +43,13 @@ btScalar manifold_breaking_threshold(const btCollisionObject& a, const btCollisi
 
 /// A btCollisionDispatcher whose new manifolds break at
 /// manifold_breaking_threshold (everything else as Bullet's).
-/// Compound pairs keep one manifold (compound_contact.h).
+/// Compound pairs keep one manifold (compound_contact.h), and so do
+/// convex-concave pairs, in the pair's order (concave_contact.h).
 class CappedDispatcher : public btCollisionDispatcher {
  public:
   explicit CappedDispatcher(btCollisionConfiguration* config) : btCollisionDispatcher(config) {
     register_compound_algorithms(*this);
+    register_concave_algorithms(*this);
   }
   btPersistentManifold* getNewManifold(const btCollisionObject* b0, const btCollisionObject* b1) override;
 };

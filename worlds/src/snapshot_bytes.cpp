@@ -23,9 +23,10 @@ namespace {
 
 constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'W', 'S', 'N', '1'};
 // 3 and 4: bodies carry their collision filter and compound children (1
-// and 2 before); 5 and 6: and their user data. Only these two are read.
-constexpr std::uint32_t kVersion = 5;        // no joints
-constexpr std::uint32_t kJointsVersion = 6;  // with joints
+// and 2 before); 5 and 6: and their user data; 7 and 8: and triangle mesh
+// and heightfield data. Only these two are read.
+constexpr std::uint32_t kVersion = 7;        // no joints
+constexpr std::uint32_t kJointsVersion = 8;  // with joints
 constexpr std::size_t kMinJointBytes = 4 + 1 + 4 + 4 + 2 * 7 * 8 + 1 + 8 + 1 + 4 * 8 + 1 + 2 * 8 + 3 * 8 + 36 * 8 + 1;
 
 void write_joint(ByteWriter& w, const JointSnapshot& js) {

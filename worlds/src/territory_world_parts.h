@@ -32,7 +32,7 @@ enum class Role { Owned, Ghost, Static };
 
 struct TerritoryWorld::Entry {
   Body description;
-  std::unique_ptr<btCollisionShape> shape;
+  std::shared_ptr<btCollisionShape> shape;
   std::unique_ptr<btRigidBody> body;
   Role role = Role::Owned;
   WorldId owner = kNoWorld;        // this world for owned bodies, the sender for ghosts

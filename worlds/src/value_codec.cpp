@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <memory>
 
 namespace soda {
 
@@ -108,13 +109,61 @@ void write_shape(ByteWriter& w, const Shape& s, BodyFormat format) {
     w.vec3(c.position);
     write_quat(w, c.orientation);
   }
+  if (format < BodyFormat::Current) return;
+  if (s.kind == ShapeKind::TriangleMesh) {
+    w.count(s.mesh->file.size());
+    for (char c : s.mesh->file) w.put(c);
+    w.count(s.mesh->vertices.size());
+    for (const Vec3& v : s.mesh->vertices) w.vec3(v);
+    w.count(s.mesh->triangles.size());
+    for (const auto& t : s.mesh->triangles) w.put(t[0]), w.put(t[1]), w.put(t[2]);
+  } else if (s.kind == ShapeKind::Heightfield) {
+    w.put(static_cast<std::int32_t>(s.heightfield->columns));
+    w.put(static_cast<std::int32_t>(s.heightfield->rows));
+    w.vec3(s.heightfield->spacing);
+    w.count(s.heightfield->heights.size());
+    for (double h : s.heightfield->heights) w.put(h);
+  }
+}
+
+// A mesh's or heightfield's data as write_shape writes it (values checked
+// by validation when a world is made, as every shape's).
+void read_concave(ByteReader& r, Shape& s) {
+  if (s.kind == ShapeKind::TriangleMesh) {
+    auto mesh = std::make_shared<TriangleMeshData>();
+    mesh->file.resize(r.count(1));
+    for (char& c : mesh->file) c = r.get<char>();
+    mesh->vertices.resize(r.count(24));
+    for (Vec3& v : mesh->vertices) v = r.vec3();
+    mesh->triangles.resize(r.count(12));
+    for (auto& t : mesh->triangles) {
+      for (std::uint32_t& i : t) i = r.get<std::uint32_t>();
+      for (std::uint32_t i : t)
+        if (i >= mesh->vertices.size()) r.fail("triangle index out of range");
+    }
+    if (mesh->triangles.empty()) r.fail("a triangle mesh without triangles");
+    s.mesh = std::move(mesh);
+  } else if (s.kind == ShapeKind::Heightfield) {
+    auto hf = std::make_shared<HeightfieldData>();
+    hf->columns = r.get<std::int32_t>();
+    hf->rows = r.get<std::int32_t>();
+    if (hf->columns < 2 || hf->rows < 2) r.fail("heightfield dimensions below 2");
+    hf->spacing = r.vec3();
+    hf->heights.resize(r.count(8));
+    if (hf->heights.size() != static_cast<std::size_t>(hf->columns) * static_cast<std::size_t>(hf->rows))
+      r.fail("heightfield heights do not match its dimensions");
+    for (double& h : hf->heights) h = r.finite();
+    s.heightfield = std::move(hf);
+  }
 }
 
 Shape read_shape(ByteReader& r, BodyFormat format, bool in_compound) {
   Shape s;
   const auto kind = r.get<std::uint8_t>();
-  if (kind > static_cast<std::uint8_t>(ShapeKind::Compound)) r.fail("unknown shape kind");
+  if (kind > static_cast<std::uint8_t>(ShapeKind::Heightfield)) r.fail("unknown shape kind");
   s.kind = static_cast<ShapeKind>(kind);
+  if (s.is_concave() && (in_compound || format < BodyFormat::Current))
+    r.fail(in_compound ? "a concave shape inside a compound" : "a mesh or heightfield in a format without them");
   if (s.kind == ShapeKind::Compound && (in_compound || format < BodyFormat::WithoutUserData))
     r.fail(in_compound ? "a compound inside a compound" : "a compound shape in a format without compounds");
   s.half_extents = r.vec3();
@@ -133,6 +182,7 @@ Shape read_shape(ByteReader& r, BodyFormat format, bool in_compound) {
     c.position = r.vec3();
     c.orientation = read_quat(r);
   }
+  if (format >= BodyFormat::Current) read_concave(r, s);
   return s;
 }
 
@@ -143,7 +193,8 @@ std::string body_format_loss(const Body& d, BodyFormat format) {
       (d.collision_group != kDefaultCollisionGroup || d.collision_mask != kAllCollisionGroups))
     return "its collision filter";
   if (format < BodyFormat::WithoutUserData && d.shape.kind == ShapeKind::Compound) return "its compound shape";
-  if (format < BodyFormat::Current && d.user_data != 0) return "its user data";
+  if (format < BodyFormat::WithoutMeshes && d.user_data != 0) return "its user data";
+  if (format < BodyFormat::Current && d.shape.is_concave()) return std::string("its ") + shape_kind_name(d.shape.kind);
   return "";
 }
 
@@ -158,7 +209,7 @@ void write_body(ByteWriter& w, const BodySnapshot& b, BodyFormat format) {
   w.vec3(d.linear_velocity);
   w.vec3(d.angular_velocity);
   if (format >= BodyFormat::WithoutCompounds) w.put(d.collision_group), w.put(d.collision_mask);
-  if (format >= BodyFormat::Current) w.put(d.user_data);
+  if (format >= BodyFormat::WithoutMeshes) w.put(d.user_data);
   auto io = [&w](const auto& field) { w.put(field); };
   visit_state(io, b.state);
 }
@@ -182,7 +233,7 @@ BodySnapshot read_body(ByteReader& r, BodyFormat format) {
     d.collision_group = r.get<std::uint32_t>();
     d.collision_mask = r.get<std::uint32_t>();
   }
-  if (format >= BodyFormat::Current) d.user_data = r.get<std::uint64_t>();
+  if (format >= BodyFormat::WithoutMeshes) d.user_data = r.get<std::uint64_t>();
   if (!d.is_static && !(d.mass > 0)) r.fail("dynamic body without positive mass");
   BodyDynamicState& s = b.state;
   r.get(s.basis), r.get(s.origin), r.get(s.interpolation_basis), r.get(s.interpolation_origin);
@@ -241,6 +292,19 @@ bool same_shape(SameBits& same, const Shape& a, const Shape& b) {
     same_vec(same, x.position, y.position);
     same(x.orientation.w(), y.orientation.w()), same(x.orientation.x(), y.orientation.x());
     same(x.orientation.y(), y.orientation.y()), same(x.orientation.z(), y.orientation.z());
+  }
+  if (a.mesh != b.mesh) {  // shared data: the same pointer is the same mesh
+    if (!a.mesh || !b.mesh || a.mesh->file != b.mesh->file || a.mesh->vertices.size() != b.mesh->vertices.size() ||
+        a.mesh->triangles != b.mesh->triangles)
+      return false;
+    for (std::size_t i = 0; i < a.mesh->vertices.size(); ++i) same_vec(same, a.mesh->vertices[i], b.mesh->vertices[i]);
+  }
+  if (a.heightfield != b.heightfield) {
+    if (!a.heightfield || !b.heightfield || a.heightfield->columns != b.heightfield->columns ||
+        a.heightfield->rows != b.heightfield->rows || a.heightfield->heights.size() != b.heightfield->heights.size())
+      return false;
+    same_vec(same, a.heightfield->spacing, b.heightfield->spacing);
+    for (std::size_t i = 0; i < a.heightfield->heights.size(); ++i) same(a.heightfield->heights[i], b.heightfield->heights[i]);
   }
   return same.equal;
 }

@@ -37,7 +37,7 @@ struct SceneQuery::World {
   }
 
   struct Object {
-    std::unique_ptr<btCollisionShape> shape;
+    std::shared_ptr<btCollisionShape> shape;
     btCollisionObject body;
     bool is_static = false;
   };
@@ -239,7 +239,7 @@ std::optional<QueryResult<QueryHit>> SceneQuery::sweep(double time, const Shape&
                                                        const QueryFilter& filter) {
   check_finite(from, "the sweep's start");
   check_finite(to, "the sweep's end");
-  const std::unique_ptr<btCollisionShape> cast = make_collision_shape(shape);
+  const std::shared_ptr<btCollisionShape> cast = make_collision_shape(shape);
   if (!cast->isConvex()) throw std::invalid_argument("SceneQuery::sweep: the shape must be convex");
   World* w = at(time);
   if (!w) return std::nullopt;
@@ -253,7 +253,7 @@ std::optional<QueryResult<QueryHit>> SceneQuery::sweep(double time, const Shape&
 std::optional<QueryResult<BodyId>> SceneQuery::overlap(double time, const Shape& shape, const Vec3& position,
                                                        const Quat& orientation, const QueryFilter& filter) {
   check_finite(position, "the shape's position");
-  const std::unique_ptr<btCollisionShape> probe_shape = make_collision_shape(shape);
+  const std::shared_ptr<btCollisionShape> probe_shape = make_collision_shape(shape);
   World* w = at(time);
   if (!w) return std::nullopt;
   btCollisionObject probe;

@@ -15,6 +15,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -30,12 +31,37 @@ inline constexpr BodyId kMaxBodyId = (BodyId{1} << 31) - 1;
 using Vec3 = Eigen::Vector3d;
 using Quat = Eigen::Quaterniond;
 
-enum class ShapeKind { Box, Sphere, Capsule, Cylinder, ConvexHull, Compound };
+enum class ShapeKind { Box, Sphere, Capsule, Cylinder, ConvexHull, Compound, TriangleMesh, Heightfield };
 
 /// Name used in scene files and messages ("box", "sphere", ...).
 const char* shape_kind_name(ShapeKind kind);
 
 struct CompoundChild;
+
+/// The triangles of a static triangle mesh, in the body's frame (metres).
+/// Immutable once made: shapes share it (Shape::mesh), so a scene's copies
+/// (every world's, every snapshot's) hold one pointer, never the triangles.
+struct TriangleMeshData {
+  std::vector<Vec3> vertices;
+  std::vector<std::array<std::uint32_t, 3>> triangles;  // indices into vertices, counter-clockwise seen from outside
+  /// The OBJ file the mesh was read from, as the scene file names it
+  /// (relative to the scene file's folder); empty: the triangles are inline.
+  std::string file;
+};
+
+/// The heights of a static heightfield: a grid of `columns` samples along x
+/// by `rows` samples along z, heights along y, centred on the body's
+/// origin: sample (i, j) lies at x = (i - (columns - 1) / 2) * spacing.x(),
+/// z = (j - (rows - 1) / 2) * spacing.z(), y = heights[j * columns + i] *
+/// spacing.y(). Immutable once made (shared as TriangleMeshData is).
+struct HeightfieldData {
+  int columns = 0;              // samples along x, >= 2
+  int rows = 0;                 // samples along z, >= 2
+  std::vector<double> heights;  // rows * columns, row by row (z), each row along x
+  Vec3 spacing = Vec3(1.0, 1.0, 1.0);  // m between samples along x and z; y scales the heights
+  /// Largest |height| * spacing.y() (the local AABB's half height).
+  double max_abs_height() const;
+};
 
 /// Collision shape in the body's local frame. Units: metres.
 /// - Box:        half_extents (x, y, z).
@@ -48,6 +74,9 @@ struct CompoundChild;
 /// - Compound:   children (at least one): convex shapes (any kind above)
 ///               at poses in the body's frame, as btCompoundShape. Its mass
 ///               properties: docs/scene-format.md, "Compound shapes".
+/// - TriangleMesh: mesh (static bodies only; docs/scene-format.md,
+///               "Triangle meshes and heightfields").
+/// - Heightfield:  heightfield (static bodies only).
 struct Shape {
   ShapeKind kind = ShapeKind::Box;
   Vec3 half_extents = Vec3(0.5, 0.5, 0.5);
@@ -55,6 +84,8 @@ struct Shape {
   double height = 1.0;
   std::vector<Vec3> points;
   std::vector<CompoundChild> children;  // Compound only, in order (a child's index is its place)
+  std::shared_ptr<const TriangleMeshData> mesh;        // TriangleMesh only
+  std::shared_ptr<const HeightfieldData> heightfield;  // Heightfield only
 
   static Shape box(const Vec3& half_extents);
   static Shape sphere(double radius);
@@ -62,6 +93,11 @@ struct Shape {
   static Shape cylinder(const Vec3& half_extents);
   static Shape convex_hull(std::vector<Vec3> points);
   static Shape compound(std::vector<CompoundChild> children);
+  static Shape triangle_mesh(std::shared_ptr<const TriangleMeshData> mesh);
+  static Shape heightfield_of(std::shared_ptr<const HeightfieldData> heightfield);
+
+  /// TriangleMesh and Heightfield: concave, for static bodies only.
+  bool is_concave() const { return kind == ShapeKind::TriangleMesh || kind == ShapeKind::Heightfield; }
 
   /// Radius of a sphere around the local origin that holds the whole shape.
   double bounding_radius() const;

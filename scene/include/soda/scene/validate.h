@@ -1,6 +1,8 @@
 // Scene validation: every rule a scene must satisfy before any world sees it.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -14,6 +16,10 @@ namespace soda {
 /// body whose AABB for a step has length^2 >= 1e12 (see
 /// btDiscreteDynamicsWorld::updateSingleAabb). We refuse such bodies up front.
 inline constexpr double kBulletMaxAabbLength2 = 1e12;
+
+/// Bullet indexes a mesh's vertices and a heightfield's samples with int.
+inline constexpr std::size_t kMaxMeshVertices = 0x7fffffff;
+inline constexpr std::int64_t kMaxHeightfieldSamples = 0x7fffffff;
 
 /// Error in a scene: the message names the source (file or generator), the
 /// body (index and id) and the field, e.g.

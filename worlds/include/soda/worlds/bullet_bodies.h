@@ -12,8 +12,11 @@
 
 namespace soda {
 
-/// Creates the collision shape of `shape` (Bullet's default margins).
-std::unique_ptr<btCollisionShape> make_collision_shape(const Shape& shape);
+/// The collision shape of `shape` (Bullet's default margins): a new one,
+/// but for a triangle mesh or heightfield the one shape the process shares
+/// between every world and body with the same data (read-only once built;
+/// built at the first call: a mesh's BVH).
+std::shared_ptr<btCollisionShape> make_collision_shape(const Shape& shape);
 
 /// Radius of a sphere about the shape's local origin that stays inside it
 /// (metres): sphere and capsule: the radius; box: the smallest half extent;
@@ -43,7 +46,7 @@ BodyState read_body_state(const btRigidBody& body);
 
 /// Owns the shapes and bodies of a scene, in the scene's body order.
 struct BulletBodies {
-  std::vector<std::unique_ptr<btCollisionShape>> shapes;
+  std::vector<std::shared_ptr<btCollisionShape>> shapes;
   std::vector<std::unique_ptr<btRigidBody>> bodies;
 
   explicit BulletBodies(const Scene& scene);

@@ -95,8 +95,10 @@ inline constexpr std::size_t kMinChildBytes = 1 + 8 * 5 + 4 + 4 + 8 * 7;
 /// How a body record is written, oldest first: WithoutFilter (no
 /// collision group and mask: the body reads back with the default filter),
 /// WithoutCompounds (no child count after the hull points), WithoutUserData
-/// (no user data after the collision filter: it reads back as 0), Current.
-enum class BodyFormat { WithoutFilter, WithoutCompounds, WithoutUserData, Current };
+/// (no user data after the collision filter: it reads back as 0),
+/// WithoutMeshes (no triangle mesh or heightfield data after a shape's
+/// children: such shapes cannot be written), Current.
+enum class BodyFormat { WithoutFilter, WithoutCompounds, WithoutUserData, WithoutMeshes, Current };
 /// A body: description (shape, mass, friction, ..., collision filter, user
 /// data) and raw state. An older `format` leaves out what it has no field
 /// for; the caller checks that the body needs none of it (body_format_loss).

@@ -1,0 +1,113 @@
+// A static triangle mesh's geometry is held once per process, not once per
+// world (worlds/src/concave_shapes.h): the worlds of one process share one
+// Bullet shape (its btScalar vertices and BVH), and a world's own cost for
+// the mesh is one rigid body and proxy. Measured with the heap's counters:
+// eight territory worlds of a scene with a large mesh against the same
+// scene with a box in its place. SODA_MESH_TRIANGLES sets the mesh's size
+// (default 200,000 triangles; docs/memory.md quotes a 1,000,000-triangle run).
+#include <malloc.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "concave_shapes.h"
+#include "soda/grid/partition.h"
+#include "soda/worlds/bullet_bodies.h"
+#include "soda/worlds/territory_world.h"
+
+namespace soda {
+namespace {
+
+// Bytes in use: small chunks and mmapped ones (a large vector's).
+std::size_t heap_bytes() {
+  const struct mallinfo2 m = mallinfo2();
+  return m.uordblks + m.hblkhd;
+}
+
+// A side x side grid of 1 m quads (2 side^2 triangles), gently waved, under
+// 16 cubes.
+Scene mesh_scene(int side, bool with_mesh) {
+  Scene s;
+  s.name = "mesh";
+  Body ground;
+  ground.id = 0;
+  ground.is_static = true;
+  if (with_mesh) {
+    auto mesh = std::make_shared<TriangleMeshData>();
+    for (int j = 0; j <= side; ++j)
+      for (int i = 0; i <= side; ++i)
+        mesh->vertices.emplace_back(i - 0.5 * side, 0.2 * std::sin(0.3 * i) * std::cos(0.2 * j), j - 0.5 * side);
+    for (int j = 0; j < side; ++j)
+      for (int i = 0; i < side; ++i) {
+        const auto a = static_cast<std::uint32_t>(j * (side + 1) + i), b = a + 1,
+                   c = a + static_cast<std::uint32_t>(side + 1), d = c + 1;
+        mesh->triangles.push_back({a, c, b});
+        mesh->triangles.push_back({b, c, d});
+      }
+    ground.shape = Shape::triangle_mesh(std::move(mesh));
+  } else {
+    ground.shape = Shape::box(Vec3(0.5 * side, 0.5, 0.5 * side));
+  }
+  s.bodies.push_back(std::move(ground));
+  for (int k = 0; k < 16; ++k) {
+    Body b;
+    b.id = static_cast<BodyId>(k + 1);
+    b.shape = Shape::box(Vec3(0.5, 0.5, 0.5));
+    b.position = Vec3(-0.25 * side + 0.5 * side * (k % 4) / 3.0, 2.0, -0.25 * side + 0.5 * side * (k / 4) / 3.0);
+    s.bodies.push_back(std::move(b));
+  }
+  return s;
+}
+
+struct Growth {
+  std::size_t first = 0;  // heap bytes the first world took
+  std::size_t rest = 0;   // the next seven together
+};
+
+Growth build_worlds(const Scene& s, const TerritoryMap& map) {
+  std::vector<std::unique_ptr<TerritoryWorld>> worlds;
+  Growth g;
+  const std::size_t h0 = heap_bytes();
+  worlds.push_back(std::make_unique<TerritoryWorld>(s, 0, map));
+  const std::size_t h1 = heap_bytes();
+  for (WorldId w = 1; w < map.world_count(); ++w) worlds.push_back(std::make_unique<TerritoryWorld>(s, w, map));
+  g.first = h1 - h0;
+  g.rest = heap_bytes() - h1;
+  return g;
+}
+
+TEST(SharedMesh, EightWorldsHoldOneCopyOfTheGeometry) {
+  const char* env = std::getenv("SODA_MESH_TRIANGLES");
+  const long triangles = env ? std::atol(env) : 200000;
+  const int side = static_cast<int>(std::ceil(std::sqrt(triangles / 2.0)));
+  const Scene with = mesh_scene(side, true), without = mesh_scene(side, false);
+  const TerritoryMap map = make_partition("kmeans", without, 8, GridOptions{});
+  ASSERT_EQ(map.world_count(), 8);
+  build_worlds(without, map);  // once to warm up what is allocated once per process
+  const Growth b = build_worlds(without, map);
+  const Growth a = build_worlds(with, map);
+  const double shared = double(a.first) - double(b.first);
+  const double per_world = (double(a.rest) - double(b.rest)) / 7.0;
+  const std::size_t scene_bytes = with.bodies[0].shape.mesh->vertices.size() * sizeof(Vec3) +
+                                  with.bodies[0].shape.mesh->triangles.size() * 12;
+  std::printf("[ shared mesh %s, %zu triangles, 8 territory worlds ] scene data %zu bytes (once); Bullet shape and "
+              "BVH %.0f bytes (the first world, once; concave_shape_bytes %zu); each further world %.0f bytes "
+              "for the mesh (its rigid body and proxy)\n",
+              kPrecisionName, with.bodies[0].shape.mesh->triangles.size(), scene_bytes, shared,
+              concave_shape_bytes(with.bodies[0].shape), per_world);
+  // The first world builds the shape: at least the btScalar vertices and
+  // int indices; each further world adds far less than a copy would.
+  EXPECT_GT(shared, double(with.bodies[0].shape.mesh->triangles.size() * 3 * sizeof(int)));
+  EXPECT_LT(per_world, 4096.0);
+  // Copies of a shape (a scene's, a snapshot's) map to the one Bullet shape.
+  const Shape copy = with.bodies[0].shape;
+  EXPECT_EQ(make_collision_shape(copy).get(), make_collision_shape(with.bodies[0].shape).get());
+}
+
+}  // namespace
+}  // namespace soda
