@@ -86,6 +86,8 @@ Scene make_big_bodies(const SceneParams& params);
 Scene make_compounds(const SceneParams& params);
 // terrain_scene.cpp: boulders, balls and boxes rolling down a heightfield valley.
 Scene make_terrain(const SceneParams& params);
+// city_scene.cpp: debris falling onto a triangle-mesh street grid.
+Scene make_city(const SceneParams& params);
 Scene make_plank_pile(const SceneParams& params);
 Scene make_heavy_slide(const SceneParams& params);
 Scene make_free_fall(const SceneParams& params);

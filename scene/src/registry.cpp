@@ -145,6 +145,11 @@ const std::vector<SceneGenerator>& scene_registry() {
        "heightfield 80 x 40 m sampled every 0.5 m (both sides grow as sqrt(N / 200) above 200), rolling down "
        "across territory borders into its basin",
        detail::make_terrain},
+      {"city",
+       "N pieces of debris (boxes, slabs, rubble hulls; default 200) falling from 20 m onto a street grid: one static "
+       "triangle mesh of ground and buildings (8 m blocks 4 to 14 m high, 6 m streets; at least 3 x 3 blocks, more "
+       "as N grows)",
+       detail::make_city},
       {"plank-pile",
        "a plank N m long (default 8, N <= 40; 0.2 x 0.6 m, 40 kg) dropped end first from 0.5 m onto a pile of "
        "4 x 4 x 3 unit cubes",

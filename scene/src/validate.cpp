@@ -307,26 +307,6 @@ void check_joint_values(const Joint& j, const std::string& where) {
   }
 }
 
-// A compound body's contact with a triangle mesh or heightfield would need
-// a manifold per child (compound_contact.h keeps one per pair): refused.
-void check_compounds_off_concave(const Scene& scene, const std::string& source) {
-  const Body* concave = nullptr;
-  for (const Body& b : scene.bodies)
-    if (b.is_static && b.shape.is_concave()) {
-      concave = &b;
-      break;
-    }
-  if (!concave) return;
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
-    const Body& b = scene.bodies[i];
-    if (!b.is_static && b.shape.kind == ShapeKind::Compound)
-      fail(body_prefix(source, i, b.id), "shape.type",
-           std::string("a dynamic compound cannot share a scene with a ") + shape_kind_name(concave->shape.kind) +
-               " (static body " + std::to_string(concave->id) +
-               "): contacts between compounds and concave statics are not supported; use a convex hull");
-  }
-}
-
 }  // namespace
 
 void validate_joint(const Joint& joint, const std::string& where, const BodyLookup& body) {
@@ -393,7 +373,6 @@ void validate_scene(const Scene& scene, const std::string& source, Precision pre
     if (!b.is_static) check_bullet_aabb(where, b, st.dt);
     check_body_envelope(where, b, envelope);
   }
-  check_compounds_off_concave(scene, source);
   if (scene.joints.empty()) return;
   const BodyLookup body = [&](BodyId id) -> const Body* {
     auto it = seen.find(id);

@@ -229,8 +229,8 @@ TEST(Checkpoint, TruncatedDamagedAndForeignFilesAreRefused) {
   }
   // Another version (any later one keeps magic, version, precision first).
   std::vector<std::uint8_t> later = good;
-  later[8] = 5;
-  expect_refused(later, "version-5", "format version 5; this build reads versions 1 to 4");
+  later[8] = 6;
+  expect_refused(later, "version-6", "format version 6; this build reads versions 1 to 5");
   // Another precision: the other build's btScalar size, the frame intact.
   std::vector<std::uint8_t> other = good;
   other[12] = sizeof(btScalar) == 8 ? 4 : 8;
