@@ -84,8 +84,10 @@ void expect_exercised(const test::MatrixCase& c, const test::MatrixRun& run) {
   if (c.territories > 1) {
     EXPECT_GT(t.ghosts_sent, 0u);
     EXPECT_GT(t.migrations_out, 0u);
-    EXPECT_GT(t.merged_islands, 0u);
   }
+  // Border islands from 4 territories on (on 2, the double build's bodies
+  // meet none within the run).
+  if (c.territories >= 4) EXPECT_GT(t.merged_islands, 0u);
   if (c.anticipation > 0 && c.territories > 1) EXPECT_GT(t.bets, 0u);
   if (c.sync_test > 0) EXPECT_GT(run.sync_rollbacks, 0u);
 }
