@@ -45,6 +45,7 @@ build/consumer/game_loop
 build/consumer/game_loop --stepping
 build/consumer/picking
 build/consumer/contact_sounds
+build/consumer/trigger_zones
 build/consumer/snapshot_restore
 build/consumer/save_resume
 # ThreadSanitizer cannot see inside Debian's (uninstrumented) Bullet; see

@@ -202,7 +202,7 @@ Body parse_body(std::string where, const json& j, const std::string& base_dir) {
   ctx.where += " (id " + std::to_string(id) + ")";
   ctx.only_known(j, {"id", "type", "shape", "mass", "friction", "restitution", "position",
                      "orientation", "linear_velocity", "angular_velocity", "asleep", "collision_group",
-                     "collision_mask", "user_data"});
+                     "collision_mask", "user_data", "sensor"});
   const std::string type = ctx.string(j, "type", true, "");
   if (type != "static" && type != "dynamic") ctx.fail("type", "must be \"static\" or \"dynamic\"");
   b.is_static = type == "static";
@@ -232,6 +232,10 @@ Body parse_body(std::string where, const json& j, const std::string& base_dir) {
     if (!u->is_number_unsigned() && !(u->is_number_integer() && u->get<std::int64_t>() >= 0))
       ctx.fail("user_data", "must be an integer in [0, 2^64)");
     b.user_data = u->get<std::uint64_t>();
+  }
+  if (const json* s = ctx.find(j, "sensor", false)) {
+    if (!s->is_boolean()) ctx.fail("sensor", "must be true or false");
+    b.sensor = s->get<bool>();
   }
   return b;
 }
@@ -312,6 +316,7 @@ json body_json(const Body& b) {
   if (b.collision_group != kDefaultCollisionGroup) jb["collision_group"] = b.collision_group;
   if (b.collision_mask != kAllCollisionGroups) jb["collision_mask"] = b.collision_mask;
   if (b.user_data != 0) jb["user_data"] = b.user_data;  // absent: 0
+  if (b.sensor) jb["sensor"] = true;
   return jb;
 }
 

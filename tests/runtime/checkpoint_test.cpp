@@ -229,8 +229,10 @@ TEST(Checkpoint, TruncatedDamagedAndForeignFilesAreRefused) {
   }
   // Another version (any later one keeps magic, version, precision first).
   std::vector<std::uint8_t> later = good;
-  later[8] = 6;
-  expect_refused(later, "version-6", "format version 6; this build reads versions 1 to 5");
+  later[8] = static_cast<std::uint8_t>(kCheckpointVersion + 1);
+  const std::string next = std::to_string(kCheckpointVersion + 1);
+  expect_refused(later, "version-" + next,
+                 "format version " + next + "; this build reads versions 1 to " + std::to_string(kCheckpointVersion));
   // Another precision: the other build's btScalar size, the frame intact.
   std::vector<std::uint8_t> other = good;
   other[12] = sizeof(btScalar) == 8 ? 4 : 8;

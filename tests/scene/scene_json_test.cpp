@@ -275,6 +275,24 @@ TEST(SceneErrors, BadCollisionFilterIsRejected) {
   }
 }
 
+// Sensors: "sensor": true parses, round trips and is written only when
+// true; anything but a boolean is an error naming the body and the field.
+TEST(SceneJson, SensorParsesAndRoundTrips) {
+  const Scene s = parse_scene_json(
+      scene_text(R"({"id": 7, "type": "static", "shape": {"type": "box", "half_extents": [2, 1, 2]},
+                     "position": [0, 2, 0], "sensor": true})"),
+      "sensor.json");
+  EXPECT_FALSE(s.bodies[0].sensor);
+  EXPECT_TRUE(s.bodies[1].sensor);
+  const std::string text = scene_to_json(s);
+  EXPECT_EQ(text.find("sensor"), text.rfind("sensor")) << "written once, for body 7 only";
+  EXPECT_TRUE(parse_scene_json(text, "roundtrip").bodies[1].sensor);
+  const std::string e = error_of(scene_text(R"({"id": 7, "type": "dynamic", "mass": 1,
+      "shape": {"type": "sphere", "radius": 0.5}, "position": [0, 2, 0], "sensor": 1})"));
+  EXPECT_NE(e.find("(id 7)"), std::string::npos) << e;
+  EXPECT_NE(e.find("'sensor': must be true or false"), std::string::npos) << e;
+}
+
 // Compound shapes (docs/scene-format.md, "Compound shapes"): children with
 // poses round trip bit for bit; an empty compound, a nested one and bad
 // child poses are errors naming the body and the field.

@@ -99,6 +99,7 @@ std::unique_ptr<btRigidBody> make_rigid_body(const Body& body, btCollisionShape&
   info.m_restitution = btScalar(body.restitution);
   auto rb = std::make_unique<btRigidBody>(info);
   rb->setUserIndex(static_cast<int>(body.id));
+  if (body.sensor) mark_sensor(*rb);
   // Read by soda's speculative contacts only (Bullet's CCD stays off: its
   // motion threshold is 0; the stock world's --ccd sets both itself).
   if (!body.is_static) rb->setCcdSweptSphereRadius(btScalar(inner_radius(body.shape)));

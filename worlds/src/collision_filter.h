@@ -20,14 +20,17 @@ namespace soda {
 inline int proxy_bits(std::uint32_t bits) { return static_cast<int>(bits); }
 
 /// True if the pair may collide: each body's group is in the other's mask,
-/// and not both are static or kinematic (Bullet's default filter keeps those
-/// apart too: addRigidBody gives them StaticFilter, masked out of each other).
+/// neither is a sensor (mark_sensor: a sensor touches nothing; SensorReader
+/// reports its overlaps from committed frames), and not both are static or
+/// kinematic (Bullet's default filter keeps those apart too: addRigidBody
+/// gives them StaticFilter, masked out of each other).
 inline bool bodies_may_collide(const btBroadphaseProxy* a, const btBroadphaseProxy* b) {
   if ((a->m_collisionFilterGroup & b->m_collisionFilterMask) == 0 ||
       (b->m_collisionFilterGroup & a->m_collisionFilterMask) == 0)
     return false;
   const auto* oa = static_cast<const btCollisionObject*>(a->m_clientObject);
   const auto* ob = static_cast<const btCollisionObject*>(b->m_clientObject);
+  if (!oa->hasContactResponse() || !ob->hasContactResponse()) return false;
   return !(oa->isStaticOrKinematicObject() && ob->isStaticOrKinematicObject());
 }
 

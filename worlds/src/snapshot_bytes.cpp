@@ -24,9 +24,10 @@ namespace {
 constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'W', 'S', 'N', '1'};
 // 3 and 4: bodies carry their collision filter and compound children (1
 // and 2 before); 5 and 6: and their user data; 7 and 8: and triangle mesh
-// and heightfield data. Only these two are read.
-constexpr std::uint32_t kVersion = 7;        // no joints
-constexpr std::uint32_t kJointsVersion = 8;  // with joints
+// and heightfield data; 9 and 10: and their sensor flag. Only these two are
+// read.
+constexpr std::uint32_t kVersion = 9;        // no joints
+constexpr std::uint32_t kJointsVersion = 10;  // with joints
 constexpr std::size_t kMinJointBytes = 4 + 1 + 4 + 4 + 2 * 7 * 8 + 1 + 8 + 1 + 4 * 8 + 1 + 2 * 8 + 3 * 8 + 36 * 8 + 1;
 
 void write_joint(ByteWriter& w, const JointSnapshot& js) {

@@ -109,7 +109,7 @@ void write_shape(ByteWriter& w, const Shape& s, BodyFormat format) {
     w.vec3(c.position);
     write_quat(w, c.orientation);
   }
-  if (format < BodyFormat::Current) return;
+  if (format < BodyFormat::WithoutSensor) return;
   if (s.kind == ShapeKind::TriangleMesh) {
     w.count(s.mesh->file.size());
     for (char c : s.mesh->file) w.put(c);
@@ -162,7 +162,7 @@ Shape read_shape(ByteReader& r, BodyFormat format, bool in_compound) {
   const auto kind = r.get<std::uint8_t>();
   if (kind > static_cast<std::uint8_t>(ShapeKind::Heightfield)) r.fail("unknown shape kind");
   s.kind = static_cast<ShapeKind>(kind);
-  if (s.is_concave() && (in_compound || format < BodyFormat::Current))
+  if (s.is_concave() && (in_compound || format < BodyFormat::WithoutSensor))
     r.fail(in_compound ? "a concave shape inside a compound" : "a mesh or heightfield in a format without them");
   if (s.kind == ShapeKind::Compound && (in_compound || format < BodyFormat::WithoutUserData))
     r.fail(in_compound ? "a compound inside a compound" : "a compound shape in a format without compounds");
@@ -182,7 +182,7 @@ Shape read_shape(ByteReader& r, BodyFormat format, bool in_compound) {
     c.position = r.vec3();
     c.orientation = read_quat(r);
   }
-  if (format >= BodyFormat::Current) read_concave(r, s);
+  if (format >= BodyFormat::WithoutSensor) read_concave(r, s);
   return s;
 }
 
@@ -194,7 +194,8 @@ std::string body_format_loss(const Body& d, BodyFormat format) {
     return "its collision filter";
   if (format < BodyFormat::WithoutUserData && d.shape.kind == ShapeKind::Compound) return "its compound shape";
   if (format < BodyFormat::WithoutMeshes && d.user_data != 0) return "its user data";
-  if (format < BodyFormat::Current && d.shape.is_concave()) return std::string("its ") + shape_kind_name(d.shape.kind);
+  if (format < BodyFormat::WithoutSensor && d.shape.is_concave()) return std::string("its ") + shape_kind_name(d.shape.kind);
+  if (format < BodyFormat::Current && d.sensor) return "its sensor flag";
   return "";
 }
 
@@ -210,6 +211,7 @@ void write_body(ByteWriter& w, const BodySnapshot& b, BodyFormat format) {
   w.vec3(d.angular_velocity);
   if (format >= BodyFormat::WithoutCompounds) w.put(d.collision_group), w.put(d.collision_mask);
   if (format >= BodyFormat::WithoutMeshes) w.put(d.user_data);
+  if (format >= BodyFormat::Current) w.put(static_cast<std::uint8_t>(d.sensor));
   auto io = [&w](const auto& field) { w.put(field); };
   visit_state(io, b.state);
 }
@@ -234,6 +236,11 @@ BodySnapshot read_body(ByteReader& r, BodyFormat format) {
     d.collision_mask = r.get<std::uint32_t>();
   }
   if (format >= BodyFormat::WithoutMeshes) d.user_data = r.get<std::uint64_t>();
+  if (format >= BodyFormat::Current) {
+    const auto sensor = r.get<std::uint8_t>();
+    if (sensor > 1) r.fail("bad sensor flag");
+    d.sensor = sensor == 1;
+  }
   if (!d.is_static && !(d.mass > 0)) r.fail("dynamic body without positive mass");
   BodyDynamicState& s = b.state;
   r.get(s.basis), r.get(s.origin), r.get(s.interpolation_basis), r.get(s.interpolation_origin);
@@ -323,7 +330,7 @@ bool same_bits(const Body& a, const Body& b) {
   vec(a.linear_velocity, b.linear_velocity);
   vec(a.angular_velocity, b.angular_velocity);
   same(a.collision_group, b.collision_group), same(a.collision_mask, b.collision_mask);
-  same(a.user_data, b.user_data);
+  same(a.user_data, b.user_data), same(a.sensor, b.sensor);
   return same.equal;
 }
 

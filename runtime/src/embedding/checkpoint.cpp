@@ -60,13 +60,14 @@ UserInput::Kind last_kind(std::uint32_t version) {
 
 // How a version writes a body record: 1 without a collision filter, 2
 // without compound children, 3 without user data, 4 without triangle mesh
-// and heightfield data.
+// and heightfield data, 5 without the sensor flag.
 BodyFormat body_format(std::uint32_t version) {
   switch (version) {
     case 1: return BodyFormat::WithoutFilter;
     case 2: return BodyFormat::WithoutCompounds;
     case 3: return BodyFormat::WithoutUserData;
     case 4: return BodyFormat::WithoutMeshes;
+    case 5: return BodyFormat::WithoutSensor;
     default: return BodyFormat::Current;
   }
 }

@@ -40,6 +40,8 @@ struct SceneQuery::World {
     std::shared_ptr<btCollisionShape> shape;
     btCollisionObject body;
     bool is_static = false;
+    bool sensor = false;
+    std::uint32_t mask = kAllCollisionGroups;  // a sensor's: the groups it reports
   };
 
   btNullPairCache pairs;
@@ -58,6 +60,9 @@ struct SceneQuery::World {
     o.body.setWorldTransform(to_bt_transform(description.position, description.orientation));
     o.is_static = description.is_static;
     o.body.setCollisionFlags(o.is_static ? btCollisionObject::CF_STATIC_OBJECT : 0);
+    o.sensor = description.sensor;
+    o.mask = description.collision_mask;
+    if (o.sensor) mark_sensor(o.body);
     // The proxy carries the body's collision group (QueryFilter::mask reads
     // it); queries never ask for pairs, so its mask is unused.
     world.addCollisionObject(&o.body, static_cast<int>(description.collision_group), btBroadphaseProxy::AllFilter);
@@ -80,6 +85,7 @@ BodyId id_of(const btCollisionObject* o) { return static_cast<BodyId>(o->getUser
 // collision group against the query's mask, ignored ids.
 bool wanted(const QueryFilter& f, const btCollisionObject* o) {
   if (o->isStaticObject() ? !f.statics : !f.dynamics) return false;
+  if (!o->hasContactResponse() && !f.sensors) return false;  // a sensor (mark_sensor)
   if ((static_cast<std::uint32_t>(o->getBroadphaseHandle()->m_collisionFilterGroup) & f.mask) == 0) return false;
   return std::find(f.ignore.begin(), f.ignore.end(), id_of(o)) == f.ignore.end();
 }
@@ -177,11 +183,11 @@ std::int64_t SceneQuery::last_step() const { return world_ ? world_->step : -1; 
 
 // The frame of τ's step placed in the world: bodies that left it removed,
 // new ones added from their descriptions, every pose set from the frame.
-SceneQuery::World* SceneQuery::at(double time) {
+SceneQuery::World* SceneQuery::at(double time, bool wait) {
   if (!world_) throw std::logic_error("SceneQuery: used after being moved from");
   const std::int64_t step = core_->step_at(time);
   if (step == world_->step) return world_.get();
-  const std::optional<SceneFrame> frame = reader_.read_at(time);
+  const std::optional<SceneFrame> frame = wait ? reader_.read_at(time) : reader_.try_read_at(time);
   if (!frame) return nullptr;
   World& w = *world_;
   std::size_t i = 0;
@@ -276,6 +282,27 @@ std::optional<QueryResult<BodyId>> SceneQuery::overlap_aabb(double time, const V
   w->broadphase.aabbTest(in_box.lo, in_box.hi, in_box);
   sort_unique(in_box.ids);
   return QueryResult<BodyId>{w->step, std::move(in_box.ids)};
+}
+
+// Each sensor's contact test against the bodies it may report: the same
+// Touching test as overlap(), with the sensor itself as the probe (Bullet's
+// contactTest skips the probe), so a pair's answer is a function of the two
+// shapes and poses alone.
+std::optional<std::vector<std::pair<BodyId, BodyId>>> SceneQuery::sensor_overlaps(std::int64_t step, bool wait) {
+  World* w = at(core_->time_of(step), wait);
+  if (!w) return std::nullopt;
+  std::vector<std::pair<BodyId, BodyId>> out;
+  for (auto& [id, o] : w->objects) {
+    if (!o.sensor) continue;
+    QueryFilter filter;
+    filter.statics = !o.is_static;
+    filter.mask = o.mask;
+    Touching touching(&o.body, filter);
+    w->world.contactTest(&o.body, touching);
+    sort_unique(touching.ids);
+    for (BodyId b : touching.ids) out.emplace_back(id, b);
+  }
+  return out;  // objects go by id: ascending
 }
 
 }  // namespace soda

@@ -207,6 +207,8 @@ ContactReader Simulation::add_contact_reader(bool persist) {
 
 SceneQuery Simulation::add_query() { return SceneQuery(engine_->core, add_reader()); }
 
+SensorReader Simulation::add_sensor_reader() { return SensorReader(engine_->core->first_step, add_query()); }
+
 double Simulation::dt() const { return engine_->core->dt; }
 std::int64_t Simulation::step_at(double time) const { return engine_->core->step_at(time); }
 double Simulation::time_of(std::int64_t step) const { return engine_->core->time_of(step); }

@@ -12,8 +12,8 @@ namespace soda {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'M', 'S', 'G', '1'};
-constexpr std::uint32_t kVersion = 6;  // 2: epoch, Control; 3: a fragment's weight; 4: collision filters; 5: compound shapes;
-                                       // 6: a body's user data
+constexpr std::uint32_t kVersion = 7;  // 2: epoch, Control; 3: a fragment's weight; 4: collision filters; 5: compound shapes;
+                                       // 6: a body's user data; 7: its sensor flag
 constexpr std::size_t kMinRecordBytes = kMinBodyBytes + 6 * sizeof(btScalar);
 
 [[noreturn]] void raise_message_error(const std::string& message) { throw MessageFormatError(message); }

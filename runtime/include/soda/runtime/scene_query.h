@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "soda/runtime/scene_reader.h"
@@ -43,6 +44,9 @@ struct QueryFilter {
   /// Only bodies whose Body::collision_group shares a bit with this mask
   /// (every body by default).
   std::uint32_t mask = kAllCollisionGroups;
+  /// Sensors (Body::sensor) too: off by default, as a trigger volume should
+  /// not stop a pick or a line of sight.
+  bool sensors = false;
 };
 
 /// One body a ray or a sweep hits.
@@ -107,10 +111,15 @@ class SceneQuery {
 
  private:
   friend class Simulation;
+  friend class SensorReader;
   struct World;  // the collision world (scene_query.cpp)
   explicit SceneQuery(std::shared_ptr<SimulationCore> core, SceneReader reader);
-  /// The collision world at τ's step; null when read_at would give nullopt.
-  World* at(double time);
+  /// The collision world at τ's step; null when read_at (try_read_at if not
+  /// `wait`) would give nullopt.
+  World* at(double time, bool wait = true);
+  /// Every (sensor, body) pair overlapping at `step`, ascending
+  /// (sensor_reader.h says which pairs); nullopt as at().
+  std::optional<std::vector<std::pair<BodyId, BodyId>>> sensor_overlaps(std::int64_t step, bool wait);
 
   std::shared_ptr<SimulationCore> core_;
   SceneReader reader_;

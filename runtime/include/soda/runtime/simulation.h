@@ -55,6 +55,7 @@
 #include "soda/runtime/schedule.h"
 #include "soda/runtime/scene_query.h"
 #include "soda/runtime/scene_reader.h"
+#include "soda/runtime/sensor_reader.h"
 #include "soda/runtime/user_input.h"
 #include "soda/scene/registry.h"
 #include "soda/scene/scene.h"
@@ -311,6 +312,9 @@ class Simulation {
   /// committed frame of its step (scene_query.h); a reader of its own inside.
   /// Any thread.
   SceneQuery add_query();
+  /// A reader of sensor events per committed step (sensor_reader.h): the
+  /// bodies each sensor (Body::sensor) overlaps, begin and end. Any thread.
+  SensorReader add_sensor_reader();
 
   // --- observers (any thread, never wait; a snapshot) ----------------------
 

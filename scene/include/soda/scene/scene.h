@@ -150,6 +150,12 @@ struct Body {
   /// reads it and the state hash does not cover it. Set at creation or by
   /// input (Simulation::set_user_data).
   std::uint64_t user_data = 0;
+  /// A sensor (docs/contact-events.md, "Sensors"): it never touches any body
+  /// (no contact, no push, no island edge: every world filters its pairs
+  /// out), and a SensorReader reports the bodies its shape overlaps at each
+  /// committed step. A static sensor stays where it is, a dynamic one moves
+  /// as any body does (gravity, inputs) but passes through everything.
+  bool sensor = false;
 
   /// Half extents of the world-frame AABB of the body at its initial pose.
   Vec3 aabb_half_extents() const;

@@ -37,9 +37,16 @@ btVector3 to_bt(const Vec3& v);
 /// step), friction and restitution set; a Body::asleep one ISLAND_SLEEPING
 /// with sleep timer kAsleepTimer. The body's user index is its id; a
 /// dynamic body's ccd swept sphere radius is inner_radius(shape) (its CCD
-/// motion threshold stays 0: Bullet's CCD off).
+/// motion threshold stays 0: Bullet's CCD off); a Body::sensor one marked
+/// (mark_sensor).
 /// The shape must outlive the body.
 std::unique_ptr<btRigidBody> make_rigid_body(const Body& body, btCollisionShape& shape);
+
+/// Marks a Bullet object as a Body::sensor: CF_NO_CONTACT_RESPONSE, which
+/// the worlds' pair filter (collision_filter.h) and the query world read.
+inline void mark_sensor(btCollisionObject& object) {
+  object.setCollisionFlags(object.getCollisionFlags() | btCollisionObject::CF_NO_CONTACT_RESPONSE);
+}
 
 /// Reads the raw state of a Bullet body (id taken from its user index).
 BodyState read_body_state(const btRigidBody& body);
