@@ -181,14 +181,7 @@ TEST(ContactEvents, OneTerritoryStreamIsTheCanonicalWorldsContacts) {
 // bit, step by step — a step rolled back after its entry was published
 // would show here as an event the canonical run does not have (the
 // speculative strip rolls back in every run, on one thread: asserted).
-struct Case {
-  const char* scene;
-  int bodies;
-  int territories;
-  const char* partition;
-  int threads;
-  int anticipation;
-};
+using Case = test::SpeculationCase;
 
 class ContactEventsAnyK : public ::testing::TestWithParam<Case> {};
 
@@ -200,10 +193,8 @@ TEST_P(ContactEventsAnyK, StreamEqualsOneWorldAndNoEventFromARolledBackStep) {
   const std::vector<ContactStep> want = canonical_stream(s, kSteps, true, &hash);
   expect_rich(want, c.scene);
   const TerritoryMap map = make_partition(c.partition, s, c.territories, GridOptions{});
-  SimulationConfig config{.threads = c.threads, .buffer_capacity = 16, .contact_events = true};
-  config.runtime.anticipation = c.anticipation;
-  config.runtime.checkpoint_every = 1;
-  config.runtime.eager_bets = c.anticipation > 0;
+  SimulationConfig config = test::speculation_config(c);
+  config.contact_events = true;
   Simulation sim(s, map, config);
   std::vector<ContactStep> got;
   std::thread reader([&, r = sim.add_contact_reader(true)]() mutable { got = read_all(r, kSteps); });
@@ -230,14 +221,7 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"cube-pile", 64, 4, "kmeans", 0, 8},           // a thread per world, speculative
                       Case{"cube-pile", 64, 2, "kmeans", 2, 0},           // a pool of 2, lockstep
                       Case{"cube-pile", 64, 4, "rcb", 3, 0}),             // a pool of 3, lockstep
-    [](const ::testing::TestParamInfo<Case>& i) {
-      std::string n = std::string(i.param.scene) + "_K" + std::to_string(i.param.territories) + "_" +
-                      i.param.partition + "_t" + std::to_string(i.param.threads) + "_a" +
-                      std::to_string(i.param.anticipation);
-      for (char& ch : n)
-        if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
-      return n;
-    });
+    test::speculation_case_name);
 
 // Every world's newest finished scene step (re-runs included), with a
 // condition variable: the test waits on it, never on a clock.

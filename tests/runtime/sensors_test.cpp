@@ -204,14 +204,7 @@ TEST(Sensors, ReportWhatOverlapsAtTheStepsTheGeometrySays) {
 
 // The stream of sensors over a scene, and its state hash, for K worlds with
 // speculation and rollbacks: the one-territory lockstep run's.
-struct Case {
-  const char* scene;
-  int bodies;
-  int territories;
-  const char* partition;
-  int threads;
-  int anticipation;
-};
+using Case = test::SpeculationCase;
 
 class SensorsAnyK : public ::testing::TestWithParam<Case> {};
 
@@ -234,11 +227,7 @@ TEST_P(SensorsAnyK, StreamEqualsOneTerritory) {
   EXPECT_TRUE(std::binary_search(w.sensors_seen.begin(), w.sensors_seen.end(), s.bodies.back().id))
       << "the dynamic sensor saw something";
   const TerritoryMap map = make_partition(c.partition, s, c.territories, GridOptions{});
-  SimulationConfig config{.threads = c.threads, .buffer_capacity = 16};
-  config.runtime.anticipation = c.anticipation;
-  config.runtime.checkpoint_every = 1;
-  config.runtime.eager_bets = c.anticipation > 0;
-  Simulation sim(s, map, config);
+  Simulation sim(s, map, test::speculation_config(c));
   std::vector<SensorStep> got;
   std::jthread reader([&, r = sim.add_sensor_reader()]() mutable { got = read_all(r, kSteps); });
   EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
@@ -259,14 +248,7 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"cube-pile", 64, 4, "grid:4x1x1", 1, 8},
                       Case{"cube-pile", 64, 4, "kmeans", 0, 8},           // a thread per world
                       Case{"cube-pile", 64, 2, "rcb", 2, 0}),             // a pool of 2, lockstep
-    [](const ::testing::TestParamInfo<Case>& i) {
-      std::string n = std::string(i.param.scene) + "_K" + std::to_string(i.param.territories) + "_" +
-                      i.param.partition + "_t" + std::to_string(i.param.threads) + "_a" +
-                      std::to_string(i.param.anticipation);
-      for (char& ch : n)
-        if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
-      return n;
-    });
+    test::speculation_case_name);
 
 // A body removed while inside ends at the step it is gone; reads go
 // forward, and the last step read again is the same.

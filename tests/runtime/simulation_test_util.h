@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -244,6 +245,38 @@ inline void expect_late_spawn_exact(Simulation& sim, const Scene& s, const Body&
   std::printf("%s: 8 territories %s, one %s\n", what.c_str(), hash_hex(late).c_str(), hash_hex(one.state_hash()).c_str());
   EXPECT_EQ(hash_hex(late), hash_hex(one.state_hash()));
   EXPECT_EQ(sim.body_count(), s.bodies.size() + 1);
+}
+
+/// A scene run on K territories with a partition, a schedule (threads: 0 a
+/// thread per world, 1 one thread, more a pool) and speculation, for the
+/// suites that compare a stream of a run with one territory's.
+struct SpeculationCase {
+  const char* scene;
+  int bodies;
+  int territories;
+  const char* partition;
+  int threads;
+  int anticipation;
+};
+
+/// "scene_K4_kmeans_t0_a8": a test name.
+inline std::string speculation_case_name(const ::testing::TestParamInfo<SpeculationCase>& i) {
+  std::string n = std::string(i.param.scene) + "_K" + std::to_string(i.param.territories) + "_" +
+                  i.param.partition + "_t" + std::to_string(i.param.threads) + "_a" +
+                  std::to_string(i.param.anticipation);
+  for (char& ch : n)
+    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+  return n;
+}
+
+/// The case's schedule and speculation (eager bets and a kept state every
+/// step when it speculates), small buffers.
+inline SimulationConfig speculation_config(const SpeculationCase& c) {
+  SimulationConfig config{.threads = c.threads, .buffer_capacity = 16};
+  config.runtime.anticipation = c.anticipation;
+  config.runtime.checkpoint_every = 1;
+  config.runtime.eager_bets = c.anticipation > 0;
+  return config;
 }
 
 }  // namespace soda::test
