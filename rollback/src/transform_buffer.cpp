@@ -134,6 +134,12 @@ std::int64_t TransformBuffer<Real>::newest_step() const {
 }
 
 template <class Real>
+std::int64_t TransformBuffer<Real>::freed_step() const {
+  std::lock_guard lock(mutex_);
+  return last_freed_ ? last_freed_->step : kNoStep;
+}
+
+template <class Real>
 void TransformBuffer<Real>::stop() {
   {
     std::lock_guard lock(mutex_);

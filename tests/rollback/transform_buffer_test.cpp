@@ -93,6 +93,28 @@ TYPED_TEST(TransformBufferTest, CommitFreesWhenNoReader) {
   EXPECT_EQ(buffer.latest_step(), 3);
 }
 
+// A reader past the commit step frees what is at or below it; a rollback
+// above the commit step then empties the buffer: read_at finds nothing at
+// or before the steps to be republished, and freed_step tells "not yet"
+// (after it) from "gone for good" (at or before it).
+TYPED_TEST(TransformBufferTest, FreedStepTellsGoneFromDroppedByARollback) {
+  TransformBuffer<TypeParam> buffer(8);
+  EXPECT_EQ(buffer.freed_step(), TransformBuffer<TypeParam>::kNoStep);
+  const auto reader = buffer.add_reader();
+  this->fill(buffer, 0, 5);
+  buffer.set_commit_step(3);
+  ASSERT_TRUE(buffer.read_at(reader, 5 * kDt));  // the cursor onto 5 frees 0 .. 3
+  EXPECT_EQ(buffer.oldest_step(), 4);
+  EXPECT_EQ(buffer.freed_step(), 3);
+  buffer.invalidate_from(4);  // a rollback at 4: nothing held
+  EXPECT_EQ(buffer.size(), 0u);
+  EXPECT_FALSE(buffer.read_at(reader, 5 * kDt));
+  EXPECT_LT(buffer.freed_step(), 5) << "step 5 is to be republished, not gone";
+  EXPECT_GE(buffer.freed_step(), 3) << "step 3 is gone";
+  this->fill(buffer, 4, 5);
+  EXPECT_TRUE(buffer.read_at(reader, 5 * kDt));
+}
+
 TYPED_TEST(TransformBufferTest, NoReaderNeverStallsOnceCommitted) {
   TransformBuffer<TypeParam> buffer(1);
   for (std::int64_t s = 0; s < 100; ++s) {

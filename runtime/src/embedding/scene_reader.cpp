@@ -116,9 +116,12 @@ Gathered gather_entries(SimulationCore& core, const std::vector<BufferReaderId>&
     } else {
       e = buffer.read_at(time);
     }
-    // The newest entry of a world is never freed (its commit step is one
-    // behind), so nothing at or before `time` held means it was freed.
-    if (!e) gone = true;
+    // Nothing at or before `time` held: gone if the step's entry was freed
+    // (it was final: nothing will bring it back); else a rollback dropped
+    // every held entry from some step at or before this one, and the world
+    // republishes them (freed entries and the readers' cursors may both be
+    // past the commit step's entry when the world rolls back above it).
+    if (!e) (buffer.freed_step() >= step ? gone : not_yet) = true;
     else if (e->step != step) not_yet = true;
     else out[w] = std::move(e);
   }

@@ -157,6 +157,15 @@ class TransformBuffer {
   /// the first publish; after invalidate_from(t), t - 1. Any thread.
   std::int64_t newest_step() const;
 
+  /// The step of the newest entry freed, kNoStep before the first: every
+  /// entry at or before it is gone for good (freed entries are at or below
+  /// the commit step, which no invalidation reaches). An entry after it that
+  /// is not held is still to come: not published yet, or dropped by
+  /// invalidate_from and to be republished — read_at finds nothing at or
+  /// before a time in that gap when a rollback emptied the buffer past it.
+  /// Only grows. Any thread.
+  std::int64_t freed_step() const;
+
   /// Releases every waiter and makes all later waits return at once
   /// (publish -> false when full, wait_next -> null when nothing is next,
   /// wait_for_time -> false when not reached). Irreversible. Any thread.
