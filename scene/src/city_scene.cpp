@@ -14,7 +14,7 @@ constexpr int kDefaultDebris = 200;
 constexpr double kBlock = 8.0;    // m: a building's footprint side
 constexpr double kStreet = 6.0;   // m: street width
 constexpr double kGroundQuad = 4.0;  // m: the ground's triangles are halves of these squares
-constexpr double kPitch = 1.8;    // m between debris at the start
+constexpr double kDebrisPitch = 1.8;    // m between debris at the start
 
 class MeshBuilder {
  public:
@@ -82,7 +82,7 @@ Scene make_city(const SceneParams& params) {
   scene.bodies.push_back(std::move(city));
   // Debris: boxes, slabs and rubble (convex hulls) in layers from 20 m up,
   // over the whole grid, turned at random.
-  const int per_side = std::max(1, static_cast<int>(2.0 * (half - kStreet) / kPitch));
+  const int per_side = std::max(1, static_cast<int>(2.0 * (half - kStreet) / kDebrisPitch));
   for (int i = 0; i < n; ++i) {
     const int layer = i / (per_side * per_side), row = (i / per_side) % per_side, col = i % per_side;
     Body b;
@@ -99,8 +99,8 @@ Scene make_city(const SceneParams& params) {
       }
     }
     b.mass = 30.0 * size * size * size;
-    b.position = Vec3(-half + kStreet + kPitch * (col + 0.5), 20.0 + kPitch * layer + rng.uniform(0.0, 3.0),
-                      -half + kStreet + kPitch * (row + 0.5));
+    b.position = Vec3(-half + kStreet + kDebrisPitch * (col + 0.5), 20.0 + kDebrisPitch * layer + rng.uniform(0.0, 3.0),
+                      -half + kStreet + kDebrisPitch * (row + 0.5));
     b.orientation = rng.rotation();
     scene.bodies.push_back(std::move(b));
   }

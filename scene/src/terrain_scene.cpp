@@ -12,7 +12,7 @@ namespace {
 
 constexpr int kDefaultBodies = 200;
 constexpr double kSample = 0.5;   // m between heightfield samples
-constexpr double kPitch = 1.6;    // m between bodies at the start (the largest is 1.2 m across)
+constexpr double kBodyPitch = 1.6;    // m between bodies at the start (the largest is 1.2 m across)
 
 // The valley's height at (x, z): a basin along x (steep at the high end
 // x = -length, lowest at x = 0.6 length), walls along z, bumps.
@@ -55,11 +55,11 @@ Scene make_terrain(const SceneParams& params) {
   scene.bodies.push_back(std::move(ground));
   // A block of bodies on the high slope: rows across the valley, columns
   // down it, layers above, each body 1 m above the surface under it.
-  const int across = std::max(1, static_cast<int>(0.6 * 2.0 * half_width / kPitch));
-  const int down = std::max(1, static_cast<int>(0.8 * length / kPitch));
+  const int across = std::max(1, static_cast<int>(0.6 * 2.0 * half_width / kBodyPitch));
+  const int down = std::max(1, static_cast<int>(0.8 * length / kBodyPitch));
   for (int i = 0; i < n; ++i) {
     const int layer = i / (across * down), col = (i / across) % down, row = i % across;
-    const double x = -0.9 * length + kPitch * (col + 0.5), z = kPitch * (row - 0.5 * (across - 1));
+    const double x = -0.9 * length + kBodyPitch * (col + 0.5), z = kBodyPitch * (row - 0.5 * (across - 1));
     Body b;
     b.id = static_cast<BodyId>(i + 1);
     b.friction = 0.6;
@@ -73,7 +73,7 @@ Scene make_terrain(const SceneParams& params) {
       b.shape = Shape::box(Vec3(size, 0.8 * size, 0.9 * size));
     }
     b.mass = 20.0 * size * size * size;
-    b.position = Vec3(x, valley(x, z, length, half_width, scale) + 1.0 + size + kPitch * layer, z);
+    b.position = Vec3(x, valley(x, z, length, half_width, scale) + 1.0 + size + kBodyPitch * layer, z);
     b.orientation = rng.rotation();
     scene.bodies.push_back(std::move(b));
   }
