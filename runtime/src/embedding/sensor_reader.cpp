@@ -69,14 +69,17 @@ std::optional<SensorStep> SensorReader::read(std::int64_t step, bool wait) {
                                 std::to_string(first_step_));
   if (step == last_.step) return last_;
   if (step < last_.step) return std::nullopt;
-  std::vector<SensorOverlap> before;
+  // The overlaps of the step before: the last step read's when it is that
+  // one (not copied), else read now; none before the run's first step.
+  std::vector<SensorOverlap> earlier;
+  const std::vector<SensorOverlap>* before = &earlier;
   if (step > first_step_) {
     if (last_.step == step - 1) {
-      before = last_.inside;
+      before = &last_.inside;
     } else {
       auto pairs = query_.sensor_overlaps(step - 1, wait);
       if (!pairs) return std::nullopt;
-      before = overlaps_of(*pairs);
+      earlier = overlaps_of(*pairs);
     }
   }
   auto pairs = query_.sensor_overlaps(step, wait);
@@ -85,7 +88,7 @@ std::optional<SensorStep> SensorReader::read(std::int64_t step, bool wait) {
   out.step = step;
   out.time = query_.core_->time_of(step);
   out.inside = overlaps_of(*pairs);
-  out.events = diff(step, before, out.inside);
+  out.events = diff(step, *before, out.inside);
   last_ = out;
   return out;
 }
