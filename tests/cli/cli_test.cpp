@@ -440,9 +440,10 @@ namespace {
 
 using namespace soda_cli_test;
 
-// Joints run in one world; a scene with joints is refused, by name, where
-// territory worlds would take it (docs/scene-format.md, "Joints").
-TEST_F(CliTest, JointScenesRunInOneWorldAndAreRefusedElsewhere) {
+// Joints run in one world and in territory worlds, bit-identical; a scene
+// with joints is refused, by name, where joints are not built yet
+// (docs/scene-format.md, "Joints").
+TEST_F(CliTest, JointScenesRunInEveryWorldAndAreRefusedElsewhere) {
   std::string first;
   for (const char* seed : {"0", "3"}) {
     const Outcome o = run_cli(std::string("run --scene ragdolls --n 4 --steps 120 --shuffle-seed ") + seed);
@@ -451,12 +452,20 @@ TEST_F(CliTest, JointScenesRunInOneWorldAndAreRefusedElsewhere) {
     EXPECT_EQ(hash_of(o), first) << "seed " << seed;
   }
   EXPECT_EQ(run_cli("run --scene pendulums --n 4 --steps 30 --world stock").exit_code, 0);
-  for (const char* args : {"run --scene chain-bridge --n 8 --steps 10 --territories 2",
-                           "run --scene chain-bridge --n 8 --steps 10 --sync-test 4"}) {
+  const Outcome one = run_cli("run --scene chain-bridge --n 8 --steps 60");
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  for (const char* args : {"run --scene chain-bridge --n 8 --steps 60 --territories 2",
+                           "run --scene chain-bridge --n 8 --steps 60 --territories 4 --anticipation 8",
+                           "run --scene chain-bridge --n 8 --steps 60 --sync-test 4"}) {
     const Outcome o = run_cli(args);
-    EXPECT_EQ(o.exit_code, 2) << args << "\n" << o.output;
-    EXPECT_NE(o.output.find("joints, which run in one world only"), std::string::npos) << o.output;
+    ASSERT_EQ(o.exit_code, 0) << args << "\n" << o.output;
+    EXPECT_EQ(hash_of(o), hash_of(one)) << args;
   }
+  const Outcome heal = run_cli("run --scene chain-bridge --n 8 --steps 10 --watchdog heal");
+  EXPECT_EQ(heal.exit_code, 2) << heal.output;
+  EXPECT_NE(heal.output.find("joints, which run in the canonical and stock worlds and in territory worlds"),
+            std::string::npos)
+      << heal.output;
 }
 
 // A bad joint in a scene file: exit 2, the joint and the field named.

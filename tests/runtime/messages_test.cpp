@@ -53,10 +53,17 @@ std::vector<Message> sample_messages() {
   f.manifolds.assign(v.manifolds.begin(), v.manifolds.begin() + 4);
   f.weight = 3 + 4;  // bodies + manifolds
   out.push_back(Message{2, 3, 18, FragmentBatch{{f, f}}});
+  const Scene joints = test::scene("ragdolls", 1);  // joints of every field the codec writes
+  Fragment jointed = f;
+  jointed.joints.assign(joints.joints.begin(), joints.joints.begin() + 3);
+  out.push_back(Message{2, 3, 18, FragmentBatch{{jointed}}});
   MigrantBatch m;
   m.migrants.push_back(Migrant{v.bodies[0], {v.manifolds[0]}});
   m.migrants.push_back(Migrant{v.bodies[1], {}});
   out.push_back(Message{3, 2, 19, m});
+  MigrantBatch jointed_migrants = m;
+  jointed_migrants.joints = {JointSnapshot{joints.joints[0], false}, JointSnapshot{joints.joints[1], true}};
+  out.push_back(Message{3, 2, 19, jointed_migrants});
   out.push_back(Message{3, 2, 20, MigrantBatch{}});
   IslandResult r;
   r.island = v.bodies[0].description.id;
@@ -71,7 +78,10 @@ std::vector<Message> sample_messages() {
   }
   r.manifolds.assign(v.manifolds.begin(), v.manifolds.begin() + 2);
   out.push_back(Message{4, 1, 21, ResultBatch{{std::make_shared<const IslandResult>(r), std::make_shared<const IslandResult>(r)}}});
-  Fragment header{3, 2, kNoBody, 0, {{0, 2}}, {}, {}, {}};  // only a ghost: no first body
+  IslandResult broke = r;
+  broke.broken_joints = {3, 9};
+  out.push_back(Message{4, 1, 21, ResultBatch{{std::make_shared<const IslandResult>(broke)}}});
+  Fragment header{3, 2, kNoBody, 0, {{0, 2}}, {}, {}, {}, {}};  // only a ghost: no first body
   out.push_back(Message{1, 2, 22, GatherBatch{r.island, {f, header}}});
   return out;
 }
@@ -201,9 +211,9 @@ TEST(IslandMerger, CompletesAnIslandAcrossThreeWorlds) {
   // World 0 holds a ghost of body 20 (owned by 1); world 1's fragment
   // {20, ghost 30} is glued by 0 and holds a ghost of 30 (owned by 2), which
   // world 2's fragment {30} is glued by.
-  Fragment f0{0, 10, 10, 1, {{1, 20}}, {}, {}, {}};
-  Fragment f1{1, 20, 20, 1, {{2, 30}}, {{0, 10, 20}}, {}, {}};
-  Fragment f2{2, 30, 30, 1, {}, {{1, 20, 30}}, {}, {}};
+  Fragment f0{0, 10, 10, 1, {{1, 20}}, {}, {}, {}, {}};
+  Fragment f1{1, 20, 20, 1, {{2, 30}}, {{0, 10, 20}}, {}, {}, {}};
+  Fragment f2{2, 30, 30, 1, {}, {{1, 20, 30}}, {}, {}, {}};
   IslandMerger m[3];
   m[0].start(0, {f0}, false);
   m[1].start(1, {f1}, false);
@@ -229,9 +239,9 @@ TEST(IslandMerger, CompletesAnIslandAcrossThreeWorlds) {
 // it (world_merge.cpp): only once the island is closed, only without
 // carry_data; the closed island keeps every fragment's header.
 TEST(IslandMerger, TakeMineMovesThisWorldsDataOutOfAClosedIsland) {
-  Fragment f0{0, 10, 10, 2, {{1, 20}}, {}, {}, {}};
+  Fragment f0{0, 10, 10, 2, {{1, 20}}, {}, {}, {}, {}};
   f0.manifolds.push_back(ManifoldState{10, 20, {ContactPointState{}}});
-  Fragment f1{1, 20, 20, 1, {}, {{0, 10, 20}}, {}, {}};
+  Fragment f1{1, 20, 20, 1, {}, {{0, 10, 20}}, {}, {}, {}};
   IslandMerger m0, m1;
   m0.start(0, {f0}, false);
   m1.start(1, {f1}, false);

@@ -73,6 +73,8 @@ struct Host final : BorderIslandHost {
       if (p == std::make_pair(id0, id1)) return true;
     return false;
   }
+  btTypedConstraint* held_joint(JointId) const override { return nullptr; }  // no joints here
+  void break_joint(JointId) override {}
 };
 
 struct Pile {

@@ -14,6 +14,7 @@
 #include "contact_threshold.h"
 #include "island_solver_settings.h"
 #include "island_substeps.h"
+#include "joint_factory.h"
 #include "parallel_stages.h"
 #include "soda/worlds/bullet_bodies.h"
 #include "soda/worlds/value_codec.h"
@@ -126,6 +127,13 @@ void BorderIslandSolver::gather(const std::vector<const Fragment*>& island, std:
       const ManifoldState& m = f->manifolds[i];
       g.manifolds.push_back(IslandManifold{{m.id0, m.id1}, &m, component >= 0 ? held_ptrs[i] : nullptr});
     }
+    for (const Joint& j : f->joints) {
+      btTypedConstraint* original = component >= 0 ? host_.held_joint(j.id) : nullptr;
+      if (component >= 0 && !original)
+        throw std::logic_error("world " + std::to_string(world_) + ": joint " + std::to_string(j.id) +
+                               " of its own fragment is not held here");
+      g.joints.push_back(IslandJoint{&j, original});
+    }
     if (f->world == world_) (component >= 0 ? g.any_in_place : g.copied_own) = true;
   }
   std::sort(g.bodies.begin(), g.bodies.end(), [](const IslandBody& a, const IslandBody& b) { return a.id < b.id; });
@@ -138,6 +146,11 @@ void BorderIslandSolver::gather(const std::vector<const Fragment*>& island, std:
   if (g.bodies.empty()) g.fail("no bodies");
   for (std::size_t i = 1; i < g.ids.size(); ++i)
     if (g.ids[i] == g.ids[i - 1]) g.fail("body " + std::to_string(g.ids[i]) + " has two owners");
+  std::sort(g.joints.begin(), g.joints.end(),
+            [](const IslandJoint& a, const IslandJoint& b) { return a.description->id < b.description->id; });
+  for (std::size_t i = 1; i < g.joints.size(); ++i)
+    if (g.joints[i].description->id == g.joints[i - 1].description->id)
+      g.fail("joint " + std::to_string(g.joints[i].description->id) + " has two holders");
   for (std::size_t i = 1; i < g.manifolds.size(); ++i)
     if (g.manifolds[i].key == g.manifolds[i - 1].key)
       g.fail("pair " + std::to_string(g.manifolds[i].key.first) + "-" + std::to_string(g.manifolds[i].key.second) +
@@ -239,8 +252,28 @@ void BorderIslandSolver::solve_awake(const Gathered& g, std::vector<btCollisionO
   const btContactSolverInfo& info = island_solver_info(tools.info, tools.island_info, bodies.data(), body_count,
                                                        manifold_ptrs, manifold_count, substeps);
   if (substeps > 1) ++counters.substepped_islands;
+  // Joints: this world's own in place, the others built on the island's
+  // bodies (copies or originals) and statics.
+  std::vector<btTypedConstraint*> joints(g.joints.size());
+  std::vector<std::unique_ptr<btTypedConstraint>> joint_copies;
+  for (std::size_t i = 0; i < g.joints.size(); ++i) {
+    if (g.joints[i].original) {
+      joints[i] = g.joints[i].original;
+      continue;
+    }
+    const Joint& j = *g.joints[i].description;
+    btRigidBody* a = btRigidBody::upcast(object_of(j.body_a));
+    btRigidBody* b = btRigidBody::upcast(object_of(j.body_b));
+    if (!a || !b) g.fail("joint " + std::to_string(j.id) + " joins a body that is not a rigid body");
+    joint_copies.push_back(make_constraint(j, *a, *b));
+    joints[i] = joint_copies.back().get();
+  }
   solve_island(tools.solver, bodies.data(), body_count, manifold_ptrs, manifold_count, info, substeps,
-               tools.dispatcher, pool);
+               tools.dispatcher, pool, joints.empty() ? nullptr : joints.data(), static_cast<int>(joints.size()));
+  for (std::size_t i = 0; i < joints.size(); ++i)
+    if (!joints[i]->isEnabled()) result.broken_joints.push_back(g.joints[i].description->id);
+  counters.merged_island_joints += joints.size();
+  counters.merged_island_joints_in_place += joints.size() - joint_copies.size();
   run_in_chunks(pool, manifold_count, kParallelMinPairs, kPairsPerTask, [&](int begin, int end) {
     for (int i = begin; i < end; ++i)
       read_manifold_state(*ptrs[static_cast<std::size_t>(i)], result.manifolds[static_cast<std::size_t>(i)]);
@@ -306,6 +339,8 @@ void BorderIslandSolver::apply(const IslandResult& result, std::map<PairKey, Man
     rb.forceActivationState(r.activation_state);
     rb.setDeactivationTime(r.deactivation_time);
   }
+  if (!in_place)
+    for (JointId j : result.broken_joints) host_.break_joint(j);
   // Both sorted by key: each search starts where the last one ended.
   auto held = held_by_key_.begin();
   PairKey last{0, 0};

@@ -16,8 +16,11 @@
 // Invariants:
 //  1. solve() is a pure function of the island's fragments, whichever world
 //     computes it and in whatever order the fragments come: bodies by id,
-//     manifolds by (id0, id1), one solveGroup as the canonical world solves
-//     an island (DESIGN.md §2);
+//     manifolds by (id0, id1), joints by joint id (each fragment carries
+//     the joints it holds; on copies a joint is a constraint built afresh
+//     from its description, which is all a joint's step reads besides its
+//     bodies: joint_factory.h), one solveGroup as the canonical world
+//     solves an island (DESIGN.md §2);
 //  2. this world's own fragment is solved in place, its bodies and held
 //     manifolds the originals, bit for bit as on copies: a copy is written
 //     from the very state the fragment read from the original
@@ -71,6 +74,11 @@ class BorderIslandHost {
   /// True if this world keeps the contact state of pair (id0, id1) when
   /// another world holds it (it owns the pair's key body).
   virtual bool keeps_pair(BodyId id0, BodyId id1) const = 0;
+  /// The constraint of a joint held here (its ends are this world's own
+  /// bodies or statics), or null.
+  virtual btTypedConstraint* held_joint(JointId id) const = 0;
+  /// A joint held here broke in an island solved on copies.
+  virtual void break_joint(JointId id) = 0;
 };
 
 /// The Bullet objects a solve runs with (the world's).
@@ -86,7 +94,7 @@ class BorderIslandSolver {
  public:
   using PairKey = std::pair<BodyId, BodyId>;
 
-  BorderIslandSolver(WorldId world, const BorderIslandHost& host) : world_(world), host_(host) {}
+  BorderIslandSolver(WorldId world, BorderIslandHost& host) : world_(world), host_(host) {}
 
   /// border_fragments(): forgets the last step's fragments.
   void begin_fragments();
@@ -129,10 +137,15 @@ class BorderIslandSolver {
     const ManifoldState* state;
     btPersistentManifold* original;  // held here: solved in place
   };
+  struct IslandJoint {
+    const Joint* description;
+    btTypedConstraint* original;  // held here, its fragment solved in place
+  };
   // The island's bodies and manifolds, sorted, as the fragments give them.
   struct Gathered {
     std::vector<IslandBody> bodies;
     std::vector<IslandManifold> manifolds;
+    std::vector<IslandJoint> joints;  // by joint id
     std::vector<BodyId> ids;  // bodies' ids, for searches
     bool any_in_place = false, copied_own = false;
     WorldId world = kNoWorld;
@@ -146,7 +159,7 @@ class BorderIslandSolver {
                    IslandResult& result, TerritoryCounters& counters);
 
   WorldId world_;
-  const BorderIslandHost& host_;
+  BorderIslandHost& host_;
   // This step's own fragments by (root, component): each solved in place at
   // most once, then its island noted in solved_in_place_ for apply().
   std::vector<std::pair<BodyId, int>> own_fragments_;

@@ -4,7 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <queue>
 #include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
 
 #include "soda/grid/territory_map.h"
 #include "soda/worlds/bullet_bodies.h"
@@ -30,11 +34,59 @@ double reach_radius(const Shape& shape) {
   return shape.bounding_radius() + margin;
 }
 
+// A joint group (the dynamic bodies joints connect) has one owner and
+// moves with its anchor, its smallest body id (territory_world.h, invariant
+// 6): a member's halo is reached from the anchor's home cell, so the group
+// counts as one body whose radius is the largest, over its members, of the
+// distance from the anchor's origin along the joints plus the member's own
+// radius. A joint adds the sum of its two frame offsets (where its pivots
+// meet) or its bodies' distance in the scene, whichever is larger (a slider
+// or a 6-DoF joint may hold them apart). Shortest paths (Dijkstra).
+double largest_group_radius(const Scene& scene) {
+  if (scene.joints.empty()) return 0;
+  std::unordered_map<BodyId, const Body*> body;
+  for (const Body& b : scene.bodies) body.emplace(b.id, &b);
+  std::unordered_map<BodyId, std::vector<std::pair<BodyId, double>>> edges;
+  for (const Joint& j : scene.joints) {
+    auto a = body.find(j.body_a), b = body.find(j.body_b);
+    if (a == body.end() || b == body.end() || a->second->is_static || b->second->is_static) continue;
+    const double length = std::max(j.frame_a.position.norm() + j.frame_b.position.norm(),
+                                   (a->second->position - b->second->position).norm());
+    edges[j.body_a].emplace_back(j.body_b, length);
+    edges[j.body_b].emplace_back(j.body_a, length);
+  }
+  std::vector<BodyId> ids;
+  for (const auto& [id, e] : edges) ids.push_back(id);
+  std::sort(ids.begin(), ids.end());
+  std::unordered_map<BodyId, double> distance;
+  double r = 0;
+  for (BodyId anchor : ids) {  // ascending: an anchor is met before the rest of its group
+    if (distance.count(anchor)) continue;
+    std::priority_queue<std::pair<double, BodyId>, std::vector<std::pair<double, BodyId>>, std::greater<>> queue;
+    distance[anchor] = 0;
+    queue.emplace(0.0, anchor);
+    while (!queue.empty()) {
+      const auto [d, id] = queue.top();
+      queue.pop();
+      if (d > distance[id]) continue;
+      r = std::max(r, d + reach_radius(body.at(id)->shape));
+      for (const auto& [next, length] : edges[id]) {
+        auto it = distance.find(next);
+        if (it == distance.end() || d + length < it->second) {
+          distance[next] = d + length;
+          queue.emplace(d + length, next);
+        }
+      }
+    }
+  }
+  return r;
+}
+
 double largest_reach_radius(const Scene& scene) {
   double r = 0;
   for (const Body& b : scene.bodies)
     if (!b.is_static) r = std::max(r, reach_radius(b.shape));
-  return r;
+  return std::max(r, largest_group_radius(scene));
 }
 
 // Everything a halo adds to the travel v·h, in metres.

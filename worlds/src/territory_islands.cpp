@@ -41,6 +41,12 @@ void TerritoryWorld::build_islands() {
     if (m->getNumContacts() == 0) continue;  // every manifold with points is held here (invariant 3)
     parts_->islands.join(entry_of(m->getBody0()).node, entry_of(m->getBody1()).node);
   }
+  // Joints that hold: an edge like a manifold with points (their bodies are
+  // owned here or static, invariant 6).
+  for (const auto& [id, j] : joints_)
+    if (j->constraint->isEnabled())
+      parts_->islands.join(entry_of(&j->constraint->getRigidBodyA()).node,
+                           entry_of(&j->constraint->getRigidBodyB()).node);
   parts_->islands.finish();
   const int count = parts_->islands.island_count();
   parts_->held.clear();
@@ -53,6 +59,14 @@ void TerritoryWorld::build_islands() {
   }
   parts_->held.finish(count);
   counters_.held_manifolds = parts_->held.size();
+  parts_->joints.clear();
+  for (const auto& [id, j] : joints_) {
+    if (!j->constraint->isEnabled()) continue;
+    const Entry& a = entry_of(&j->constraint->getRigidBodyA());
+    const Entry& b = entry_of(&j->constraint->getRigidBodyB());
+    parts_->joints.add(parts_->islands.island_of(a.node >= 0 ? a.node : b.node), id, j->constraint.get());
+  }
+  parts_->joints.finish(count);
 
   component_objects_.resize(static_cast<std::size_t>(n));
   std::vector<std::uint8_t> ghost_in(static_cast<std::size_t>(count), 0), ghosted(static_cast<std::size_t>(count), 0);
@@ -140,6 +154,8 @@ std::vector<Fragment> TerritoryWorld::border_fragments(const std::vector<std::pa
       read_manifold_state(*m, state);
       border.hold({state.id0, state.id1}, m);
     }
+    for (int j = parts_->joints.begin(k); j < parts_->joints.begin(k + 1); ++j)
+      f.joints.push_back(joints_.at(parts_->joints[static_cast<std::size_t>(j)].key)->description);
     f.weight = static_cast<std::uint32_t>(f.bodies.size() + f.manifolds.size());
     border.note_own_fragment(f.root, k);
     fragments.push_back(std::move(f));
@@ -160,19 +176,22 @@ void TerritoryWorld::solve_local(const std::vector<int>& components) {
     btCollisionObject** bodies = &component_objects_[static_cast<std::size_t>(parts_->islands.begin(k))];
     const int body_count = parts_->islands.size(k);
     const int manifold_count = parts_->held.count(k);
+    const int joint_count = parts_->joints.count(k);
     for (int j = 0; j < body_count; ++j) {
       bodies[j]->setCompanionId(-1);
       local_islands_.ids.push_back(entry_of(bodies[j]).id());
     }
     local_islands_.begin.push_back(static_cast<std::uint32_t>(local_islands_.ids.size()));
-    if (parts_->replay.armed() && parts_->replay.take(bodies, body_count, parts_->held, k)) {
+    // An island with joints is always solved: whether a joint holds is
+    // part of its contents, which the replay does not compare.
+    if (joint_count == 0 && parts_->replay.armed() && parts_->replay.take(bodies, body_count, parts_->held, k)) {
       ++counters_.islands_replayed;
       counters_.bodies_replayed += static_cast<std::size_t>(body_count);
       if (!parts_->replay.verify()) continue;
     }
     if (!decide_island_sleeping(bodies, body_count)) continue;
     ++counters_.local_islands;
-    if (body_count == 1 && manifold_count == 0) {
+    if (body_count == 1 && manifold_count == 0 && joint_count == 0) {
       lone.push_back(bodies[0]);
       continue;
     }
@@ -182,7 +201,7 @@ void TerritoryWorld::solve_local(const std::vector<int>& components) {
         island_solver_info(info, parts_->island_info, bodies, body_count, manifolds, manifold_count, substeps);
     if (substeps > 1) ++counters_.substepped_islands;
     solve_island(solver, bodies, body_count, manifolds, manifold_count, island_info, substeps, parts_->dispatcher,
-                 parts_->solver.pool().get());
+                 parts_->solver.pool().get(), parts_->joints.values(k), joint_count);
   }
   // Lone bodies have no solver rows: one call for all is exact (as in the
   // canonical world).

@@ -100,13 +100,14 @@ std::vector<std::pair<WorldId, MigrantBatch>> TerritoryWorld::migrate() {
     const BodyId id = e->id();
     // An origin inside a halo whose cells are all owned here lies in one of
     // them (cell_of is monotone on every axis): no owner lookup needed.
-    if (e->halo_owned_step == steps_done_) {
+    const bool jointed = !anchor_.empty() && anchor_.count(id) != 0;
+    if (e->halo_owned_step == steps_done_ && !jointed) {
       const btVector3& o = e->body->getWorldTransform().getOrigin();
       if (e->halo_min.x() <= o.x() && o.x() <= e->halo_max.x() && e->halo_min.y() <= o.y() &&
           o.y() <= e->halo_max.y() && e->halo_min.z() <= o.z() && o.z() <= e->halo_max.z())
         continue;
     }
-    const WorldId w = owner_of_origin(*e);
+    const WorldId w = jointed ? home_owner(*e) : owner_of_origin(*e);
     if (w == id_) continue;
     if (!std::binary_search(nbrs.begin(), nbrs.end(), w)) {
       const btVector3& o = e->body->getWorldTransform().getOrigin();
@@ -142,6 +143,7 @@ std::vector<std::pair<WorldId, MigrantBatch>> TerritoryWorld::migrate() {
     std::sort(b.migrants.front().kept_manifolds.begin(), b.migrants.front().kept_manifolds.end(), by_pair);
     out[destination.at(id)].migrants.push_back(std::move(b.migrants.front()));
   }
+  if (!joints_.empty()) export_joints(destination, out);
   for (const Entry* e : leaving) remove_entry(e->id());
   counters_.migrations_out = leaving.size();
   return {out.begin(), out.end()};
@@ -171,6 +173,8 @@ void TerritoryWorld::absorb_migrants(const std::vector<std::pair<WorldId, Migran
                                " arrives twice");
       ++counters_.migrations_in;
     }
+  absorb_joints(batches);
+  contacts_kept_elsewhere_ = false;  // from now on held here live, or by no one
   ++steps_done_;
 }
 

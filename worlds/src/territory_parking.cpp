@@ -67,13 +67,13 @@ bool TerritoryWorld::inside_own_cells(const Entry& e) const {
 // A world without contact state (built from a scene): its settled bodies
 // inside its cells, each its own island (canonical: park_lone_settled_bodies).
 void TerritoryWorld::park_lone_settled() {
-  if (gDisableDeactivation || !kept_.empty()) return;
+  if (gDisableDeactivation || !kept_.empty() || contacts_kept_elsewhere_) return;
   btDispatcher& d = parts_->dispatcher;
   for (int i = 0; i < d.getNumManifolds(); ++i)
     if (d.getManifoldByIndexInternal(i)->getNumContacts() > 0) return;
   const btScalar h = btScalar(settings_.dt / settings_.substeps);
   for (Entry* e : owned_) {
-    if (!body_settled(*e->body, h) || !inside_own_cells(*e)) continue;
+    if (e->joints > 0 || !body_settled(*e->body, h) || !inside_own_cells(*e)) continue;
     btCollisionObject* one[] = {e->body.get()};
     mark_parked(*e, parts_->parking.add_island(one, 1), parked_);
   }
@@ -97,7 +97,7 @@ void TerritoryWorld::park_settled_islands() {
       park = it != entries_.end() && it->second->role == Role::Owned;
       if (!park) break;
       const Entry& e = *it->second;
-      park = !e.parked && e.sent_to.empty() && !kept_bodies.count(id) && body_settled(*e.body, h);
+      park = !e.parked && e.joints == 0 && e.sent_to.empty() && !kept_bodies.count(id) && body_settled(*e.body, h);
       if (!park) break;
       bodies.push_back(e.body.get());
     }

@@ -21,9 +21,10 @@ namespace soda {
 TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map,
                                std::int64_t internal_steps_done, const TerritoryWorld* share_pools_of)
     : id_(id), map_(std::move(map)), settings_(snapshot.settings) {
-  refuse_joints(snapshot.joints.size());
   init_world(share_pools_of);
   steps_done_ = internal_steps_done >= 0 ? internal_steps_done : snapshot.steps_done * settings_.substeps;
+  std::vector<const Body*> dynamic;
+  std::vector<const BodyDynamicState*> states;
   for (const BodySnapshot& b : snapshot.bodies) {
     const Body& d = b.description;
     if (d.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
@@ -31,12 +32,16 @@ TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, Territ
       insert_static(d);
       continue;
     }
-    if (owner_of_origin(btVector3(b.state.origin[0], b.state.origin[1], b.state.origin[2])) != id_) continue;
-    insert_dynamic(d, &b.state, true, id_);
+    dynamic.push_back(&d);
+    states.push_back(&b.state);
   }
+  insert_owned_and_joints(dynamic, states, snapshot.joints);
   for (const ManifoldState& m : snapshot.manifolds) {
     if (!entries_.count(m.id0) && !entries_.count(m.id1)) continue;  // neither body here
-    if (!owns(key_of(m.id0, m.id1))) continue;
+    if (!owns(key_of(m.id0, m.id1))) {
+      if (!m.points.empty() && (owns(m.id0) || owns(m.id1))) contacts_kept_elsewhere_ = true;
+      continue;
+    }
     if (!kept_.emplace(PairKey{m.id0, m.id1}, m).second)
       throw PartitionError("TerritoryWorld: two contact states for pair " + std::to_string(m.id0) + "-" +
                            std::to_string(m.id1) + " in a snapshot");
@@ -93,6 +98,10 @@ void TerritoryWorld::snapshot_into(WorldSnapshot& out, bool with_kept) const {
     for (const auto& [pair, state] : kept_) next() = state;
   out.manifolds.resize(n);
   parts_->parking.append_contacts(out.manifolds);  // held here, out of the world
+  out.joints.resize(joints_.size());
+  std::size_t j = 0;
+  for (const auto& [id, held] : joints_)
+    out.joints[j++] = JointSnapshot{held->description, !held->constraint->isEnabled()};
   std::sort(out.manifolds.begin(), out.manifolds.end(), [](const ManifoldState& a, const ManifoldState& b) {
     return std::make_pair(a.id0, a.id1) < std::make_pair(b.id0, b.id1);
   });
@@ -208,6 +217,9 @@ bool TerritoryWorld::add_body(const Body& body) {
 
 bool TerritoryWorld::remove_body(BodyId id) {
   if (!owns(id)) return false;
+  if (entries_.at(id)->joints > 0 || anchor_.count(id))
+    throw std::invalid_argument("body " + std::to_string(id) +
+                                " has joints: a jointed body cannot be removed from a running scene");
   unpark_for_input(*entries_.at(id));
   for (auto it = kept_.begin(); it != kept_.end();)
     it = (it->first.first == id || it->first.second == id) ? kept_.erase(it) : std::next(it);

@@ -29,28 +29,21 @@ std::string beyond_reach(WorldId world, std::int64_t step, BodyId body, double s
   return msg.str();
 }
 
-void refuse_joints(std::size_t joints) {
-  if (joints != 0)
-    throw std::invalid_argument("the scene has " + std::to_string(joints) +
-                                " joints: joints run in one world only (one territory, without --sync-test, "
-                                "--watchdog heal, inputs, --record, checkpoints or ranks); territory worlds do not take "
-                                "them yet (docs/scene-format.md, \"Joints\")");
-}
-
 TerritoryWorld::TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map)
     : id_(id), map_(std::move(map)), settings_(scene.settings) {
-  refuse_joints(scene.joints.size());
   init_world();
+  std::vector<const Body*> dynamic;
   for (const Body& b : scene.bodies) {
     if (b.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
-    if (b.is_static) {
+    if (b.is_static)
       insert_static(b);
-      continue;
-    }
-    // Home cell from the position as Bullet holds it (rounded to btScalar).
-    if (owner_of_origin(to_bt(b.position)) != id_) continue;
-    insert_dynamic(b, nullptr, true, id_);
+    else
+      dynamic.push_back(&b);
   }
+  std::vector<JointSnapshot> joints;
+  joints.reserve(scene.joints.size());
+  for (const Joint& j : scene.joints) joints.push_back(JointSnapshot{j, false});
+  insert_owned_and_joints(dynamic, std::vector<const BodyDynamicState*>(dynamic.size(), nullptr), joints);
   init_interior();
 }
 
@@ -99,8 +92,12 @@ void TerritoryWorld::sort_lists() {
   lists_sorted_ = true;
 }
 
-// parts_ goes before entries_ (member order), pairs first: linear in bodies.
-TerritoryWorld::~TerritoryWorld() = default;
+// parts_ goes before entries_ (member order), pairs first: linear in bodies;
+// the joints leave the Bullet world before anything is destroyed.
+TerritoryWorld::~TerritoryWorld() {
+  if (parts_)
+    for (const auto& [id, j] : joints_) parts_->world.removeConstraint(j->constraint.get());
+}
 
 void TerritoryWorld::insert_static(const Body& b) {
   auto e = std::make_unique<Entry>();

@@ -8,6 +8,8 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <unordered_map>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -51,6 +53,7 @@ struct TerritoryWorld::Entry {
   bool parked = false;             // owned, parked outside the Bullet world (TerritoryWorld::set_parking)
   std::size_t parked_slot = 0;     // parked: its island's slot in Parts::parking
   std::size_t parked_index = 0;    // parked: its index in TerritoryWorld::parked_
+  int joints = 0;                  // owned: joints held here with this body (a jointed body never parks)
 
   BodyId id() const { return description.id; }
 };
@@ -79,6 +82,19 @@ struct TerritoryWorld::ParkingLink final : ParkingHost {
   TerritoryWorld* world;
 };
 
+/// A joint held here (invariant 6): its description and its constraint
+/// between the Bullet bodies of its ends (owned or static).
+struct TerritoryWorld::HeldJoint {
+  Joint description;
+  std::unique_ptr<btTypedConstraint> constraint;
+};
+
+/// The anchors of the joint groups `joints` make (invariant 6): for every
+/// dynamic body they connect, the smallest id of its group; ends for which
+/// `is_static` is true join nothing.
+std::unordered_map<BodyId, BodyId> joint_anchors(const std::vector<const Joint*>& joints,
+                                                 const std::function<bool(BodyId)>& is_static);
+
 /// What a territory world shows its border-island solver.
 struct TerritoryWorld::BorderLink final : BorderIslandHost {
   explicit BorderLink(TerritoryWorld* w) : world(w) {}
@@ -88,6 +104,8 @@ struct TerritoryWorld::BorderLink final : BorderIslandHost {
   btCollisionObject* static_body(BodyId id) const override;
   btRigidBody* owned_body(BodyId id) const override;
   bool keeps_pair(BodyId id0, BodyId id1) const override;
+  btTypedConstraint* held_joint(JointId id) const override;
+  void break_joint(JointId id) override;
   TerritoryWorld* world;
 };
 
@@ -125,6 +143,7 @@ struct TerritoryWorld::Parts {
   // points; held: each island's manifolds, by (id0, id1).
   IslandBuilder islands;
   IslandItems<btPersistentManifold*> held;
+  IslandItems<btTypedConstraint*, JointId> joints;  // each island's joints that hold, by joint id
   BorderLink border_link;
   BorderIslandSolver border;  // the merged-island path (solve_border_island)
   IslandReplay replay;        // set_replay
@@ -142,11 +161,6 @@ struct TerritoryWorld::Component {
 inline TerritoryWorld::Entry& entry_of(const btCollisionObject* object) {
   return *static_cast<TerritoryWorld::Entry*>(object->getUserPointer());
 }
-
-/// Throws std::invalid_argument when a scene or snapshot with `joints`
-/// joints (> 0) would be split into territory worlds, which do not take
-/// joints yet (territory_world.cpp).
-void refuse_joints(std::size_t joints);
 
 /// The PartitionError text for a body that reached a world outside this
 /// world's neighbourhood (predict: its halo overlaps `cell` of `other`;

@@ -73,7 +73,16 @@ WorldSnapshot PartitionedWorld::Internals::assemble(std::int64_t scene_step, std
                     std::make_move_iterator(part.bodies.end()));
     manifolds.insert(manifolds.end(), std::make_move_iterator(part.manifolds.begin()),
                      std::make_move_iterator(part.manifolds.end()));
+    s.joints.insert(s.joints.end(), std::make_move_iterator(part.joints.begin()),
+                    std::make_move_iterator(part.joints.end()));
   }
+  // A joint is held by the one world that owns its group (territory_world.h).
+  std::sort(s.joints.begin(), s.joints.end(),
+            [](const JointSnapshot& a, const JointSnapshot& b) { return a.description.id < b.description.id; });
+  for (std::size_t i = 1; i < s.joints.size(); ++i)
+    if (s.joints[i].description.id == s.joints[i - 1].description.id)
+      throw std::logic_error("PartitionedWorld::snapshot: joint " + std::to_string(s.joints[i].description.id) +
+                             " is held by two worlds");
   std::sort(s.bodies.begin(), s.bodies.end(), [](const BodySnapshot& a, const BodySnapshot& b) {
     return a.description.id < b.description.id;
   });

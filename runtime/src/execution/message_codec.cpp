@@ -12,8 +12,9 @@ namespace soda {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'M', 'S', 'G', '1'};
-constexpr std::uint32_t kVersion = 7;  // 2: epoch, Control; 3: a fragment's weight; 4: collision filters; 5: compound shapes;
-                                       // 6: a body's user data; 7: its sensor flag
+constexpr std::uint32_t kVersion = 8;  // 2: epoch, Control; 3: a fragment's weight; 4: collision filters; 5: compound shapes;
+                                       // 6: a body's user data; 7: its sensor flag; 8: joints (fragments,
+                                       // island results, migrants)
 constexpr std::size_t kMinRecordBytes = kMinBodyBytes + 6 * sizeof(btScalar);
 
 [[noreturn]] void raise_message_error(const std::string& message) { throw MessageFormatError(message); }
@@ -58,6 +59,20 @@ BodyId read_id(ByteReader& r) {
   const auto id = r.get<BodyId>();
   if (id > kMaxBodyId) r.fail("body id above kMaxBodyId");
   return id;
+}
+
+void write_joints(ByteWriter& w, const std::vector<JointSnapshot>& joints) {
+  w.count(joints.size());
+  for (const JointSnapshot& j : joints) write_joint(w, j);
+}
+
+std::vector<JointSnapshot> read_joints(ByteReader& r) {
+  std::vector<JointSnapshot> joints(r.count(kMinJointBytes));
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    joints[i] = read_joint(r);
+    if (i > 0 && !(joints[i - 1].description.id < joints[i].description.id)) r.fail("joints not sorted by id");
+  }
+  return joints;
 }
 
 template <class T, class Less>
@@ -120,11 +135,13 @@ void write_fragments(ByteWriter& w, const std::vector<Fragment>& fragments) {
     w.count(f.bodies.size());
     for (const BodyRecord& rec : f.bodies) write_record(w, rec);
     write_manifolds(w, f.manifolds);
+    w.count(f.joints.size());
+    for (const Joint& j : f.joints) write_joint(w, JointSnapshot{j, false});
   }
 }
 
 std::vector<Fragment> read_fragment_list(ByteReader& r) {
-  std::vector<Fragment> fragments(r.count(4 + 4 + 4 + 4 + 4 * 4));
+  std::vector<Fragment> fragments(r.count(4 + 4 + 4 + 4 + 5 * 4));
   for (Fragment& f : fragments) {
     f.world = read_world(r);
     f.root = read_id(r);
@@ -143,6 +160,10 @@ std::vector<Fragment> read_fragment_list(ByteReader& r) {
       return a.body.description.id < c.body.description.id;
     }, "fragment bodies");
     f.manifolds = read_manifolds(r);
+    for (JointSnapshot& j : read_joints(r)) {
+      if (j.broken) r.fail("a broken joint in a fragment");
+      f.joints.push_back(std::move(j.description));
+    }
     if (!f.bodies.empty() && f.bodies.front().body.description.id != f.first_body)
       r.fail("fragment's first body differs from its bodies");
     if ((!f.bodies.empty() || !f.manifolds.empty()) && f.weight != f.bodies.size() + f.manifolds.size())
@@ -172,6 +193,7 @@ void write_payload(ByteWriter& w, const MigrantBatch& b) {
     write_body(w, m.body);
     write_manifolds(w, m.kept_manifolds);
   }
+  write_joints(w, b.joints);
 }
 
 MigrantBatch read_migrants(ByteReader& r) {
@@ -185,6 +207,7 @@ MigrantBatch read_migrants(ByteReader& r) {
   check_sorted(r, b.migrants, [](const Migrant& a, const Migrant& c) {
     return a.body.description.id < c.body.description.id;
   }, "migrants");
+  b.joints = read_joints(r);
   return b;
 }
 
@@ -200,13 +223,15 @@ void write_payload(ByteWriter& w, const ResultBatch& b) {
       w.put(x.activation_state), w.put(x.deactivation_time);
     }
     write_manifolds(w, r.manifolds);
+    w.count(r.broken_joints.size());
+    for (JointId j : r.broken_joints) w.put(j);
   }
 }
 
 ResultBatch read_results(ByteReader& r) {
   constexpr std::size_t kBodyResultBytes = 4 + 18 * sizeof(btScalar) + 4 + sizeof(btScalar);
   ResultBatch b;
-  const std::size_t count = r.count(4 + 4 + 4);
+  const std::size_t count = r.count(4 + 4 + 4 + 4);
   b.results.reserve(count);
   for (std::size_t i = 0; i < count; ++i) {
     IslandResult res;
@@ -223,6 +248,9 @@ ResultBatch read_results(ByteReader& r) {
                  "island result bodies");
     if (res.bodies.empty() || res.bodies.front().id != res.island) r.fail("island result without its first body");
     res.manifolds = read_manifolds(r);
+    res.broken_joints.resize(r.count(sizeof(JointId)));
+    for (JointId& j : res.broken_joints) j = r.get<JointId>();
+    check_sorted(r, res.broken_joints, std::less<JointId>(), "island result broken joints");
     b.results.push_back(std::make_shared<const IslandResult>(std::move(res)));
   }
   return b;

@@ -126,7 +126,7 @@ void IslandMerger::update() {
         if (carry_data_) {
           outgoing_[n].push_back(f);
         } else {
-          outgoing_[n].push_back(Fragment{f.world, f.root, f.first_body, f.weight, f.links_out, f.links_in, {}, {}});
+          outgoing_[n].push_back(Fragment{f.world, f.root, f.first_body, f.weight, f.links_out, f.links_in, {}, {}, {}});
         }
         if (f.world != me_) ++relayed_;
       }
@@ -177,7 +177,7 @@ std::vector<Fragment> IslandMerger::take_mine(const std::vector<const Fragment*>
     // The node keeps its header (update() and later lookups read it).
     node.fragment = Fragment{out.back().world, out.back().root, out.back().first_body, out.back().weight,
                              out.back().links_out,
-                             out.back().links_in, {}, {}};
+                             out.back().links_in, {}, {}, {}};
   }
   return out;
 }

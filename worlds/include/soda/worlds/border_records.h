@@ -88,6 +88,10 @@ struct Fragment {
   std::vector<LinkIn> links_in;           // its glued owned bodies, ascending
   std::vector<BodyRecord> bodies;         // its owned bodies, ascending id
   std::vector<ManifoldState> manifolds;   // manifolds it holds with points, by (id0, id1)
+  /// The joints between its owned bodies (and static ones) that have not
+  /// broken, by id: island edges the merged solve builds on its bodies.
+  /// Not in the weight.
+  std::vector<Joint> joints;
 };
 
 /// The solve of one border island: what every involved world keeps of it.
@@ -104,6 +108,7 @@ struct IslandResult {
   BodyId island = 0;                      // smallest body id of the island
   std::vector<BodyResult> bodies;         // every body of the island, ascending id
   std::vector<ManifoldState> manifolds;   // every manifold, after the solve, by (id0, id1)
+  std::vector<JointId> broken_joints;     // the island's joints that broke in this solve, ascending
 };
 
 /// A body changing owner at a step boundary, with the contact state kept for
@@ -114,6 +119,10 @@ struct Migrant {
 };
 struct MigrantBatch {
   std::vector<Migrant> migrants;  // ascending id
+  /// The joints of the migrants, by id, with whether each has broken: a
+  /// joint's bodies always have one owner (a joint group, territory_world.h),
+  /// so they and their joints move together.
+  std::vector<JointSnapshot> joints;
 };
 
 }  // namespace soda

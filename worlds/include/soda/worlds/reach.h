@@ -33,7 +33,8 @@ double scene_reach_speed(const Scene& scene);
 /// (dt / substeps) at speeds up to `speed` (m/s), for cells of `cell_size`
 /// metres: floor((r + speed·h + gContactBreakingThreshold) / cell_size) + 1,
 /// r the largest bounding radius of a dynamic body plus its shape's collision
-/// margin. At least 1 (adjacent cells, what the runtime always talks to);
+/// margin, or of a joint group (its members' radii from the group's anchor
+/// along the joints: reach.cpp), whichever is larger. At least 1 (adjacent cells, what the runtime always talks to);
 /// saturates at kMaxReachCells. Throws std::invalid_argument for a negative
 /// or non-finite speed or a cell size <= 0.
 int reach_cells(const Scene& scene, double cell_size, double speed);

@@ -44,6 +44,8 @@ enum class CounterFold {
   X(std::uint64_t, islands_solved, Sum, "merged islands solved here, as their root")                           \
   X(std::uint64_t, merged_island_bodies, Sum, "bodies of the merged islands solved here")                      \
   X(std::uint64_t, merged_island_bodies_in_place, Sum, "of them, this world's own solved in place (no copy)")  \
+  X(std::uint64_t, merged_island_joints, Sum, "joints of the merged islands solved here")                      \
+  X(std::uint64_t, merged_island_joints_in_place, Sum, "of them, this world's own solved in place (no copy)")  \
   X(std::uint64_t, coloured_islands, Sum, "islands solved coloured here (docs/coloured-solve.md)")              \
   X(std::uint64_t, substepped_islands, Sum, "islands solved in substeps here, re-solves included")             \
   X(int, solver_threads, Max, "most threads a coloured island here could use")

@@ -20,7 +20,8 @@
 //
 // Invariants:
 //  1. a dynamic body is owned here iff the territory map gives its home cell
-//     (cell of its origin at the step boundary) to this world;
+//     (cell of its origin at the step boundary) to this world; a jointed
+//     body's home cell is its joint group's (below);
 //  2. ghosts are read-only: written only from a GhostRecord of this step,
 //     never predicted, solved in place or integrated here; a ghost not sent
 //     again at the next step is removed;
@@ -29,9 +30,17 @@
 //  4. contact state is never lost: every manifold with points whose key body
 //     is owned here is live in this world (this world held the pair at the
 //     last step) or a value in the kept store;
-//  5. every island is solved as one solveGroup with its bodies by id and its
-//     manifolds by (id0, id1): local islands in place, border islands on
-//     copies built from their fragments.
+//  5. every island is solved as one solveGroup with its bodies by id, its
+//     manifolds by (id0, id1) and its joints by joint id: local islands in
+//     place, border islands on copies built from their fragments;
+//  6. joints (docs/partitioned-step.md, "Joints"): the dynamic bodies that
+//     joints connect, broken or not, form a joint group, whose home cell is
+//     that of its anchor, the group's smallest body id. So a group has one
+//     owner, which holds its joints (Bullet constraints between owned and
+//     static bodies, island edges while they hold); the group and its
+//     joints migrate together; a joint is never held in two worlds, and
+//     the merged island of a border island gets its joints from the
+//     fragment of their owner.
 //
 // The world keeps the territory's state and the stage entry points; three
 // rooms of its own do the island work (worlds/src): IslandBuilder
@@ -226,8 +235,10 @@ class TerritoryWorld {
   /// (tests/runtime/parking_test.cpp). Switched on in a world without
   /// contact state (built from a scene), every settled body inside its
   /// cells is parked at once, each its own island; switched off, every
-  /// island comes back. A world built with share_pools_of takes the other
-  /// world's setting. Off by default; call at a step boundary.
+  /// island comes back; a world built from a snapshot in which another
+  /// world keeps contact state of one of its bodies parks nothing then. A
+  /// world built with share_pools_of takes the other world's setting. Off by
+  /// default; call at a step boundary.
   void set_parking(bool on);
   bool parking() const { return parking_; }
   /// Owned bodies parked now.
@@ -269,6 +280,10 @@ class TerritoryWorld {
   BodyId key_body(BodyId id0, BodyId id1) const { return key_of(id0, id1); }
   /// Sleeping owned bodies.
   std::size_t sleeping_count() const;
+  /// Joints held here (those of the joint groups owned here), and how many
+  /// of them have broken.
+  std::size_t joint_count() const { return joints_.size(); }
+  std::size_t broken_joint_count() const;
   /// This world's part of the scene's state at a step boundary (after
   /// absorb_migrants): its owned bodies (description + raw state, by id) and
   /// kept_contact_state(); settings as built, steps_done in scene steps.
@@ -327,6 +342,7 @@ class TerritoryWorld {
   struct BorderLink;
   class Dispatcher;
   struct ParkingLink;
+  struct HeldJoint;
 
  private:
   using PairKey = std::pair<BodyId, BodyId>;
@@ -344,6 +360,23 @@ class TerritoryWorld {
   WorldId holder_of(const Entry& a, const Entry& b, const void* pair) const;
   BodyId key_of(BodyId id0, BodyId id1) const;
   bool owns(BodyId id) const;
+  // Joints (territory_joints.cpp).
+  /// The anchor of a body's joint group (itself when it has no joint).
+  BodyId anchor_of(BodyId id) const;
+  /// The owner of an owned body's home cell: its anchor's (invariant 6).
+  WorldId home_owner(const Entry& e) const;
+  /// At construction: the owned dynamic bodies by their group's home cell,
+  /// then the joints of the groups owned here.
+  void insert_owned_and_joints(const std::vector<const Body*>& bodies,
+                               const std::vector<const BodyDynamicState*>& states,
+                               const std::vector<JointSnapshot>& joints);
+  void hold_joint(const Joint& joint, bool broken);
+  /// Removes the joints of the leaving bodies from the Bullet world, into
+  /// their destination's batch (before the bodies go).
+  void export_joints(const std::map<BodyId, WorldId>& destination, std::map<WorldId, MigrantBatch>& out);
+  void absorb_joints(const std::vector<std::pair<WorldId, MigrantBatch>>& batches);
+  /// A joint that broke in a border island solved elsewhere.
+  void break_joint(JointId id);
   void near_callback(void* pair);
   void seed_pair(void* pair, const ManifoldState& state);
   BodyRecord record_of(const Entry& e) const;
@@ -389,6 +422,11 @@ class TerritoryWorld {
   // idle_ready()'s cache: -1 unknown (a step ran or a body changed), else
   // its last answer about the owned bodies.
   mutable int quiet_ = -1;
+  // Built from a snapshot in which another world keeps contact state of a
+  // pair with a body owned here, until the first step ends: the pair comes
+  // back here through a seed (the owner's ghost), so none of this world's
+  // bodies may be parked as lone settled bodies before it does.
+  bool contacts_kept_elsewhere_ = false;
   // An owned body came in (built, restored, added, migrated) since the last
   // predict(): its halo, hence whether it is a border body, is unknown.
   bool halos_unknown_ = true;
@@ -412,6 +450,11 @@ class TerritoryWorld {
   std::vector<Component> components_;          // pending components only
   std::map<WorldId, GlueBatch> glue_out_;
   LocalIslands local_islands_;
+  // The joints held here, by id, and the anchor of every jointed owned body
+  // (invariant 6). After parts_: destroyed before the Bullet world (the
+  // destructor takes them out of it first).
+  std::map<JointId, std::unique_ptr<HeldJoint>> joints_;
+  std::unordered_map<BodyId, BodyId> anchor_;
 };
 
 }  // namespace soda

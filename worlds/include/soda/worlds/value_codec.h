@@ -115,6 +115,14 @@ void write_manifold(ByteWriter& w, const ManifoldState& manifold);
 /// Checks id0 < id1 and 1..4 points.
 ManifoldState read_manifold(ByteReader& r);
 
+/// A joint: its description (every field of scene.h's Joint) and whether
+/// it has broken.
+inline constexpr std::size_t kMinJointBytes =
+    4 + 1 + 4 + 4 + 2 * 7 * 8 + 1 + 8 + 1 + 4 * 8 + 1 + 2 * 8 + 3 * 8 + 36 * 8 + 1;
+void write_joint(ByteWriter& w, const JointSnapshot& joint);
+/// Checks the kind, flags, finite numbers and a breaking impulse > 0.
+JointSnapshot read_joint(ByteReader& r);
+
 /// True if the two encode to the same bytes: every field bit for bit (NaNs
 /// by their bits, -0 differs from 0).
 bool same_bits(const BodyDynamicState& a, const BodyDynamicState& b);

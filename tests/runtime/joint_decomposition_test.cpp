@@ -1,0 +1,134 @@
+// Joints keep decomposition invariance (docs/partitioned-step.md, "Joints"):
+// the joint scenes of the registry (pendulums swinging through borders, a
+// chain bridge with boxes dropped on it, ragdolls falling into a pile) and
+// pendulums whose joints break end with the one-world hash for K = 1, 2, 4,
+// 8 territories, speculating (anticipation 8), under SyncTest and with
+// parking on and off. One territory world gives the canonical world's hash;
+// a joint group has one owner, its joints travel in the fragments of
+// border islands and with migrants, and break where their island is solved.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <string>
+
+#include "runtime/partitioned_test_util.h"
+#include "soda/worlds/canonical_world.h"
+
+namespace soda {
+namespace {
+
+struct JointScene {
+  const char* label;
+  const char* name;
+  int n;
+  int steps;
+  double breaking_impulse;  // 0: the scene's own
+  bool contacts;            // bodies touch across borders: from K = 4 on, border islands hold joints
+};
+
+const std::vector<JointScene>& joint_scenes() {
+  static const std::vector<JointScene> all = {
+      {"pendulums", "pendulums", 8, 240, 0, false},
+      {"pendulums-breaking", "pendulums", 8, 240, 4.0, false},
+      {"chain-bridge", "chain-bridge", 12, 240, 0, true},
+      {"ragdolls", "ragdolls", 4, 240, 0, true},
+      {"chain-bridge-breaking", "chain-bridge", 12, 240, 3.0, true},
+      {"ragdolls-breaking", "ragdolls", 4, 240, 2.0, true},
+  };
+  return all;
+}
+
+const Scene& scene_of(const JointScene& j) {
+  static std::map<std::string, Scene> made;
+  auto it = made.find(j.label);
+  if (it != made.end()) return it->second;
+  Scene s = test::scene(j.name, j.n);
+  if (j.breaking_impulse > 0)
+    for (Joint& joint : s.joints) joint.breaking_impulse = j.breaking_impulse;
+  return made.emplace(j.label, std::move(s)).first->second;
+}
+
+struct Reference {
+  std::uint64_t hash = 0;
+  std::size_t broken = 0;
+};
+
+const Reference& reference(const JointScene& j) {
+  static std::map<std::string, Reference> made;
+  auto it = made.find(j.label);
+  if (it != made.end()) return it->second;
+  CanonicalWorld w(scene_of(j));
+  for (int i = 0; i < j.steps; ++i) w.step();
+  return made.emplace(j.label, Reference{w.state_hash(), w.broken_joint_count()}).first->second;
+}
+
+struct JointCase {
+  JointScene scene;
+  test::MatrixCase matrix;
+};
+
+class JointDecomposition : public ::testing::TestWithParam<JointCase> {};
+
+TEST_P(JointDecomposition, EqualsTheOneWorldHash) {
+  const JointCase& c = GetParam();
+  const Scene& s = scene_of(c.scene);
+  ASSERT_FALSE(s.joints.empty());
+  const Reference& ref = reference(c.scene);
+  const test::MatrixRun run = test::expect_one_world_hash(s, c.scene.label, c.matrix, c.scene.steps, ref.hash);
+  const WorldMetrics& t = run.total;
+  std::printf("[ %s, K %d ] joints in merged islands %llu (in place %llu), broken in one world %zu\n",
+              c.scene.label, c.matrix.territories, static_cast<unsigned long long>(t.merged_island_joints),
+              static_cast<unsigned long long>(t.merged_island_joints_in_place), ref.broken);
+  if (c.matrix.territories > 1) {
+    EXPECT_GT(t.ghosts_sent, 0u);  // a chain's links reach other territories
+    if (c.scene.contacts && c.matrix.territories >= 4) EXPECT_GT(t.merged_island_joints, 0u);
+  }
+  if (c.matrix.anticipation > 0 && c.matrix.territories > 1) EXPECT_GT(t.bets, 0u);
+  if (c.matrix.sync_test > 0) EXPECT_GT(run.sync_rollbacks, 0u);
+  if (c.scene.breaking_impulse > 0) EXPECT_GT(ref.broken, 0u);  // the breaking case breaks joints
+}
+
+std::vector<JointCase> cases() {
+  const std::vector<test::MatrixCase> matrix = {
+      {1, 0, 0, false}, {1, 0, 0, true},  {2, 0, 0, false}, {4, 0, 0, true},  {8, 0, 0, false},
+      {8, 0, 0, true},  {4, 8, 0, false}, {8, 8, 0, true},  {4, 0, 2, false}, {2, 0, 2, true},
+  };
+  std::vector<JointCase> out;
+  for (const JointScene& j : joint_scenes())
+    for (const test::MatrixCase& m : matrix) out.push_back(JointCase{j, m});
+  return out;
+}
+
+INSTANTIATE_TEST_SUITE_P(Partitioned, JointDecomposition, ::testing::ValuesIn(cases()), [](const auto& info) {
+  std::string name = std::string(info.param.scene.label) + "_" + test::matrix_case_name(info.param.matrix);
+  for (char& ch : name)
+    if (ch == '-') ch = '_';
+  return name;
+});
+
+// The whole scene's snapshot of a partitioned run holds every joint once,
+// with the one world's broken flags.
+TEST(JointDecomposition, SnapshotsHoldEveryJointOnce) {
+  const JointScene& j = joint_scenes()[1];  // pendulums-breaking
+  const Scene& s = scene_of(j);
+  CanonicalWorld one(s);
+  const TerritoryMap map = make_partition("kmeans", s, 4, GridOptions{});
+  PartitionedWorld four(s, map, PartitionedOptions{});
+  for (int i = 0; i < j.steps; ++i) one.step();
+  four.step(j.steps);
+  const WorldSnapshot a = one.snapshot();
+  const WorldSnapshot b = four.snapshot();
+  ASSERT_EQ(a.joints.size(), s.joints.size());
+  ASSERT_EQ(b.joints.size(), a.joints.size());
+  std::size_t broken = 0;
+  for (std::size_t i = 0; i < a.joints.size(); ++i) {
+    EXPECT_EQ(b.joints[i].description.id, a.joints[i].description.id);
+    EXPECT_EQ(b.joints[i].broken, a.joints[i].broken) << "joint " << a.joints[i].description.id;
+    broken += a.joints[i].broken;
+  }
+  EXPECT_GT(broken, 0u);
+  EXPECT_EQ(hash_hex(four.state_hash()), hash_hex(one.state_hash()));
+}
+
+}  // namespace
+}  // namespace soda

@@ -1,0 +1,184 @@
+// TerritoryWorld: joints (territory_world.h, invariant 6;
+// docs/partitioned-step.md, "Joints"). The dynamic bodies that joints
+// connect form a joint group whose home cell is its anchor's (its smallest
+// body id): one world owns the whole group and holds its joints, as the
+// canonical world does (joint_factory.h), so a joint is an island edge of
+// that world's contact graph and travels in its fragment when the island
+// spans a border. The group migrates whole, its joints in the batch.
+#include <algorithm>
+#include <map>
+#include <stdexcept>
+#include <string>
+
+#include "joint_factory.h"
+#include "soda/worlds/bullet_bodies.h"
+#include "territory_world_parts.h"
+
+namespace soda {
+
+std::unordered_map<BodyId, BodyId> joint_anchors(const std::vector<const Joint*>& joints,
+                                                 const std::function<bool(BodyId)>& is_static) {
+  std::unordered_map<BodyId, BodyId> parent;
+  auto find = [&](BodyId x) {
+    BodyId root = x;
+    for (auto it = parent.find(root); it->second != root; it = parent.find(root)) root = it->second;
+    while (x != root) {  // path compression
+      BodyId& p = parent[x];
+      x = p;
+      p = root;
+    }
+    return root;
+  };
+  for (const Joint* j : joints)
+    for (BodyId b : {j->body_a, j->body_b})
+      if (!is_static(b)) parent.emplace(b, b);
+  for (const Joint* j : joints) {
+    if (is_static(j->body_a) || is_static(j->body_b)) continue;
+    const BodyId a = find(j->body_a), b = find(j->body_b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);  // the root is the group's smallest id
+  }
+  std::unordered_map<BodyId, BodyId> anchors;
+  for (const auto& [body, p] : parent) anchors.emplace(body, find(body));
+  return anchors;
+}
+
+BodyId TerritoryWorld::anchor_of(BodyId id) const {
+  auto it = anchor_.find(id);
+  return it == anchor_.end() ? id : it->second;
+}
+
+WorldId TerritoryWorld::home_owner(const Entry& e) const {
+  const BodyId anchor = anchor_of(e.id());
+  if (anchor == e.id()) return owner_of_origin(e);
+  auto it = entries_.find(anchor);
+  if (it == entries_.end() || it->second->role != Role::Owned)
+    throw std::logic_error("world " + std::to_string(id_) + ": body " + std::to_string(e.id()) +
+                           " is owned here without the anchor of its joint group, body " + std::to_string(anchor));
+  return owner_of_origin(*it->second);
+}
+
+void TerritoryWorld::insert_owned_and_joints(const std::vector<const Body*>& bodies,
+                                             const std::vector<const BodyDynamicState*>& states,
+                                             const std::vector<JointSnapshot>& joints) {
+  std::unordered_map<BodyId, std::size_t> index;
+  for (std::size_t i = 0; i < bodies.size(); ++i) index.emplace(bodies[i]->id, i);
+  auto origin = [&](std::size_t i) {
+    const BodyDynamicState* s = states[i];
+    return s ? btVector3(s->origin[0], s->origin[1], s->origin[2]) : to_bt(bodies[i]->position);
+  };
+  std::vector<const Joint*> descriptions;
+  for (const JointSnapshot& j : joints) {
+    for (BodyId b : {j.description.body_a, j.description.body_b})
+      if (!index.count(b) && !entries_.count(b))
+        throw std::invalid_argument("TerritoryWorld: joint " + std::to_string(j.description.id) + " joins body " +
+                                    std::to_string(b) + ", which is not in the scene");
+    descriptions.push_back(&j.description);
+  }
+  // Statics are in entries_ already; every other body is dynamic.
+  const std::unordered_map<BodyId, BodyId> anchors =
+      joint_anchors(descriptions, [&](BodyId b) { return entries_.count(b) != 0; });
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    auto a = anchors.find(bodies[i]->id);
+    const std::size_t home = a == anchors.end() ? i : index.at(a->second);
+    // Home cell from the position as Bullet holds it (rounded to btScalar).
+    if (owner_of_origin(origin(home)) != id_) continue;
+    insert_dynamic(*bodies[i], states[i], true, id_);
+    if (a != anchors.end()) anchor_.emplace(a->first, a->second);
+  }
+  for (const JointSnapshot& j : joints) {
+    const BodyId dynamic = entries_.count(j.description.body_a) &&
+                                   entries_.at(j.description.body_a)->role == Role::Static
+                               ? j.description.body_b
+                               : j.description.body_a;
+    if (owns(dynamic)) hold_joint(j.description, j.broken);
+  }
+}
+
+void TerritoryWorld::hold_joint(const Joint& joint, bool broken) {
+  Entry* ends[2] = {nullptr, nullptr};
+  int i = 0;
+  for (BodyId b : {joint.body_a, joint.body_b}) {
+    auto it = entries_.find(b);
+    if (it == entries_.end() || it->second->role == Role::Ghost)
+      throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) + ": joint " +
+                           std::to_string(joint.id) + " joins body " + std::to_string(b) +
+                           ", which this world neither owns nor holds as a static body");
+    ends[i++] = it->second.get();
+  }
+  if (ends[0]->role == Role::Static && ends[1]->role == Role::Static)
+    throw std::invalid_argument("TerritoryWorld: joint " + std::to_string(joint.id) + " joins two static bodies");
+  auto held = std::make_unique<HeldJoint>();
+  held->description = joint;
+  held->constraint = make_constraint(joint, *ends[0]->body, *ends[1]->body);
+  held->constraint->setEnabled(!broken);
+  parts_->world.addConstraint(held->constraint.get(), !joint.collide_connected);
+  if (!joints_.emplace(joint.id, std::move(held)).second)
+    throw PartitionError("world " + std::to_string(id_) + ": joint " + std::to_string(joint.id) + " held twice");
+  for (Entry* e : ends)
+    if (e->role == Role::Owned) ++e->joints;
+  quiet_ = -1;
+}
+
+std::size_t TerritoryWorld::broken_joint_count() const {
+  std::size_t n = 0;
+  for (const auto& [id, j] : joints_) n += j->constraint->isEnabled() ? 0 : 1;
+  return n;
+}
+
+void TerritoryWorld::export_joints(const std::map<BodyId, WorldId>& destination,
+                                   std::map<WorldId, MigrantBatch>& out) {
+  for (auto it = joints_.begin(); it != joints_.end();) {
+    const Joint& j = it->second->description;
+    auto a = destination.find(j.body_a);
+    auto b = destination.find(j.body_b);
+    if (a == destination.end() && b == destination.end()) {
+      ++it;
+      continue;
+    }
+    const WorldId to = a != destination.end() ? a->second : b->second;
+    for (BodyId body : {j.body_a, j.body_b}) {
+      auto d = destination.find(body);
+      if (d == destination.end() ? entries_.at(body)->role != Role::Static : d->second != to)
+        throw std::logic_error("world " + std::to_string(id_) + ": joint " + std::to_string(j.id) +
+                               " would be split by a migration");
+    }
+    btTypedConstraint* c = it->second->constraint.get();
+    parts_->world.removeConstraint(c);
+    out[to].joints.push_back(JointSnapshot{j, !c->isEnabled()});  // joints_ is by id: each batch's too
+    for (BodyId body : {j.body_a, j.body_b}) {
+      Entry& e = *entries_.at(body);
+      if (e.role == Role::Owned) --e.joints;
+      anchor_.erase(body);
+    }
+    it = joints_.erase(it);
+  }
+}
+
+void TerritoryWorld::absorb_joints(const std::vector<std::pair<WorldId, MigrantBatch>>& batches) {
+  for (const auto& [from, batch] : batches) {
+    if (batch.joints.empty()) continue;
+    std::vector<const Joint*> descriptions;
+    for (const JointSnapshot& j : batch.joints) descriptions.push_back(&j.description);
+    for (const auto& [body, anchor] :
+         joint_anchors(descriptions, [&](BodyId b) {
+           auto it = entries_.find(b);
+           return it != entries_.end() && it->second->role == Role::Static;
+         }))
+      anchor_[body] = anchor;
+    for (const JointSnapshot& j : batch.joints) hold_joint(j.description, j.broken);
+  }
+}
+
+void TerritoryWorld::break_joint(JointId id) {
+  auto it = joints_.find(id);
+  if (it != joints_.end()) it->second->constraint->setEnabled(false);
+}
+
+btTypedConstraint* TerritoryWorld::BorderLink::held_joint(JointId id) const {
+  auto it = world->joints_.find(id);
+  return it == world->joints_.end() ? nullptr : it->second->constraint.get();
+}
+
+void TerritoryWorld::BorderLink::break_joint(JointId id) { world->break_joint(id); }
+
+}  // namespace soda
