@@ -187,6 +187,8 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"setup_cpu_seconds", r.setup_cpu_seconds},
       {"teardown_seconds", r.teardown_seconds},
       {"teardown_cpu_seconds", r.teardown_cpu_seconds},
+      {"memory_estimate_bytes", r.memory_estimate_bytes},
+      {"level_geometry_bytes", r.level_geometry_bytes},
       {"migrations", r.migrations},
       {"bodies_at_start", r.bodies_at_start},
       {"bodies_at_end", r.bodies_at_end},

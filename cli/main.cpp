@@ -218,6 +218,10 @@ void print_summary(const soda::RunResult& r) {
   std::printf("  setup %.3f s (CPU %.3f s), teardown %.3f s (CPU %.3f s): %.2f us per body\n", r.setup_seconds,
               r.setup_cpu_seconds, r.teardown_seconds, r.teardown_cpu_seconds,
               r.bodies ? (r.setup_cpu_seconds + r.teardown_cpu_seconds) * 1e6 / static_cast<double>(r.bodies) : 0.0);
+  if (r.memory_estimate_bytes > 0)
+    std::printf("  memory estimate %.1f MiB, of it %.1f MiB of mesh and heightfield shapes (once per process; "
+                "docs/memory.md)\n",
+                static_cast<double>(r.memory_estimate_bytes) / (1 << 20), static_cast<double>(r.level_geometry_bytes) / (1 << 20));
   if (r.bodies_at_start || r.bodies_at_end)
     std::printf("  validate: %zu bodies and %zu contact pairs after building, %zu bodies and %zu contact pairs at "
                 "the end; %llu migrations\n",
@@ -387,29 +391,39 @@ int cmd_export(Options& o, const std::string& out) {
 
 // Shows how a scene would be cut: bodies and cells per territory, balance,
 // neighbours. JSON with --json.
-int cmd_partition(Options& o, std::optional<double> cell_size, const std::string& png_path) {
+int cmd_partition(Options& o, std::optional<double> cell_size, double triangle_weight, const std::string& png_path) {
   const soda::Scene scene = soda::load_or_make_scene(o.scene, o.params);
   soda::GridOptions grid;
   grid.cell_size = cell_size;
+  grid.triangle_weight = triangle_weight;
   const soda::TerritoryMap map = soda::make_partition(o.config.partition, scene, o.config.territories, grid);
-  const soda::PartitionStats stats = soda::partition_stats(map, scene);
+  // The balance is shown with the documented weight whatever the partition
+  // was made with, so that maps made with and without it compare.
+  const soda::PartitionStats stats = soda::partition_stats(map, scene, soda::kTriangleWeight);
   nlohmann::json j = {{"scene", o.scene},
                       {"partition", o.config.partition},
                       {"territories", map.world_count()},
                       {"cell_size", map.grid().cell_size()},
-                      {"imbalance", stats.imbalance}};
-  std::printf("%s: %d territories (%s), cell size %.3f m, imbalance %.3f (max/mean bodies)\n", o.scene.c_str(),
-              map.world_count(), o.config.partition.c_str(), map.grid().cell_size(), stats.imbalance);
+                      {"triangle_weight", triangle_weight},
+                      {"imbalance", stats.imbalance},
+                      {"weighted_imbalance", stats.weighted_imbalance}};
+  std::printf("%s: %d territories (%s, triangle weight %g), cell size %.3f m, imbalance %.3f (max/mean bodies), "
+              "%.3f (max/mean weight at triangle weight %g)\n",
+              o.scene.c_str(), map.world_count(), o.config.partition.c_str(), triangle_weight,
+              map.grid().cell_size(), stats.imbalance, stats.weighted_imbalance, soda::kTriangleWeight);
   for (soda::WorldId w = 0; w < map.world_count(); ++w) {
     const auto neighbours = map.neighbours(w);
+    const auto i = static_cast<std::size_t>(w);
     std::string ns;
     for (soda::WorldId n : neighbours) ns.append(ns.empty() ? "" : ",").append(std::to_string(n));
-    std::printf("  world %2d: %6lld bodies %6lld cells, neighbours [%s]\n", w,
-                static_cast<long long>(stats.bodies_per_world[static_cast<std::size_t>(w)]),
-                static_cast<long long>(stats.cells_per_world[static_cast<std::size_t>(w)]), ns.c_str());
+    std::printf("  world %2d: %6lld bodies %6lld cells %9lld body triangles %9.1f weight, neighbours [%s]\n", w,
+                static_cast<long long>(stats.bodies_per_world[i]), static_cast<long long>(stats.cells_per_world[i]),
+                static_cast<long long>(stats.body_triangles_per_world[i]), stats.weight_per_world[i], ns.c_str());
     j["worlds"].push_back({{"world", w},
-                           {"bodies", stats.bodies_per_world[static_cast<std::size_t>(w)]},
-                           {"cells", stats.cells_per_world[static_cast<std::size_t>(w)]},
+                           {"bodies", stats.bodies_per_world[i]},
+                           {"cells", stats.cells_per_world[i]},
+                           {"body_triangles", stats.body_triangles_per_world[i]},
+                           {"weight", stats.weight_per_world[i]},
                            {"neighbours", neighbours}});
   }
   if (!o.json_path.empty()) soda::write_json(j, o.json_path);
@@ -452,6 +466,10 @@ void add_balance_options(CLI::App& cmd, BalanceOptions& balance) {
                  "Most cells one world gives away at one balance step (>= 1)")
       ->check(CLI::Range(1, 1 << 30))
       ->capture_default_str();
+  cmd.add_flag("--no-triangle-cost{false}", balance.triangle_cost,
+               "The first partition (kmeans, rcb) and the balance's cost model weigh bodies and contact pairs only, "
+               "not the triangles of static meshes and heightfields within reach of their cells (same state hash; "
+               "docs/loadbalance.md, \"Triangles\")");
 }
 
 }  // namespace soda::cli
@@ -536,6 +554,12 @@ int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
   part->add_option("--partition", part_o.config.partition, "kmeans | rcb | grid:AxBxC | territory-map file")
       ->capture_default_str();
   part->add_option("--cell-size", cell_size, "Cell edge in metres (default: the extent 90 % of the dynamic bodies fit in; larger bodies span several cells)");
+  double triangle_weight = soda::kTriangleWeight;
+  part->add_option("--triangle-weight", triangle_weight,
+                   "kmeans and rcb weigh each body by 1 + this x the triangles of static meshes and heightfields "
+                   "within reach of its cell (0: bodies only; docs/loadbalance.md, \"Triangles\")")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   part->add_option("--json", part_o.json_path, "Write the partition summary as JSON ('-': stdout)");
   part->add_option("--png", partition_png,
                    "Write a picture of the map seen from above (the layer of cells holding most bodies; "
@@ -586,7 +610,7 @@ int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
     if (*bench) return cmd_bench(bench_o);
     if (*exp) return cmd_export(export_o, export_path);
     if (*scenes) return cmd_scenes();
-    if (*part) return cmd_partition(part_o, cell_size, partition_png);
+    if (*part) return cmd_partition(part_o, cell_size, triangle_weight, partition_png);
   } catch (const soda::replay::ReplayFormatError& e) {  // a file that is not a readable replay: bad input
     std::fprintf(stderr, "soda: error: %s\n", e.what());
     return kExitBadInput;

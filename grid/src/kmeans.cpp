@@ -2,6 +2,7 @@
 #include "soda/grid/kmeans.h"
 
 #include <algorithm>
+#include <functional>
 #include <numeric>
 #include <random>
 
@@ -62,7 +63,9 @@ std::vector<Vec3> seed_centroids(std::span<const Vec3> points, int k, std::mt199
 // Size-constrained assignment: points with the strongest preference (nearest
 // minus farthest centre most negative) choose first, each taking its nearest
 // cluster with room. Sizes end at floor(n/k) or ceil(n/k).
-std::vector<int> assign(std::span<const Vec3> points, const std::vector<Vec3>& centroids) {
+// weights empty: equal size; else equal weight (kmeans.h).
+std::vector<int> assign(std::span<const Vec3> points, std::span<const std::int64_t> weights,
+                        const std::vector<Vec3>& centroids) {
   const std::size_t n = points.size();
   const std::size_t k = centroids.size();
   std::vector<double> key(n);
@@ -85,12 +88,18 @@ std::vector<int> assign(std::span<const Vec3> points, const std::vector<Vec3>& c
   const std::size_t extra = n % k;  // clusters allowed to hold base + 1
   std::size_t big = 0;
   std::vector<std::size_t> size(k, 0);
+  std::int64_t total = 0;
+  for (std::int64_t w : weights) total += w;
+  const std::int64_t cap = (total + static_cast<std::int64_t>(k) - 1) / static_cast<std::int64_t>(k);
+  std::vector<std::int64_t> load(k, 0);
   std::vector<int> labels(n, -1);
   for (std::size_t i : order) {
     std::size_t chosen = k;
     double chosen_d = 0.0;
     for (std::size_t c = 0; c < k; ++c) {
-      const bool room = size[c] < base || (size[c] == base && big < extra);
+      // Equal weight: some cluster is below cap while a point is left
+      // (the loads sum to less than W <= k cap).
+      const bool room = weights.empty() ? size[c] < base || (size[c] == base && big < extra) : load[c] < cap;
       if (!room) continue;
       const double d = dist2(points[i], centroids[c]);
       if (chosen == k || d < chosen_d) {
@@ -100,6 +109,7 @@ std::vector<int> assign(std::span<const Vec3> points, const std::vector<Vec3>& c
     }
     if (size[chosen] == base) ++big;
     ++size[chosen];
+    if (!weights.empty()) load[chosen] += weights[i];
     labels[i] = static_cast<int>(chosen);
   }
   return labels;
@@ -122,6 +132,18 @@ void update_centroids(std::span<const Vec3> points, const std::vector<int>& labe
 
 KMeansResult equal_size_kmeans(std::span<const Vec3> points, int k, std::uint64_t seed,
                                int max_iterations) {
+  return equal_size_kmeans(points, std::span<const std::int64_t>{}, k, seed, max_iterations);
+}
+
+KMeansResult equal_size_kmeans(std::span<const Vec3> points, std::span<const std::int64_t> weights, int k,
+                               std::uint64_t seed, int max_iterations) {
+  if (!weights.empty() && weights.size() != points.size())
+    throw GridError("equal_size_kmeans: " + std::to_string(weights.size()) + " weights for " +
+                    std::to_string(points.size()) + " points");
+  for (std::int64_t w : weights)
+    if (w < 1) throw GridError("equal_size_kmeans: a weight of " + std::to_string(w) + " (each must be >= 1)");
+  // All weights equal: the equal-size clustering, label for label.
+  if (std::adjacent_find(weights.begin(), weights.end(), std::not_equal_to<>()) == weights.end()) weights = {};
   if (k < 1) throw GridError("equal_size_kmeans: k = " + std::to_string(k) + " must be >= 1");
   if (max_iterations < 1)
     throw GridError("equal_size_kmeans: max_iterations = " + std::to_string(max_iterations) +
@@ -135,7 +157,7 @@ KMeansResult equal_size_kmeans(std::span<const Vec3> points, int k, std::uint64_
   std::mt19937_64 rng(seed);
   result.centroids = seed_centroids(points, k, rng);
   for (int it = 0; it < max_iterations; ++it) {
-    std::vector<int> labels = assign(points, result.centroids);
+    std::vector<int> labels = assign(points, weights, result.centroids);
     ++result.iterations;
     const bool same = labels == result.labels;
     result.labels = std::move(labels);

@@ -13,6 +13,17 @@ namespace soda::detail {
 /// Dynamic bodies' positions, ordered by body id (scene order is arbitrary).
 std::vector<Vec3> dynamic_positions(const Scene& scene);
 
+/// What one dynamic body weighs in a partition: kBodyWeight.
+inline constexpr std::int64_t kBodyWeight = 1000;
+/// Integer weight of each dynamic body, in the order of dynamic_positions:
+/// kBodyWeight x (1 + triangle_weight x the triangles within its home
+/// cell's reach, cell_triangles.h), rounded. All kBodyWeight when the scene
+/// has no mesh or heightfield or the weight is 0 (the partitions are then
+/// those of bodies alone). Throws GridError for a weight that is not finite
+/// and >= 0.
+std::vector<std::int64_t> dynamic_weights(const Scene& scene, const UniformGrid& grid, const CellBox& box,
+                                          double triangle_weight);
+
 /// Throws GridError unless 1 <= k <= box.count(), with a message for `method`.
 void check_world_count(int k, const CellBox& box, const char* method);
 

@@ -11,6 +11,12 @@ namespace {
 
 std::int64_t ceil_div(std::int64_t a, std::int64_t b) { return (a + b - 1) / b; }
 
+// A dynamic body's home cell and its weight (detail::dynamic_weights).
+struct WeightedCell {
+  CellCoord cell;
+  std::int64_t weight = 0;
+};
+
 struct Bisection {
   const CellBox& box;
   std::vector<WorldId>& owners;
@@ -24,14 +30,15 @@ struct Bisection {
   }
 
   // Precondition: region.count() >= k >= 1; pts are the body cells in region.
-  void split(const CellBox& region, const std::vector<CellCoord>& pts, int k) {
+  void split(const CellBox& region, const std::vector<WeightedCell>& pts, int k) {
     if (k == 1) {
       fill(region);
       return;
     }
     const std::int64_t k1 = k / 2;
     const std::int64_t cells = region.count();
-    const auto n = static_cast<std::int64_t>(pts.size());
+    std::int64_t n = 0;
+    for (const WeightedCell& p : pts) n += p.weight;
     std::array<int, 3> axes{0, 1, 2};
     std::stable_sort(axes.begin(), axes.end(),
                      [&](int a, int b) { return region.extent(a) > region.extent(b); });
@@ -62,9 +69,9 @@ struct Bisection {
     const std::int64_t len = region.extent(axis);
     const std::int64_t slice = cells / len;
     std::vector<std::int64_t> below(static_cast<std::size_t>(len) + 1, 0);
-    for (const CellCoord& p : pts) ++below[static_cast<std::size_t>(p[axis] - region.lo[axis]) + 1];
+    for (const WeightedCell& p : pts) below[static_cast<std::size_t>(p.cell[axis] - region.lo[axis]) + 1] += p.weight;
     for (std::size_t i = 1; i < below.size(); ++i) below[i] += below[i - 1];
-    // Boundary after m slices: bodies below nearest n * k1 / k, then cells
+    // Boundary after m slices: body weight below nearest n * k1 / k, then cells
     // below nearest cells * k1 / k, then the lowest m. Exact integers.
     std::int64_t best = m_min;
     auto key = [&](std::int64_t m) {
@@ -82,9 +89,9 @@ struct Bisection {
     CellBox high = region;
     low.hi[axis] = region.lo[axis] + static_cast<int>(best) - 1;
     high.lo[axis] = region.lo[axis] + static_cast<int>(best);
-    std::vector<CellCoord> low_pts;
-    std::vector<CellCoord> high_pts;
-    for (const CellCoord& p : pts) (p[axis] <= low.hi[axis] ? low_pts : high_pts).push_back(p);
+    std::vector<WeightedCell> low_pts;
+    std::vector<WeightedCell> high_pts;
+    for (const WeightedCell& p : pts) (p.cell[axis] <= low.hi[axis] ? low_pts : high_pts).push_back(p);
     split(low, low_pts, static_cast<int>(k_low));
     split(high, high_pts, k - static_cast<int>(k_low));
   }
@@ -96,8 +103,11 @@ TerritoryMap partition_rcb(const Scene& scene, int k, const GridOptions& options
   const UniformGrid grid = make_grid(scene, options);
   const CellBox box = make_box(scene, grid, options);
   detail::check_world_count(k, box, "rcb");
-  std::vector<CellCoord> pts;
-  for (const Vec3& p : detail::dynamic_positions(scene)) pts.push_back(box.clamp(grid.cell_of(p)));
+  const std::vector<Vec3> positions = detail::dynamic_positions(scene);
+  const std::vector<std::int64_t> weights = detail::dynamic_weights(scene, grid, box, options.triangle_weight);
+  std::vector<WeightedCell> pts;
+  for (std::size_t i = 0; i < positions.size(); ++i)
+    pts.push_back({box.clamp(grid.cell_of(positions[i])), weights[i]});
   std::vector<WorldId> owners(static_cast<std::size_t>(box.count()), kNoWorld);
   Bisection bisection{box, owners};
   bisection.split(box, pts, k);

@@ -7,7 +7,7 @@
 namespace soda {
 namespace {
 
-constexpr int kTerms = 4;  // overhead, per_body, per_awake, per_pair
+constexpr int kTerms = 5;  // overhead, per_body, per_awake, per_pair, per_triangle
 // Ridge strength relative to each term's own sum of squares: small enough
 // that data which sees a term decides it (a 0.01 % pull: 1e-3 moved
 // correlated terms by 3 % towards a prior 4x off), large enough that a
@@ -16,9 +16,9 @@ constexpr double kRidge = 1e-4;
 
 using Row = std::array<double, kTerms>;
 
-Row features(const CostSample& s) { return {1.0, s.bodies, s.awake_bodies, s.contact_pairs}; }
-Row as_row(const CostCoefficients& c) { return {c.overhead, c.per_body, c.per_awake, c.per_pair}; }
-CostCoefficients as_coefficients(const Row& r) { return {r[0], r[1], r[2], r[3]}; }
+Row features(const CostSample& s) { return {1.0, s.bodies, s.awake_bodies, s.contact_pairs, s.body_triangles}; }
+Row as_row(const CostCoefficients& c) { return {c.overhead, c.per_body, c.per_awake, c.per_pair, c.per_triangle}; }
+CostCoefficients as_coefficients(const Row& r) { return {r[0], r[1], r[2], r[3], r[4]}; }
 
 // Solves a x = b for the terms marked free (others fixed at 0) by Gaussian
 // elimination with partial pivoting; returns false if singular.
@@ -69,7 +69,8 @@ void add_ridge(std::array<Row, kTerms>& a, Row& b, const Row& c0) {
 // Non-negativity by elimination: a term that comes out negative is fixed at
 // 0 and the rest solved again (at most kTerms rounds).
 bool solve_non_negative(const std::array<Row, kTerms>& a, const Row& b, Row& x) {
-  std::array<bool, kTerms> free{true, true, true, true};
+  std::array<bool, kTerms> free{};
+  free.fill(true);
   for (int round = 0; round < kTerms; ++round) {
     if (!solve(a, b, free, x)) return false;
     int worst = -1;
@@ -86,7 +87,7 @@ bool solve_non_negative(const std::array<Row, kTerms>& a, const Row& b, Row& x) 
 
 CostSample cost_sample(const WorldLoad& load) {
   return {static_cast<double>(load.bodies), static_cast<double>(load.awake_bodies),
-          static_cast<double>(load.contact_pairs), load.busy};
+          static_cast<double>(load.contact_pairs), load.busy, static_cast<double>(load.body_triangles)};
 }
 
 CostModel CostModel::fit(std::span<const CostSample> samples, const CostCoefficients& prior) {
@@ -109,18 +110,21 @@ CostModel CostModel::fit(std::span<const CostSample> samples, const CostCoeffici
   return CostModel(as_coefficients(x), true);
 }
 
-double CostModel::predict(double bodies, double awake_bodies, double contact_pairs) const {
+double CostModel::predict(double bodies, double awake_bodies, double contact_pairs, double body_triangles) const {
   const CostCoefficients& c = coefficients_;
-  return c.overhead + c.per_body * bodies + c.per_awake * awake_bodies + c.per_pair * contact_pairs;
+  return c.overhead + c.per_body * bodies + c.per_awake * awake_bodies + c.per_pair * contact_pairs +
+         c.per_triangle * body_triangles;
 }
 
 double CostModel::predict(const WorldLoad& load) const {
   return predict(static_cast<double>(load.bodies), static_cast<double>(load.awake_bodies),
-                 static_cast<double>(load.contact_pairs));
+                 static_cast<double>(load.contact_pairs), static_cast<double>(load.body_triangles));
 }
 
 double CostModel::cell_cost(const CellLoad& cell) const {
-  return predict(cell.bodies, cell.awake_bodies, cell.contact_pairs) - coefficients_.overhead;
+  return predict(cell.bodies, cell.awake_bodies, cell.contact_pairs,
+                 static_cast<double>(cell.awake_bodies) * static_cast<double>(cell.triangles)) -
+         coefficients_.overhead;
 }
 
 CostFitQuality CostModel::quality(std::span<const CostSample> samples) const {
@@ -128,7 +132,7 @@ CostFitQuality CostModel::quality(std::span<const CostSample> samples) const {
   double sum = 0, abs_sum = 0, busy_sum = 0;
   for (const CostSample& s : samples) {
     if (!(s.busy > 0)) continue;
-    const double abs_error = std::abs(predict(s.bodies, s.awake_bodies, s.contact_pairs) - s.busy);
+    const double abs_error = std::abs(predict(s.bodies, s.awake_bodies, s.contact_pairs, s.body_triangles) - s.busy);
     const double e = abs_error / s.busy;
     sum += e;
     abs_sum += abs_error;

@@ -89,4 +89,27 @@ TEST_F(CliTest, RainAppliesItsOwnInputsUnderEveryPolicy) {
   EXPECT_NE(both.output.find("has 60 inputs of its own"), std::string::npos) << both.output;
 }
 
+// The triangles of level geometry in the partition and the balance
+// (docs/loadbalance.md, "Triangles"): soda partition shows and weighs them,
+// a bad weight exits 2, and a balanced terrain run keeps the one-territory
+// hash with the triangle cost on and off.
+TEST_F(CliTest, TriangleCostShowsInThePartitionAndKeepsTheHash) {
+  const Outcome p = run_cli("partition --scene terrain --n 40 --territories 4 --json -");
+  ASSERT_EQ(p.exit_code, 0) << p.output;
+  EXPECT_NE(p.output.find("body triangles"), std::string::npos) << p.output;
+  EXPECT_NE(p.output.find("\"weighted_imbalance\""), std::string::npos) << p.output;
+  EXPECT_EQ(run_cli("partition --scene terrain --n 40 --territories 4 --triangle-weight 0").exit_code, 0);
+  const Outcome bad = run_cli("partition --scene terrain --n 40 --territories 4 --triangle-weight -1");
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("--triangle-weight"), std::string::npos) << bad.output;
+  const std::string one = hash_of(run_cli("run --scene terrain --n 40 --steps 60"));
+  ASSERT_EQ(one.size(), 16u);
+  for (const char* extra : {"", " --no-triangle-cost"}) {
+    const Outcome o = run_cli(std::string("run --scene terrain --n 40 --steps 60 --territories 4 --lb diffusive "
+                                          "--lb-period 10 --lb-overload 1.05 --lb-underload 0.95") + extra);
+    EXPECT_EQ(o.exit_code, 0) << o.output;
+    EXPECT_EQ(hash_of(o), one) << extra << o.output;
+  }
+}
+
 }  // namespace

@@ -184,3 +184,92 @@ TEST(LoadMonitor, AWorldThatHeldNothingTakesTheScenesScale) {
 
 }  // namespace
 }  // namespace soda
+
+// Level geometry (docs/loadbalance.md, "Triangles"): an awake body pays
+// per_triangle for each triangle within its home cell's reach; a sleeping
+// one nothing.
+namespace soda {
+namespace {
+
+constexpr CostCoefficients kTriangleTruth{30e-6, 0.2e-6, 0.9e-6, 2.0e-6, 0.03e-6};
+
+TEST(CostModel, CellCostChargesTrianglesPerAwakeBody) {
+  const CostModel m(kTriangleTruth);
+  CellLoad cell{{0, 0, 0}, 0, 10, 4, 6};
+  cell.triangles = 50;
+  EXPECT_DOUBLE_EQ(m.cell_cost(cell), 10 * kTriangleTruth.per_body + 4 * kTriangleTruth.per_awake +
+                                          6 * kTriangleTruth.per_pair + 4 * 50 * kTriangleTruth.per_triangle);
+  cell.awake_bodies = 0;
+  EXPECT_DOUBLE_EQ(m.cell_cost(cell), 10 * kTriangleTruth.per_body + 6 * kTriangleTruth.per_pair);
+  EXPECT_GT(kPriorCost.per_triangle, 0.0);
+  EXPECT_DOUBLE_EQ(kPriorCost.per_triangle, kTriangleWeight * (kPriorCost.per_body + kPriorCost.per_awake));
+}
+
+TEST(CostModel, FitRecoversPerTriangle) {
+  std::mt19937_64 rng(11);
+  const CostModel truth(kTriangleTruth);
+  std::vector<CostSample> s;
+  for (int i = 0; i < 40; ++i) {
+    CostSample x;
+    x.bodies = static_cast<double>(rng() % 2000);
+    x.awake_bodies = static_cast<double>(rng() % (static_cast<std::uint64_t>(x.bodies) + 1));
+    x.contact_pairs = static_cast<double>(rng() % (2 * static_cast<std::uint64_t>(x.awake_bodies) + 1));
+    x.body_triangles = x.awake_bodies * static_cast<double>(rng() % 300);
+    x.busy = truth.predict(x.bodies, x.awake_bodies, x.contact_pairs, x.body_triangles);
+    s.push_back(x);
+  }
+  const CostModel m = CostModel::fit(s);
+  ASSERT_TRUE(m.fitted());
+  EXPECT_NEAR(m.coefficients().per_triangle, kTriangleTruth.per_triangle, 0.02 * kTriangleTruth.per_triangle);
+  EXPECT_NEAR(m.coefficients().per_awake, kTriangleTruth.per_awake, 0.02 * kTriangleTruth.per_awake);
+  // Without level geometry the term keeps the prior and the others are
+  // fitted as before.
+  for (CostSample& x : s) {
+    x.busy = truth.predict(x.bodies, x.awake_bodies, x.contact_pairs);
+    x.body_triangles = 0;
+  }
+  EXPECT_DOUBLE_EQ(CostModel::fit(s).coefficients().per_triangle, kPriorCost.per_triangle);
+}
+
+// Two worlds of 32 cells each, 5 awake bodies in every cell; world 0's
+// cells lie over dense level geometry (200 triangles within reach each).
+// Counting bodies the worlds are even; counting triangles world 0 holds
+// most of the load, and both policies give it fewer cells.
+TEST(TriangleCost, AHeavyTriangleRegionKeepsFewerCells) {
+  const CellBox box{{0, 0, 0}, {15, 0, 3}};
+  const TerritoryMap map = test::make_map(box, 2, [](const CellCoord& c) { return c.x < 8 ? 0 : 1; });
+  test::CellBodies bodies;
+  for (int x = 0; x < 16; ++x)
+    for (int z = 0; z < 4; ++z) bodies[{x, 0, z}] = 5;
+  auto view_of = [&](const TerritoryMap& m, bool triangles) {
+    LoadView v = test::make_view(m, bodies, kTriangleTruth);
+    for (CellLoad& c : v.cells) {
+      c.triangles = triangles && c.cell.x < 8 ? 200 : 0;
+      v.worlds[static_cast<std::size_t>(c.owner)].body_triangles += std::int64_t{c.awake_bodies} * c.triangles;
+    }
+    const CostModel model(kTriangleTruth);
+    for (WorldLoad& w : v.worlds) w.busy = model.predict(w);
+    return v;
+  };
+  for (const char* name : {"rcb", "diffusive"}) {
+    BalanceOptions options;
+    options.policy = name;
+    auto even = make_balance_policy(options);
+    EXPECT_TRUE(even->decide(view_of(map, false)).empty()) << name;
+    auto policy = make_balance_policy(options);
+    const LoadView before = view_of(map, true);
+    const std::vector<CellMove> moves = policy->decide(before);
+    ASSERT_FALSE(moves.empty()) << name;
+    for (const CellMove& m : moves) EXPECT_EQ(m.from, 0) << name;
+    const TerritoryMap after = test::apply(map, moves);
+    const LoadView now = view_of(after, true);
+    std::printf("[ triangle cost, %s ] world 0 keeps %lld of 32 cells; max / mean predicted %.3f -> %.3f\n", name,
+                static_cast<long long>(after.cell_count(0)), test::busy_imbalance(before),
+                test::busy_imbalance(now));
+    EXPECT_LT(after.cell_count(0), after.cell_count(1)) << name;
+    EXPECT_LT(test::busy_imbalance(now), test::busy_imbalance(before)) << name;
+  }
+}
+
+}  // namespace
+}  // namespace soda

@@ -116,3 +116,30 @@ TEST(MemoryEstimate, RefusesWhatDoesNotFitNamingTheLimit) {
 }
 
 }  // namespace
+
+// Static meshes and heightfields are counted once per process, whatever
+// the number of territories (docs/memory.md, "Static meshes and
+// heightfields"): the heights of terrain's heightfield, one btScalar each;
+// a mesh's vertices, indices and BVH, once for two bodies sharing it.
+TEST(MemoryEstimate, CountsLevelGeometryOncePerProcess) {
+  const soda::Scene terrain = soda::make_scene("terrain", {200, 1});
+  soda::RunConfig c;
+  const soda::MemoryEstimate one = soda::estimate_run_memory(terrain, c, 0);
+  EXPECT_EQ(one.level_geometry_bytes, terrain.bodies[0].shape.heightfield->heights.size() * sizeof(btScalar));
+  c.territories = 8;
+  const soda::MemoryEstimate eight = soda::estimate_run_memory(terrain, c, 8);
+  EXPECT_EQ(eight.level_geometry_bytes, one.level_geometry_bytes);
+  EXPECT_EQ(eight.total() - eight.world_bytes - eight.kept_state_bytes - eight.thread_bytes - eight.buffer_bytes,
+            eight.level_geometry_bytes);
+  EXPECT_EQ(soda::estimate_run_memory(soda::make_scene("falling-cubes", {100, 1}), c, 0).level_geometry_bytes, 0u);
+
+  soda::Scene city = soda::make_scene("city", {100, 1});
+  ASSERT_EQ(city.bodies[0].shape.kind, soda::ShapeKind::TriangleMesh);
+  const soda::TriangleMeshData& mesh = *city.bodies[0].shape.mesh;
+  const std::uint64_t once = soda::level_geometry_bytes(city);
+  EXPECT_GT(once, mesh.vertices.size() * 3 * sizeof(btScalar) + mesh.triangles.size() * 3 * sizeof(int));
+  soda::Body twin = city.bodies[0];
+  twin.id = static_cast<soda::BodyId>(city.bodies.size() + 10);
+  city.bodies.push_back(twin);  // the same data again: built once
+  EXPECT_EQ(soda::level_geometry_bytes(city), once);
+}

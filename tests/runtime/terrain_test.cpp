@@ -9,11 +9,13 @@
 // a run saved and resumed from a checkpoint goes on to the same hash.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <string>
 
 #include "runtime/partitioned_test_util.h"
+#include "worlds/heightfield_mesh.h"
 #include "soda/loadbalance/policy.h"
 #include "soda/runtime/balance_log.h"
 #include "soda/runtime/checkpoint.h"
@@ -33,31 +35,11 @@ const Scene& valley() {
   return s;
 }
 
-// The heightfield's triangles as a triangle mesh: two a quad, as Bullet
-// splits them (btHeightfieldTerrainShape without flip or diamond
-// subdivision), wound counter-clockwise seen from above.
-std::shared_ptr<const TriangleMeshData> mesh_of(const HeightfieldData& hf) {
-  auto mesh = std::make_shared<TriangleMeshData>();
-  for (int j = 0; j < hf.rows; ++j)
-    for (int i = 0; i < hf.columns; ++i)
-      mesh->vertices.emplace_back((i - 0.5 * (hf.columns - 1)) * hf.spacing.x(),
-                                  hf.heights[static_cast<std::size_t>(j) * hf.columns + i] * hf.spacing.y(),
-                                  (j - 0.5 * (hf.rows - 1)) * hf.spacing.z());
-  for (int j = 0; j + 1 < hf.rows; ++j)
-    for (int i = 0; i + 1 < hf.columns; ++i) {
-      const auto a = static_cast<std::uint32_t>(j * hf.columns + i), b = a + 1,
-                 c = a + static_cast<std::uint32_t>(hf.columns), d = c + 1;
-      mesh->triangles.push_back({a, c, b});
-      mesh->triangles.push_back({b, c, d});
-    }
-  return mesh;
-}
-
 const Scene& mesh_valley() {
   static const Scene s = [] {
     Scene m = valley();
     for (Body& b : m.bodies)
-      if (b.shape.kind == ShapeKind::Heightfield) b.shape = Shape::triangle_mesh(mesh_of(*b.shape.heightfield));
+      if (b.shape.kind == ShapeKind::Heightfield) b.shape = Shape::triangle_mesh(test::mesh_of(*b.shape.heightfield));
     return m;
   }();
   return s;
@@ -142,6 +124,69 @@ TEST(TerrainBalance, ChurnEqualsTheOneWorldHash) {
     EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(test::reference_hash(*s, kSteps)));
     EXPECT_GT(t.cells_moved, 0);
     EXPECT_GT(t.bodies_moved, 0);
+  }
+}
+
+// The cost model sees the heightfield (docs/loadbalance.md, "Triangles"):
+// the runtime hands every policy the triangles within each loaded cell's
+// reach, the first map weighs bodies by them, and the hash stays the one
+// world's under every policy; with the triangle cost off the policies see
+// none, and the hash is the same again.
+class RecordingPolicy final : public BalancePolicy {
+ public:
+  explicit RecordingPolicy(const BalanceOptions& o) : inner_(make_balance_policy(o)) {}
+  const char* name() const override { return inner_->name(); }
+  std::vector<CellMove> decide(const LoadView& view) override {
+    for (const CellLoad& c : view.cells) max_cell_triangles = std::max(max_cell_triangles, c.triangles);
+    for (const WorldLoad& w : view.worlds) body_triangles += w.body_triangles;
+    return inner_->decide(view);
+  }
+  const LoadMonitor* monitor() const override { return inner_->monitor(); }
+  std::int32_t max_cell_triangles = 0;
+  std::int64_t body_triangles = 0;
+
+ private:
+  std::unique_ptr<BalancePolicy> inner_;
+};
+
+TEST(TerrainBalance, TriangleCostKeepsTheOneWorldHashUnderEveryPolicy) {
+  const Scene& s = valley();
+  const std::string reference = hash_hex(test::reference_hash(s, kSteps));
+  struct Case {
+    const char* policy;
+    int k;
+    bool triangle_cost;
+  };
+  for (const Case c : {Case{"diffusive", 2, true}, Case{"rcb", 2, true}, Case{"churn", 2, true},
+                       Case{"diffusive", 4, true}, Case{"rcb", 4, true}, Case{"churn", 4, true},
+                       Case{"diffusive", 4, false}}) {
+    PartitionedOptions o;
+    o.runtime.validate = true;
+    o.runtime.balance.policy = c.policy;
+    o.runtime.balance.period = 10;
+    o.runtime.balance.overload = 1.05;  // move cells at small imbalances too: the test is the hash
+    o.runtime.balance.underload = 0.95;
+    o.runtime.balance.triangle_cost = c.triangle_cost;
+    auto policy = std::make_shared<RecordingPolicy>(o.runtime.balance);
+    o.balance_policy = policy;
+    GridOptions grid;
+    if (!c.triangle_cost) grid.triangle_weight = 0;
+    PartitionedWorld w(s, make_partition("kmeans", s, c.k, grid), o);
+    w.step(kSteps);
+    const BalanceTotals t = balance_totals(w.balance_log());
+    std::printf("[ terrain 40 %s, %s K %d, triangle cost %s ] %lld cells moved, most triangles a cell %d, "
+                "body triangles %lld; %s, one world %s\n",
+                kPrecisionName, c.policy, c.k, c.triangle_cost ? "on" : "off", static_cast<long long>(t.cells_moved),
+                policy->max_cell_triangles, static_cast<long long>(policy->body_triangles),
+                hash_hex(w.state_hash()).c_str(), reference.c_str());
+    EXPECT_EQ(hash_hex(w.state_hash()), reference) << c.policy << " K " << c.k;
+    if (c.triangle_cost) {
+      EXPECT_GT(policy->max_cell_triangles, 0) << c.policy;
+      EXPECT_GT(policy->body_triangles, 0) << c.policy;
+    } else {
+      EXPECT_EQ(policy->max_cell_triangles, 0);
+      EXPECT_EQ(policy->body_triangles, 0);
+    }
   }
 }
 

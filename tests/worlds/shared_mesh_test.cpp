@@ -16,6 +16,8 @@
 #include <gtest/gtest.h>
 
 #include "concave_shapes.h"
+#include "soda/scene/registry.h"
+#include "worlds/heightfield_mesh.h"
 #include "soda/grid/partition.h"
 #include "soda/worlds/bullet_bodies.h"
 #include "soda/worlds/territory_world.h"
@@ -107,6 +109,42 @@ TEST(SharedMesh, EightWorldsHoldOneCopyOfTheGeometry) {
   // Copies of a shape (a scene's, a snapshot's) map to the one Bullet shape.
   const Shape copy = with.bodies[0].shape;
   EXPECT_EQ(make_collision_shape(copy).get(), make_collision_shape(with.bodies[0].shape).get());
+}
+
+// The terrain scene on 8 territory worlds: its heightfield, and the same
+// valley as a triangle mesh, against a box ground in its place. What each
+// world beyond the first pays is its static body, not the triangles.
+// SODA_TERRAIN_N sets the scene's bodies (default 200: 6,400 triangles;
+// docs/results/terrain-mesh-memory.md quotes 5,000: 640,000).
+TEST(SharedMesh, TerrainOnEightWorldsHoldsOneCopy) {
+  const char* env = std::getenv("SODA_TERRAIN_N");
+  const int n = env ? std::atoi(env) : 200;
+  const Scene hf = make_scene("terrain", {n, 1});
+  ASSERT_EQ(hf.bodies[0].shape.kind, ShapeKind::Heightfield);
+  Scene mesh = hf, box = hf;
+  mesh.bodies[0].shape = Shape::triangle_mesh(test::mesh_of(*hf.bodies[0].shape.heightfield));
+  box.bodies[0].shape = Shape::box(hf.bodies[0].shape.local_half_extents());
+  GridOptions bodies_only;
+  bodies_only.triangle_weight = 0;  // one map for the three
+  const TerritoryMap map = make_partition("kmeans", box, 8, bodies_only);
+  ASSERT_EQ(map.world_count(), 8);
+  build_worlds(box, map);  // warm up what is allocated once per process
+  const Growth b = build_worlds(box, map);
+  for (const Scene* s : {&hf, static_cast<const Scene*>(&mesh)}) {
+    const Growth a = build_worlds(*s, map);
+    const Shape& shape = s->bodies[0].shape;
+    const std::size_t triangles = shape.mesh ? shape.mesh->triangles.size()
+                                             : 2 * static_cast<std::size_t>(shape.heightfield->columns - 1) *
+                                                   static_cast<std::size_t>(shape.heightfield->rows - 1);
+    const double shared = double(a.first) - double(b.first);
+    const double per_world = (double(a.rest) - double(b.rest)) / 7.0;
+    std::printf("[ terrain %d as a %s, %s, %zu triangles, 8 territory worlds ] the first world %.0f bytes more than "
+                "on a box (the shared shape; concave_shape_bytes %zu); each further world %.0f bytes\n",
+                n, shape_kind_name(shape.kind), kPrecisionName, triangles, shared, concave_shape_bytes(shape),
+                per_world);
+    EXPECT_GT(shared, 0.5 * double(concave_shape_bytes(shape)));
+    EXPECT_LT(per_world, 4096.0);
+  }
 }
 
 }  // namespace

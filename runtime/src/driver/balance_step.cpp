@@ -27,6 +27,7 @@
 #include <string>
 
 #include "driver/partitioned_internals.h"
+#include "soda/grid/cell_triangles.h"
 #include "soda/loadbalance/load_monitor.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/worlds/world_snapshot.h"
@@ -58,7 +59,10 @@ void check_moves(const std::vector<CellMove>& moves, const TerritoryMap& map, co
 // CellLoad of every box cell holding a dynamic body, canonical order (box
 // index order is lexicographic x, y, z). A pair counts at its key body's
 // cell: the dynamic body of a static pair, else the lower id.
-std::vector<CellLoad> cell_loads(const WorldSnapshot& state, const TerritoryMap& map) {
+// triangles: per box cell, the triangles within its reach (empty: none
+// counted, BalanceOptions::triangle_cost off or no level geometry).
+std::vector<CellLoad> cell_loads(const WorldSnapshot& state, const TerritoryMap& map,
+                                 const std::vector<std::int32_t>& triangles) {
   const CellBox& box = map.box();
   std::vector<std::int64_t> index(state.bodies.size(), -1);  // box index of each body's home cell; -1: static
   std::map<std::int64_t, CellLoad> cells;
@@ -71,6 +75,7 @@ std::vector<CellLoad> cell_loads(const WorldSnapshot& state, const TerritoryMap&
     CellLoad& l = cells[index[i]];
     l.cell = c;
     l.owner = map.owner(c);
+    if (!triangles.empty()) l.triangles = triangles[static_cast<std::size_t>(index[i])];
     ++l.bodies;
     if (b.state.activation_state != kSleeping) ++l.awake_bodies;
   }
@@ -180,6 +185,27 @@ bool PartitionedWorld::balance_due() const {
   return policy_ && steps_done_ > balanced_through_ && steps_done_ % options_.runtime.balance.period == 0;
 }
 
+// The triangles within each box cell's reach, counted once for the map's
+// grid and box and the scene's statics (again only if the statics change:
+// cessions keep the grid and the box).
+const std::vector<std::int32_t>& PartitionedWorld::cell_triangles_for(const WorldSnapshot& state,
+                                                                      const TerritoryMap& map) {
+  static const std::vector<std::int32_t> none;
+  if (!options_.runtime.balance.triangle_cost) return none;
+  std::vector<Body> statics;
+  for (const BodySnapshot& b : state.bodies)
+    if (b.description.is_static) statics.push_back(b.description);
+  std::vector<BodyId> ids;
+  for (const Body& b : statics) ids.push_back(b.id);
+  if (!cell_triangles_.has_value() || cell_triangles_->statics != ids || !(cell_triangles_->box == map.box()) ||
+      cell_triangles_->cell_size != map.grid().cell_size() || cell_triangles_->origin != map.grid().origin()) {
+    CellTriangles t{ids, map.box(), map.grid().cell_size(), map.grid().origin(), {}};
+    if (has_level_geometry(statics)) t.counts = cell_triangles(statics, map.grid(), map.box());
+    cell_triangles_ = std::move(t);
+  }
+  return cell_triangles_->counts;
+}
+
 // Every world stands at steps_done_ (step() ran them to it).
 void PartitionedWorld::balance() {
   BalanceRecord rec;
@@ -191,7 +217,7 @@ void PartitionedWorld::balance() {
   LoadView view;
   view.step = steps_done_;
   view.map = &map;
-  view.cells = cell_loads(state, map);
+  view.cells = cell_loads(state, map, cell_triangles_for(state, map));
   view.worlds.resize(static_cast<std::size_t>(k));
   for (WorldId w = 0; w < k; ++w) {
     WorldLoad& l = view.worlds[static_cast<std::size_t>(w)];
@@ -203,6 +229,7 @@ void PartitionedWorld::balance() {
     WorldLoad& l = view.worlds[static_cast<std::size_t>(c.owner)];
     l.bodies += c.bodies;
     l.awake_bodies += c.awake_bodies;
+    l.body_triangles += static_cast<std::int64_t>(c.awake_bodies) * c.triangles;
   }
   // The period's steps: means per internal step.
   std::vector<double> lead_sum(static_cast<std::size_t>(k), 0.0);

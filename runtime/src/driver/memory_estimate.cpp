@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 
@@ -42,6 +43,12 @@ constexpr std::uint64_t kKeptManifoldsPerBody = 3;
 // fit: it guards against what the model misses (allocator slack, per-step
 // scratch, messages) while keeping the refusal for runs that clearly cannot fit.
 constexpr double kSafetyMargin = 1.25;
+
+// A quantized BVH (btOptimizedBvh) has 2 n - 1 nodes of 16 bytes for n
+// triangles, plus subtree headers and array slack: measured 33.05 bytes a
+// triangle on a 1,002,528-triangle mesh (docs/results/shared-mesh-memory.md:
+// 51,200,480 bytes of shape, less its vertices and indices).
+constexpr std::uint64_t kBvhBytesPerTriangle = 34;
 
 std::uint64_t kept_state_bytes_per_body() {
   return sizeof(BodySnapshot) + kKeptManifoldsPerBody * sizeof(ManifoldState);
@@ -112,6 +119,20 @@ std::string gib(std::uint64_t bytes) {
 
 std::uint64_t world_bytes_per_body() { return kWorldBytesPerBody; }
 
+std::uint64_t level_geometry_bytes(const Scene& scene) {
+  std::set<const void*> seen;  // shared data is built once
+  std::uint64_t bytes = 0;
+  for (const Body& b : scene.bodies) {
+    if (!b.is_static) continue;
+    if (b.shape.kind == ShapeKind::TriangleMesh && b.shape.mesh && seen.insert(b.shape.mesh.get()).second)
+      bytes += b.shape.mesh->vertices.size() * 3 * sizeof(btScalar) +
+               b.shape.mesh->triangles.size() * (3 * sizeof(int) + kBvhBytesPerTriangle);
+    if (b.shape.kind == ShapeKind::Heightfield && b.shape.heightfield && seen.insert(b.shape.heightfield.get()).second)
+      bytes += b.shape.heightfield->heights.size() * sizeof(btScalar);
+  }
+  return bytes;
+}
+
 MemoryEstimate estimate_run_memory(const Scene& scene, const RunConfig& config, int threads) {
   MemoryEstimate e;
   const std::uint64_t dynamic = scene.dynamic_count();
@@ -139,6 +160,7 @@ MemoryEstimate estimate_run_memory(const Scene& scene, const RunConfig& config, 
     e.kept_state_bytes = kept * (dynamic + statics) * kept_state_bytes_per_body();
   }
   e.thread_bytes = static_cast<std::uint64_t>(std::max(0, threads)) * thread_stack_bytes();
+  e.level_geometry_bytes = level_geometry_bytes(scene);
   return e;
 }
 
@@ -173,6 +195,7 @@ void check_memory(const MemoryEstimate& estimate, const MemoryBudget& budget, co
   std::ostringstream m;
   m << what << " needs about " << gib(estimate.total()) << " (worlds " << gib(estimate.world_bytes) << ": "
     << estimate.world_body_count << " bodies x " << kWorldBytesPerBody << " B in " << (sizeof(btScalar) == 8 ? "double" : "float")
+    << "; level geometry " << gib(estimate.level_geometry_bytes) << " once per process"
     << "; kept states " << gib(estimate.kept_state_bytes) << "; thread stacks " << gib(estimate.thread_bytes)
     << "; a margin of " << kSafetyMargin << "x on top) but " << limit << " leaves " << gib(have)
     << ": use fewer bodies, territories or kept states, or raise the limit (docs/memory.md)";

@@ -229,7 +229,9 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.partition = config.partition;
   r.anticipation = config.runtime.anticipation;
   r.rollback = config.runtime.rollback;
-  const TerritoryMap map = make_partition(config.partition, scene, config.territories, GridOptions{});
+  GridOptions grid;
+  if (!config.runtime.balance.triangle_cost) grid.triangle_weight = 0;
+  const TerritoryMap map = make_partition(config.partition, scene, config.territories, grid);
   const int k = map.world_count();
   PartitionedOptions options = partitioned_options(config, k, r);
   r.solver_threads = config.runtime.solver_threads;
@@ -294,13 +296,16 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   return r;
 }
 
-// Refuses a run whose worlds cannot fit (docs/memory.md) before building any.
-void check_run_memory(const Scene& scene, const RunConfig& config) {
+// Refuses a run whose worlds cannot fit (docs/memory.md) before building
+// any; returns the estimate.
+MemoryEstimate check_run_memory(const Scene& scene, const RunConfig& config) {
   const int k = config.territories;
   const int threads = k <= 1 || config.threads == 1 ? 0 : (config.threads == 0 || config.threads >= k ? k : config.threads);
-  check_memory(estimate_run_memory(scene, config, threads), current_memory_budget(),
+  const MemoryEstimate e = estimate_run_memory(scene, config, threads);
+  check_memory(e, current_memory_budget(),
                "scene '" + scene.name + "' (" + std::to_string(scene.bodies.size()) + " bodies, " +
                    std::to_string(k) + (k == 1 ? " territory)" : " territories)"));
+  return e;
 }
 
 }  // namespace
@@ -393,7 +398,12 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
                                 "inputs, --record, checkpoints or ranks (docs/scene-format.md, \"Joints\")");
   const SleepingSwitch sleeping(config.sleeping);
   const Stamp start;
-  check_run_memory(scene, config);
+  const MemoryEstimate estimate = check_run_memory(scene, config);
+  const auto with_estimate = [&](RunResult r) {
+    r.memory_estimate_bytes = estimate.total();
+    r.level_geometry_bytes = estimate.level_geometry_bytes;
+    return r;
+  };
   if (config.group) {
     if (config.world != WorldKind::Canonical) throw std::invalid_argument("over MPI ranks: the canonical world only");
     if (!config.record_path.empty())
@@ -402,17 +412,17 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
       throw std::invalid_argument("over MPI ranks: inputs are not supported yet (docs/mpi.md)");
     if (!config.checkpoint_path.empty() || config.resume)
       throw std::invalid_argument("over MPI ranks: --checkpoint and --resume are not supported yet (docs/mpi.md)");
-    return run_partitioned(scene, config);
+    return with_estimate(run_partitioned(scene, config));
   }
   if (through_simulation_only(config) || (config.inputs && inputs_through_simulation(config)))
-    return run_with_inputs(scene, config);
+    return with_estimate(run_with_inputs(scene, config));
   if (config.territories > 1 || config.runtime.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0 ||
       config.inputs)
-    return run_partitioned(scene, config);
+    return with_estimate(run_partitioned(scene, config));
   const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), config.shuffle_seed);
   switch (config.world) {
-    case WorldKind::Stock: return build_run_destroy<StockWorld>(scene, config, start, scene, order);
-    case WorldKind::Canonical: return build_run_destroy<CanonicalWorld>(scene, config, start, scene, order);
+    case WorldKind::Stock: return with_estimate(build_run_destroy<StockWorld>(scene, config, start, scene, order));
+    case WorldKind::Canonical: return with_estimate(build_run_destroy<CanonicalWorld>(scene, config, start, scene, order));
   }
   throw std::invalid_argument("unknown world kind");
 }

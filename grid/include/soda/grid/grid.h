@@ -109,6 +109,15 @@ class UniformGrid {
   double cell_size_ = 1.0;
 };
 
+/// The documented weight of one triangle within a cell's reach against one
+/// dynamic body (cell_triangles.h; docs/loadbalance.md, "Triangles"):
+/// callgrind on terrain 200, steps 60 to 120, one world: an awake body
+/// costs 93,152 instructions a step, 61,278 of them in the narrowphase of
+/// its triangles, with 90.5 triangles within its home cell's reach, so a
+/// triangle within reach weighs 61,278 / 90.5 / 31,874 = 0.021 of the rest
+/// of a body (bench/triangle_cost.py, docs/results/triangle-cost.md).
+inline constexpr double kTriangleWeight = 0.02;
+
 /// How to lay the grid over a scene and how to partition it. Plain value.
 struct GridOptions {
   /// Cell size override, metres, finite and > 0 (else GridError). Unset:
@@ -126,6 +135,10 @@ struct GridOptions {
   std::uint64_t seed = 1;
   /// Cap on k-means (Lloyd) iterations.
   int kmeans_max_iterations = 100;
+  /// kmeans and rcb weigh each dynamic body by 1 + triangle_weight x the
+  /// triangles of static meshes and heightfields within its home cell's
+  /// reach (cell_triangles.h); 0: every body weighs 1. Finite and >= 0.
+  double triangle_weight = kTriangleWeight;
 };
 
 /// The grid for a scene: origin from options, cell size per invariant 4.

@@ -35,4 +35,13 @@ struct KMeansResult {
 KMeansResult equal_size_kmeans(std::span<const Vec3> points, int k, std::uint64_t seed,
                                int max_iterations);
 
+/// Equal-weight k-means: as above, but a cluster has room while the weights
+/// of its points stay below ceil(W / k), W the sum of the weights (each
+/// weight >= 1), so no cluster exceeds that by as much as the largest
+/// weight. With all weights equal it is the equal-size clustering above,
+/// label for label. Throws GridError as above, or if weights.size() !=
+/// points.size() or a weight is < 1.
+KMeansResult equal_size_kmeans(std::span<const Vec3> points, std::span<const std::int64_t> weights, int k,
+                               std::uint64_t seed, int max_iterations);
+
 }  // namespace soda

@@ -74,8 +74,18 @@ struct PartitionStats {
   std::vector<std::int64_t> bodies_per_world;  // dynamic bodies by owner_of(position)
   std::vector<std::int64_t> cells_per_world;   // box cells
   double imbalance = 1.0;                      // max / mean bodies per world; 1 = even
+  /// Per world: its bodies weighed as the partitions weigh them, 1 +
+  /// triangle_weight x the triangles within reach of the body's home cell
+  /// (cell_triangles.h), in bodies.
+  std::vector<double> weight_per_world;
+  /// Per world: the triangles within reach of its bodies' home cells,
+  /// summed over its bodies.
+  std::vector<std::int64_t> body_triangles_per_world;
+  double weighted_imbalance = 1.0;  // max / mean weight per world
 };
-/// Counts bodies and cells per world. Thread-safe.
-PartitionStats partition_stats(const TerritoryMap& map, const Scene& scene);
+/// Counts bodies, cells and weights per world (triangle_weight as
+/// GridOptions::triangle_weight). Thread-safe.
+PartitionStats partition_stats(const TerritoryMap& map, const Scene& scene,
+                               double triangle_weight = kTriangleWeight);
 
 }  // namespace soda

@@ -3,11 +3,14 @@
 // (docs/loadbalance.md, "Cost model").
 //
 //   busy ≈ overhead + per_body · bodies + per_awake · awake_bodies
-//                   + per_pair · contact_pairs
+//                   + per_pair · contact_pairs + per_triangle · body_triangles
 //
 // Every body pays per_body (asleep bodies still cost Bullet's per-body loops),
 // awake bodies per_awake more (prediction, broadphase, integration), and
-// every contact pair per_pair (narrowphase and solve). overhead is the per-step
+// every contact pair per_pair (narrowphase and solve), and every awake body
+// per_triangle for each triangle of level geometry within its home cell's
+// reach (body_triangles: the concave narrowphase tests the triangles under
+// a body's box). overhead is the per-step
 // cost of a world that holds nothing (messages, bookkeeping); it belongs to
 // the world, not to a cell, so cell_cost() leaves it out.
 //
@@ -34,6 +37,7 @@ struct CostCoefficients {
   double per_body = 0;   // per dynamic body owned
   double per_awake = 0;  // per awake body, on top of per_body
   double per_pair = 0;   // per contact pair (manifold with points)
+  double per_triangle = 0;  // per awake body and triangle within its home cell's reach
   friend bool operator==(const CostCoefficients&, const CostCoefficients&) = default;
 };
 
@@ -42,8 +46,10 @@ struct CostCoefficients {
 /// and step (an idle world of an 8-territory hotspot run: 19 µs), 0.05 µs
 /// per body (420 sleeping cubes: 0.01 ms per step), 3.5 µs more per awake
 /// body and 1.5 µs per contact pair (fits over hotspot, avalanche,
-/// falling-cubes and alternating-load in one world: 3.3–9.1 and 0.8–3.4 µs).
-inline constexpr CostCoefficients kPriorCost{20e-6, 0.05e-6, 3.5e-6, 1.5e-6};
+/// falling-cubes and alternating-load in one world: 3.3–9.1 and 0.8–3.4 µs);
+/// per_triangle is kTriangleWeight of an awake body's per_body + per_awake
+/// (callgrind, docs/loadbalance.md "Triangles").
+inline constexpr CostCoefficients kPriorCost{20e-6, 0.05e-6, 3.5e-6, 1.5e-6, kTriangleWeight * (0.05e-6 + 3.5e-6)};
 
 /// Fewest samples fit() uses: two per coefficient, so that one odd period
 /// cannot set a coefficient alone.
@@ -55,10 +61,11 @@ struct CostSample {
   double awake_bodies = 0;
   double contact_pairs = 0;
   double busy = 0;  // s per internal step
+  double body_triangles = 0;
 };
 
-/// The sample a WorldLoad gives (bodies, awake, pairs at the balance step;
-/// busy over the period).
+/// The sample a WorldLoad gives (bodies, awake, pairs, body triangles at the
+/// balance step; busy over the period).
 CostSample cost_sample(const WorldLoad& load);
 
 /// How well a model predicts busy times: |predicted - measured| / measured
@@ -90,7 +97,7 @@ class CostModel {
   bool fitted() const { return fitted_; }
 
   /// Predicted busy time per internal step of a world holding these, s.
-  double predict(double bodies, double awake_bodies, double contact_pairs) const;
+  double predict(double bodies, double awake_bodies, double contact_pairs, double body_triangles = 0) const;
   double predict(const WorldLoad& load) const;
   /// Cost of one cell, s per internal step (no overhead: a cell's share).
   double cell_cost(const CellLoad& cell) const;

@@ -43,6 +43,9 @@ struct WorldLoad {
   std::int64_t bodies = 0;      // dynamic bodies owned at the balance step
   std::int64_t awake_bodies = 0;
   std::int64_t contact_pairs = 0;  // manifolds with points held at the balance step
+  /// Awake bodies times the triangles of level geometry within reach of
+  /// their home cells (CellLoad::triangles), summed over the world's cells.
+  std::int64_t body_triangles = 0;
   std::int64_t islands = 0;     // islands solved in the period's last step (merged ones counted once, at their root)
   std::int64_t cells = 0;       // box cells owned
 };
@@ -56,6 +59,10 @@ struct CellLoad {
   std::int32_t bodies = 0;         // dynamic bodies whose home cell this is
   std::int32_t awake_bodies = 0;   // ... of them awake
   std::int32_t contact_pairs = 0;  // manifolds with points whose key body's home cell this is
+  /// Triangles of static meshes and heightfields within the cell's reach
+  /// (soda/grid/cell_triangles.h): what each of its awake bodies may test.
+  /// 0 when BalanceOptions::triangle_cost is off.
+  std::int32_t triangles = 0;
 };
 
 /// Everything a policy may look at.
@@ -100,6 +107,11 @@ struct BalanceOptions {
   int max_cells_per_move = 64;
   /// Seed of tie-breaks and of churn's choices.
   std::uint64_t seed = 1;
+  /// The runtime counts the triangles of level geometry within each cell's
+  /// reach (CellLoad::triangles, WorldLoad::body_triangles), which the cost
+  /// model charges per awake body (docs/loadbalance.md, "Triangles"); off:
+  /// both stay 0 and cells cost their bodies and pairs only.
+  bool triangle_cost = true;
 };
 
 /// Bad balance options or an unknown policy name (the message names the

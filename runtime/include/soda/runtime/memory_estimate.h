@@ -29,11 +29,17 @@ struct MemoryEstimate {
   std::uint64_t buffer_bytes = 0;      // transform buffers (embedding API; 0 for run_scene)
   std::uint64_t thread_bytes = 0;      // stacks of the threads that step the worlds (address space)
   std::uint64_t world_body_count = 0;  // bodies summed over the worlds (statics once per world)
+  /// The Bullet shapes of static triangle meshes and heightfields (a
+  /// mesh's vertices, indices and BVH, a heightfield's heights), built once
+  /// per process and shared by every world (level_geometry_bytes()).
+  std::uint64_t level_geometry_bytes = 0;
 
   /// Every byte of the estimate.
-  std::uint64_t total() const { return world_bytes + kept_state_bytes + buffer_bytes + thread_bytes; }
+  std::uint64_t total() const {
+    return world_bytes + kept_state_bytes + buffer_bytes + thread_bytes + level_geometry_bytes;
+  }
   /// What will be touched (thread stacks are mostly reserved, not touched).
-  std::uint64_t touched() const { return world_bytes + kept_state_bytes + buffer_bytes; }
+  std::uint64_t touched() const { return world_bytes + kept_state_bytes + buffer_bytes + level_geometry_bytes; }
 };
 
 /// Bytes this process may still get, from each source of a limit. A source
@@ -54,6 +60,14 @@ class MemoryLimitError : public std::runtime_error {
 /// Per-body bytes of a built world in this build's precision (measured:
 /// docs/memory.md). Shared with tests.
 std::uint64_t world_bytes_per_body();
+
+/// Bytes of the shared Bullet shapes of the scene's static triangle meshes
+/// and heightfields, each data counted once however many bodies or worlds
+/// hold it (docs/memory.md, "Static meshes and heightfields"): a mesh's
+/// vertices (3 btScalar each), indices (3 int a triangle) and quantized BVH
+/// (kBvhBytesPerTriangle), a heightfield's heights (one btScalar a sample).
+/// The scene's own copy of the data is not counted (it exists already).
+std::uint64_t level_geometry_bytes(const Scene& scene);
 
 /// The model for `scene` run as `config` describes (territories, schedule,
 /// speculation, heal, SyncTest). `threads`: threads that will step the

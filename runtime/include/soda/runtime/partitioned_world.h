@@ -211,6 +211,7 @@ class PartitionedWorld {
   std::int64_t next_balance_step() const;
   bool balance_due() const;
   void balance();
+  const std::vector<std::int32_t>& cell_triangles_for(const WorldSnapshot& state, const TerritoryMap& map);
   void collect_step_loads();
   void rebuild(const WorldSnapshot& state, const TerritoryMap& map);
   std::int64_t cede(const WorldSnapshot& state, const TerritoryMap& map);
@@ -234,6 +235,16 @@ class PartitionedWorld {
   std::shared_ptr<BalancePolicy> policy_;  // null: no balance steps (policy "none")
   std::int64_t balanced_through_ = 0;      // the last balance step done (or the first step)
   std::vector<BalanceRecord> balance_log_;
+  // Triangles within each box cell's reach (balance_step.cpp), for these
+  // statics, box and grid.
+  struct CellTriangles {
+    std::vector<BodyId> statics;
+    CellBox box;
+    double cell_size = 0;
+    Vec3 origin = Vec3::Zero();
+    std::vector<std::int32_t> counts;  // empty: no level geometry
+  };
+  std::optional<CellTriangles> cell_triangles_;
   std::vector<StepLoads> step_loads_;
   std::int64_t first_step_ = 0;            // scene step step_loads_ starts after
   std::unique_ptr<InputQueue> inputs_;     // options_.inputs, checked and ordered; null: none

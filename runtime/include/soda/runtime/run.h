@@ -146,6 +146,11 @@ struct RunResult {
   // thread's CPU seconds (docs/memory.md, "Setup and teardown").
   double setup_seconds = 0, setup_cpu_seconds = 0;
   double teardown_seconds = 0, teardown_cpu_seconds = 0;
+  // The memory estimate the run was checked against before building
+  // (memory_estimate.h, docs/memory.md): its total, and of it the shared
+  // shapes of static meshes and heightfields, counted once per process.
+  std::uint64_t memory_estimate_bytes = 0;
+  std::uint64_t level_geometry_bytes = 0;
   // validate (canonical world): the whole scene's bodies and contact pairs
   // (manifolds holding points) counted from the worlds' own state after
   // building and at the end (docs/soak.md). 0 without validate.
