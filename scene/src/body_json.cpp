@@ -190,6 +190,43 @@ std::uint32_t filter_bits(const Context& ctx, const json& j, const char* field, 
   return static_cast<std::uint32_t>(v->get<std::uint64_t>());
 }
 
+// "path": {"keys": [{"time", "position", "orientation"}, ...], "loop"}.
+KinematicPath parse_path(const Context& ctx, const json& j) {
+  if (!j.is_object()) ctx.fail("path", "must be an object {keys, loop}");
+  for (auto f = j.begin(); f != j.end(); ++f)
+    if (f.key() != "keys" && f.key() != "loop") ctx.fail("path." + f.key(), "unknown field for a path");
+  KinematicPath path;
+  if (auto l = j.find("loop"); l != j.end()) {
+    if (!l->is_boolean()) ctx.fail("path.loop", "must be true or false");
+    path.loop = l->get<bool>();
+  }
+  auto ks = j.find("keys");
+  if (ks == j.end()) ctx.fail("path.keys", "missing");
+  if (!ks->is_array() || ks->empty()) ctx.fail("path.keys", "must be a non-empty array of {time, position, orientation}");
+  for (std::size_t i = 0; i < ks->size(); ++i) {
+    const std::string at = "path.keys[" + std::to_string(i) + "]";
+    const json& k = (*ks)[i];
+    if (!k.is_object()) ctx.fail(at, "must be an object {time, position, orientation}");
+    for (auto f = k.begin(); f != k.end(); ++f)
+      if (f.key() != "time" && f.key() != "position" && f.key() != "orientation")
+        ctx.fail(at + "." + f.key(), "unknown field for a path key");
+    PathKey key;
+    auto t = k.find("time");
+    if (t == k.end()) ctx.fail(at + ".time", "missing");
+    if (!t->is_number()) ctx.fail(at + ".time", std::string("must be a number, got ") + t->type_name());
+    key.time = t->get<double>();
+    auto p = k.find("position");
+    if (p == k.end()) ctx.fail(at + ".position", "missing");
+    key.position = Vec3(ctx.numbers(*p, at + ".position", 3));
+    if (auto q = k.find("orientation"); q != k.end()) {
+      const Eigen::VectorXd v = ctx.numbers(*q, at + ".orientation", 4);
+      key.orientation = Quat(v[3], v[0], v[1], v[2]);  // file order x, y, z, w
+    }
+    path.keys.push_back(key);
+  }
+  return path;
+}
+
 }  // namespace
 
 Body parse_body(std::string where, const json& j, const std::string& base_dir) {
@@ -202,15 +239,26 @@ Body parse_body(std::string where, const json& j, const std::string& base_dir) {
   ctx.where += " (id " + std::to_string(id) + ")";
   ctx.only_known(j, {"id", "type", "shape", "mass", "friction", "restitution", "position",
                      "orientation", "linear_velocity", "angular_velocity", "asleep", "collision_group",
-                     "collision_mask", "user_data", "sensor"});
+                     "collision_mask", "user_data", "sensor", "path"});
   const std::string type = ctx.string(j, "type", true, "");
-  if (type != "static" && type != "dynamic") ctx.fail("type", "must be \"static\" or \"dynamic\"");
-  b.is_static = type == "static";
+  if (type != "static" && type != "dynamic" && type != "kinematic")
+    ctx.fail("type", "must be \"static\", \"dynamic\" or \"kinematic\"");
+  b.kinematic = type == "kinematic";
+  b.is_static = type == "static" || b.kinematic;
   b.shape = parse_shape(ctx, *ctx.find(j, "shape", true), "shape", base_dir);
+  if (b.kinematic && ctx.find(j, "mass", false))
+    ctx.fail("mass", "a kinematic body has no mass (it is moved, never pushed: its mass is infinite)");
   b.mass = ctx.number(j, "mass", !b.is_static, 0.0);
+  if (const json* path = ctx.find(j, "path", false)) {
+    if (!b.kinematic) ctx.fail("path", "only kinematic bodies have a path");
+    b.path = parse_path(ctx, *path);
+  }
   b.friction = ctx.number(j, "friction", false, b.friction);
   b.restitution = ctx.number(j, "restitution", false, b.restitution);
-  b.position = ctx.vec3(j, "position", true, Vec3::Zero());
+  // A kinematic body with a path starts where its path does.
+  const bool from_path = !b.path.keys.empty();
+  b.position = ctx.vec3(j, "position", !from_path, from_path ? b.path.keys.front().position : Vec3::Zero());
+  if (from_path && !ctx.find(j, "orientation", false)) b.orientation = b.path.keys.front().orientation;
   if (const json* q = ctx.find(j, "orientation", false)) {
     const Eigen::VectorXd v = ctx.numbers(*q, "orientation", 4);
     b.orientation = Quat(v[3], v[0], v[1], v[2]);  // file order x, y, z, w
@@ -218,11 +266,14 @@ Body parse_body(std::string where, const json& j, const std::string& base_dir) {
   b.linear_velocity = ctx.vec3(j, "linear_velocity", false, Vec3::Zero());
   b.angular_velocity = ctx.vec3(j, "angular_velocity", false, Vec3::Zero());
   if (b.is_static && (!b.linear_velocity.isZero(0.0) || !b.angular_velocity.isZero(0.0)))
-    ctx.fail("linear_velocity", "a static body cannot move");
+    ctx.fail("linear_velocity", b.kinematic ? "a kinematic body's velocities come from its path (give it a path)"
+                                            : "a static body cannot move");
   if (const json* a = ctx.find(j, "asleep", false)) {
     if (!a->is_boolean()) ctx.fail("asleep", "must be true or false");
     b.asleep = a->get<bool>();
-    if (b.asleep && b.is_static) ctx.fail("asleep", "a static body cannot be asleep (only dynamic bodies sleep)");
+    if (b.asleep && b.is_static)
+      ctx.fail("asleep", std::string("a ") + (b.kinematic ? "kinematic" : "static") +
+                             " body cannot be asleep (only dynamic bodies sleep)");
     if (b.asleep && (!b.linear_velocity.isZero(0.0) || !b.angular_velocity.isZero(0.0)))
       ctx.fail("asleep", "a body created asleep must have zero linear_velocity and angular_velocity");
   }
@@ -298,7 +349,7 @@ json shape_json(const Shape& s) {
 json body_json(const Body& b) {
   const json shape = shape_json(b.shape);
   json jb = {{"id", b.id},
-             {"type", b.is_static ? "static" : "dynamic"},
+             {"type", b.kinematic ? "kinematic" : (b.is_static ? "static" : "dynamic")},
              {"shape", shape},
              {"friction", b.friction},
              {"restitution", b.restitution},
@@ -317,6 +368,16 @@ json body_json(const Body& b) {
   if (b.collision_mask != kAllCollisionGroups) jb["collision_mask"] = b.collision_mask;
   if (b.user_data != 0) jb["user_data"] = b.user_data;  // absent: 0
   if (b.sensor) jb["sensor"] = true;
+  if (!b.path.keys.empty()) {
+    json keys = json::array();
+    for (const PathKey& k : b.path.keys)
+      keys.push_back({{"time", k.time},
+                      {"position", vec_json(k.position)},
+                      {"orientation", json::array({k.orientation.x(), k.orientation.y(), k.orientation.z(),
+                                                   k.orientation.w()})}});
+    jb["path"] = {{"keys", keys}};
+    if (b.path.loop) jb["path"]["loop"] = true;
+  }
   return jb;
 }
 

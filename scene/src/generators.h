@@ -88,6 +88,8 @@ Scene make_compounds(const SceneParams& params);
 Scene make_terrain(const SceneParams& params);
 // city_scene.cpp: debris falling onto a triangle-mesh street grid.
 Scene make_city(const SceneParams& params);
+// conveyor_scene.cpp: kinematic platforms carrying boxes across borders.
+Scene make_conveyor(const SceneParams& params);
 Scene make_plank_pile(const SceneParams& params);
 Scene make_heavy_slide(const SceneParams& params);
 Scene make_free_fall(const SceneParams& params);

@@ -24,7 +24,8 @@ constexpr int kInputsVersion = 1;
 constexpr UserInput::Kind kAllKinds[] = {
     UserInput::Kind::AddBody,     UserInput::Kind::RemoveBody,     UserInput::Kind::SetVelocity,
     UserInput::Kind::ApplyImpulse, UserInput::Kind::SetGravity,    UserInput::Kind::SetMass,
-    UserInput::Kind::SetFriction, UserInput::Kind::SetRestitution, UserInput::Kind::SetUserData};
+    UserInput::Kind::SetFriction, UserInput::Kind::SetRestitution, UserInput::Kind::SetUserData,
+    UserInput::Kind::SetPose,     UserInput::Kind::SetKinematicTarget};
 
 // The file's field of a setter's value.
 const char* value_field(UserInput::Kind kind) {
@@ -34,6 +35,8 @@ const char* value_field(UserInput::Kind kind) {
     case UserInput::Kind::SetRestitution: return "restitution";
     case UserInput::Kind::SetGravity: return "gravity";
     case UserInput::Kind::SetUserData: return "user_data";
+    case UserInput::Kind::SetPose:
+    case UserInput::Kind::SetKinematicTarget: return "position/orientation";
     default: return "";
   }
 }
@@ -43,7 +46,7 @@ UserInput::Kind parse_kind(const Context& ctx, const std::string& name) {
     if (name == input_kind_name(k)) return k;
   ctx.fail("type", "unknown input '" + name +
                        "' (known: add_body, remove_body, set_velocity, apply_impulse, set_gravity, set_mass, "
-                       "set_friction, set_restitution, set_user_data)");
+                       "set_friction, set_restitution, set_user_data, set_pose, set_kinematic_target)");
 }
 
 BodyId parse_id(const Context& ctx, const json& j) {
@@ -112,6 +115,18 @@ UserInput parse_input(const std::string& source, std::size_t index, const json& 
       in.user_data = u->get<std::uint64_t>();
       break;
     }
+    case UserInput::Kind::SetPose:
+    case UserInput::Kind::SetKinematicTarget: {
+      ctx.only_known(j, {"type", "step", "id", "position", "orientation"});
+      in.id = parse_id(ctx, j);
+      ctx.where += ": body " + std::to_string(in.id);
+      in.linear = finite_vec3(ctx, j, "position", true);
+      if (const json* q = ctx.find(j, "orientation", false)) {
+        const Eigen::VectorXd v = ctx.numbers(*q, "orientation", 4);
+        in.orientation = Quat(v[3], v[0], v[1], v[2]);  // file order x, y, z, w
+      }
+      break;
+    }
   }
   if (const std::string why = check_input_value(in); !why.empty()) ctx.fail(value_field(in.kind), why);
   return in;
@@ -130,6 +145,8 @@ const char* input_kind_name(UserInput::Kind kind) {
     case UserInput::Kind::SetFriction: return "set_friction";
     case UserInput::Kind::SetRestitution: return "set_restitution";
     case UserInput::Kind::SetUserData: return "set_user_data";
+    case UserInput::Kind::SetPose: return "set_pose";
+    case UserInput::Kind::SetKinematicTarget: return "set_kinematic_target";
   }
   return "unknown";
 }
@@ -155,6 +172,19 @@ std::string check_input_value(const UserInput& in) {
     case UserInput::Kind::SetGravity:
       if (!in.linear.allFinite()) return "gravity must be finite numbers";
       break;
+    case UserInput::Kind::SetPose:
+    case UserInput::Kind::SetKinematicTarget: {
+      if (!in.linear.allFinite()) {
+        std::ostringstream s;
+        s << "position must be finite numbers, got (" << in.linear.x() << ", " << in.linear.y() << ", "
+          << in.linear.z() << ")";
+        return s.str();
+      }
+      const Eigen::Vector4d q = in.orientation.coeffs();
+      if (!q.allFinite()) return "orientation must be finite numbers";
+      if (!(q.norm() > 1e-6)) return "orientation must be a non-zero quaternion";
+      break;
+    }
     default: break;
   }
   return {};
@@ -230,6 +260,13 @@ std::string inputs_to_json(const std::vector<UserInput>& inputs) {
       case UserInput::Kind::SetUserData:
         e["id"] = in.id;
         e["user_data"] = in.user_data;
+        break;
+      case UserInput::Kind::SetPose:
+      case UserInput::Kind::SetKinematicTarget:
+        e["id"] = in.id;
+        e["position"] = vec_json(in.linear);
+        e["orientation"] =
+            json::array({in.orientation.x(), in.orientation.y(), in.orientation.z(), in.orientation.w()});
         break;
     }
     list.push_back(std::move(e));

@@ -150,6 +150,10 @@ const std::vector<SceneGenerator>& scene_registry() {
        "triangle mesh of ground and buildings (8 m blocks 4 to 14 m high, 6 m streets; at least 3 x 3 blocks, more "
        "as N grows)",
        detail::make_city},
+      {"conveyor",
+       "N boxes (default 120) on kinematic platforms moving along looping paths across territory borders: four "
+       "pallets shuttling along x at 2 m/s, a turntable and an elevator, over a ground they drop boxes on",
+       detail::make_conveyor},
       {"plank-pile",
        "a plank N m long (default 8, N <= 40; 0.2 x 0.6 m, 40 kg) dropped end first from 0.5 m onto a pile of "
        "4 x 4 x 3 unit cubes",

@@ -186,4 +186,66 @@ double Scene::largest_dynamic_extent() const {
   return e;
 }
 
+double internal_step_time(const SceneSettings& settings, std::int64_t internal_steps) {
+  return static_cast<double>(internal_steps) * (settings.dt / static_cast<double>(settings.substeps));
+}
+
+// Plain double arithmetic, one operation at a time (the build has
+// -ffp-contract=off): the same bits in every world and thread.
+Pose interpolate_pose(const Pose& a, const Pose& b, double u) {
+  const double w = 1.0 - u;
+  Pose p;
+  for (int k = 0; k < 3; ++k) p.position[k] = a.position[k] * w + b.position[k] * u;
+  const Eigen::Vector4d qa = a.orientation.normalized().coeffs();
+  Eigen::Vector4d qb = b.orientation.normalized().coeffs();
+  double dot = 0.0;
+  for (int k = 0; k < 4; ++k) dot += qa[k] * qb[k];
+  if (dot < 0.0) qb = -qb;  // the shorter way round
+  Eigen::Vector4d q;
+  for (int k = 0; k < 4; ++k) q[k] = qa[k] * w + qb[k] * u;
+  double n2 = 0.0;
+  for (int k = 0; k < 4; ++k) n2 += q[k] * q[k];
+  const double n = std::sqrt(n2);
+  p.orientation = Quat(q[3] / n, q[0] / n, q[1] / n, q[2] / n);
+  return p;
+}
+
+Pose kinematic_pose(const Body& body, double time) {
+  const std::vector<PathKey>& keys = body.path.keys;
+  if (keys.empty()) return Pose{body.position, body.orientation.normalized()};
+  double t = time;
+  const double period = keys.back().time;
+  if (body.path.loop && period > 0.0) {
+    t = std::fmod(time, period);  // exact
+    if (t < 0.0) t += period;
+  }
+  if (!(t > keys.front().time)) return Pose{keys.front().position, keys.front().orientation.normalized()};
+  if (!(t < keys.back().time)) return Pose{keys.back().position, keys.back().orientation.normalized()};
+  // The first key later than t: keys[i - 1].time <= t < keys[i].time.
+  const auto later = std::upper_bound(keys.begin(), keys.end(), t,
+                                      [](double x, const PathKey& k) { return x < k.time; });
+  const PathKey& a = *(later - 1);
+  const PathKey& b = *later;
+  const double u = (t - a.time) / (b.time - a.time);
+  return interpolate_pose(Pose{a.position, a.orientation}, Pose{b.position, b.orientation}, u);
+}
+
+KinematicPlace kinematic_place(const Body& body, const SceneSettings& settings, std::int64_t n) {
+  const std::int64_t s = settings.substeps;
+  const std::vector<KinematicCommand>& cs = body.commands;
+  // The last command in effect at n: the last with step * s < n.
+  const auto after = std::partition_point(cs.begin(), cs.end(),
+                                          [&](const KinematicCommand& c) { return c.step * s < n; });
+  if (after == cs.begin()) return KinematicPlace{kinematic_pose(body, internal_step_time(settings, n)), false};
+  const KinematicCommand& c = *(after - 1);
+  const std::int64_t begin = c.step * s;
+  if (c.teleport) return KinematicPlace{Pose{c.pose.position, c.pose.orientation.normalized()}, n == begin + 1};
+  if (n >= begin + s) return KinematicPlace{Pose{c.pose.position, c.pose.orientation.normalized()}, false};
+  // On the way: from where the body was at the command's boundary (an
+  // earlier command's end or the path: never this command again).
+  const Pose from = kinematic_place(body, settings, begin).pose;
+  const double u = static_cast<double>(n - begin) / static_cast<double>(s);
+  return KinematicPlace{interpolate_pose(from, c.pose, u), false};
+}
+
 }  // namespace soda

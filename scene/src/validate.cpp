@@ -319,11 +319,30 @@ void validate_joint(const Joint& joint, const std::string& where, const BodyLook
   if (a->is_static && b->is_static)
     fail(where, "body_b", "both bodies (" + std::to_string(joint.body_a) + ", " + std::to_string(joint.body_b) +
                               ") are static: a joint needs a dynamic body");
+  for (const Body* k : {a, b})
+    if (k->kinematic)
+      fail(where, k == a ? "body_a" : "body_b",
+           "body " + std::to_string(k->id) + " is kinematic: joints to kinematic bodies are not supported");
   check_joint_values(joint, where);
 }
 
 void validate_body(const Body& b, const std::string& where) {
   check_shape(where, b.shape);
+  // The path first: a body with a path starts at its first key's pose.
+  const std::vector<PathKey>& keys = b.path.keys;
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    const std::string at = "path.keys[" + std::to_string(i) + "]";
+    check_finite(where, at + ".time", keys[i].time);
+    if (keys[i].time < 0.0) fail(where, at + ".time", "must be >= 0");
+    if (i > 0 && !(keys[i].time > keys[i - 1].time))
+      fail(where, at + ".time", "must be later than the key before it (times ascend)");
+    check_finite(where, at + ".position", keys[i].position);
+    const Eigen::Vector4d kq = keys[i].orientation.coeffs();
+    for (int k = 0; k < 4; ++k)
+      if (!std::isfinite(kq[k])) fail(where, at + ".orientation", "must be finite numbers");
+    if (!(kq.norm() > 1e-6)) fail(where, at + ".orientation", "must be a non-zero quaternion");
+  }
+
   check_finite(where, "position", b.position);
   check_finite(where, "linear_velocity", b.linear_velocity);
   check_finite(where, "angular_velocity", b.angular_velocity);
@@ -344,9 +363,23 @@ void validate_body(const Body& b, const std::string& where) {
     check_finite(where, "mass", b.mass);
     if (!(b.mass > 0.0)) fail(where, "mass", "must be > 0 for a dynamic body");
   }
-  if (b.asleep && b.is_static) fail(where, "asleep", "a static body cannot be asleep (only dynamic bodies sleep)");
+  if (b.asleep && b.is_static)
+    fail(where, "asleep", std::string("a ") + (b.kinematic ? "kinematic" : "static") +
+                              " body cannot be asleep (only dynamic bodies sleep)");
   if (b.asleep && (!b.linear_velocity.isZero(0.0) || !b.angular_velocity.isZero(0.0)))
     fail(where, "asleep", "a body created asleep must have zero linear_velocity and angular_velocity");
+  if (b.kinematic && !b.is_static) fail(where, "type", "a kinematic body is static too (is_static): it has no mass");
+  if (b.kinematic && b.shape.is_concave())
+    fail(where, "shape.type", std::string("a kinematic body's shape is convex or a compound (a ") +
+                                  shape_kind_name(b.shape.kind) + " is for static bodies only)");
+  if (!b.kinematic && !b.path.keys.empty()) fail(where, "path", "only kinematic bodies have a path");
+  if (b.is_static && (!b.linear_velocity.isZero(0.0) || !b.angular_velocity.isZero(0.0)))
+    fail(where, "linear_velocity", b.kinematic ? "a kinematic body's velocities come from its path"
+                                                : "a static body cannot move");
+  if (b.path.loop) {
+    if (keys.size() < 2) fail(where, "path.loop", "a looping path needs at least two keys");
+    if (keys.front().time != 0.0) fail(where, "path.keys[0].time", "a looping path starts at time 0");
+  }
 }
 
 void validate_scene(const Scene& scene, const std::string& source, Precision precision) {
@@ -372,6 +405,12 @@ void validate_scene(const Scene& scene, const std::string& source, Precision pre
     validate_body(b, where);
     if (!b.is_static) check_bullet_aabb(where, b, st.dt);
     check_body_envelope(where, b, envelope);
+    for (const PathKey& k : b.path.keys) {  // the body wherever its path takes it
+      Body at = b;
+      at.position = k.position;
+      at.orientation = k.orientation;
+      check_body_envelope(where, at, envelope);
+    }
   }
   if (scene.joints.empty()) return;
   const BodyLookup body = [&](BodyId id) -> const Body* {

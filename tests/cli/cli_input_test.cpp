@@ -148,6 +148,14 @@ TEST_F(CliInputs, BadInputsNameTheFileTheEntryAndTheField) {
           "input #0 (set_mass at step 5): body 1: field 'mass': mass must be > 0 and finite, got -1");
   refused(R"({"type": "set_restitution", "step": 5, "id": 1, "restitution": 1.5})", "--territories 2",
           "body 1: field 'restitution': restitution must be in [0, 1]");
+  refused(R"({"type": "set_kinematic_target", "step": 5, "id": 1, "position": [0, 2, 0]})", "--territories 2",
+          "set the kinematic target of body 1 at step 5: body 1 is not kinematic");
+  refused(R"({"type": "set_pose", "step": 5, "id": 99999, "position": [0, 2, 0]})", "",
+          "set the pose of body 99999 at step 5: no body has that id");
+  refused(R"({"type": "set_pose", "step": 5, "id": 1, "position": [0, 2]})", "",
+          "input #0 (set_pose at step 5): body 1: field 'position'");
+  refused(R"({"type": "set_pose", "step": 5, "id": 1, "position": [0, 2, 0], "orientation": [0, 0, 0, 0]})", "",
+          "body 1: field 'position/orientation': orientation must be a non-zero quaternion");
   refused(R"({"type": "set_friction", "step": 5, "id": 0, "friction": 0.2})", "",
           "set the friction of body 0 at step 5: the body is static");
   const Outcome stock = run_cli(run_ + "--inputs " + inputs_file() + " --world stock");

@@ -303,7 +303,7 @@ TEST(Sensors, CheckpointCarriesThem) {
   EXPECT_TRUE(sim.advance_to(sim.time_of(kSave)));
   const std::vector<std::uint8_t> bytes = encode_checkpoint(sim.snapshot());
   sim.stop();
-  EXPECT_EQ(checkpoint_header(bytes).version, 6u);
+  EXPECT_EQ(checkpoint_header(bytes).version, 7u);
   try {
     encode_checkpoint(decode_checkpoint(bytes, "v6"), 5);
     ADD_FAILURE() << "version 5 took a sensor";

@@ -137,6 +137,7 @@ std::unique_ptr<btRigidBody> make_body_from_state(const Body& description, btCol
   btRigidBody& rb = *body;
   rb.setUserIndex(static_cast<int>(description.id));
   if (description.sensor) mark_sensor(rb);
+  if (description.kinematic) mark_kinematic(rb);
   if (!description.is_static) rb.setCcdSweptSphereRadius(btScalar(inner_radius(description.shape)));  // as make_rigid_body
   rb.setInterpolationWorldTransform(interpolation_transform_of(s));
   rb.setLinearVelocity(get3(s.linear_velocity));

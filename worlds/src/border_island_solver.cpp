@@ -292,7 +292,23 @@ IslandResult BorderIslandSolver::solve(const std::vector<const Fragment*>& islan
   IslandResult result;
   result.island = g.ids.front();
   result.manifolds.resize(g.manifolds.size());
-  if (decide_island_sleeping(bodies.data(), static_cast<int>(bodies.size()))) {
+  bool awake = decide_island_sleeping(bodies.data(), static_cast<int>(bodies.size()));
+  // A moving kinematic body (a static here) wakes what it touches, as in the
+  // canonical world (wake_touched_by_kinematic).
+  bool woke = false;
+  for (const auto& m : g.manifolds) {
+    btCollisionObject* s0 = host_.static_body(m.key.first);
+    btCollisionObject* s1 = host_.static_body(m.key.second);
+    if (!s0 == !s1) continue;  // two dynamic bodies (or, never, two statics)
+    const BodyId other = s0 ? m.key.second : m.key.first;
+    auto it = std::lower_bound(g.ids.begin(), g.ids.end(), other);
+    if (it == g.ids.end() || *it != other) continue;
+    btCollisionObject* body = bodies[static_cast<std::size_t>(it - g.ids.begin())];
+    woke = (s0 ? kinematic_wakes(s0, body) : kinematic_wakes(body, s1)) || woke;
+  }
+  if (!awake && woke)
+    for (btCollisionObject* b : bodies) awake = awake || b->isActive();
+  if (awake) {
     solve_awake(g, bodies, tools, result, counters);
   } else {
     run_in_chunks(tools.pool, static_cast<int>(g.manifolds.size()), kParallelMinPairs, kPairsPerTask,

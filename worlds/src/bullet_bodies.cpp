@@ -2,9 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 
+#include <LinearMath/btTransformUtil.h>
+
 #include "concave_shapes.h"
+#include "same_bits.h"
 
 namespace soda {
 
@@ -100,6 +104,7 @@ std::unique_ptr<btRigidBody> make_rigid_body(const Body& body, btCollisionShape&
   auto rb = std::make_unique<btRigidBody>(info);
   rb->setUserIndex(static_cast<int>(body.id));
   if (body.sensor) mark_sensor(*rb);
+  if (body.kinematic) mark_kinematic(*rb);
   // Read by soda's speculative contacts only (Bullet's CCD stays off: its
   // motion threshold is 0; the stock world's --ccd sets both itself).
   if (!body.is_static) rb->setCcdSweptSphereRadius(btScalar(inner_radius(body.shape)));
@@ -116,6 +121,69 @@ std::unique_ptr<btRigidBody> make_rigid_body(const Body& body, btCollisionShape&
     }
   }
   return rb;
+}
+
+void mark_kinematic(btRigidBody& body) {
+  body.setCollisionFlags((body.getCollisionFlags() & ~btCollisionObject::CF_STATIC_OBJECT) |
+                         btCollisionObject::CF_KINEMATIC_OBJECT);
+}
+
+namespace {
+
+btTransform pose_transform(const Pose& p) { return to_bt_transform(p.position, p.orientation); }
+
+}  // namespace
+
+bool write_kinematic_state(btRigidBody& body, const Body& d, const SceneSettings& settings,
+                           std::int64_t internal_steps, bool write) {
+  const KinematicPlace place = kinematic_place(d, settings, internal_steps);
+  const btTransform to = pose_transform(place.pose);
+  btVector3 linear(0, 0, 0), angular(0, 0, 0);
+  bool moved = false;
+  if (internal_steps > 0) {
+    const btTransform from = pose_transform(kinematic_place(d, settings, internal_steps - 1).pose);
+    moved = !same_bits(from, to);
+    if (moved && !place.teleported) {  // a teleport moves without velocity
+      const btScalar h = btScalar(settings.dt / settings.substeps);
+      btTransformUtil::calculateVelocity(from, to, h, linear, angular);
+      // +0 for -0: the solver adds +0 deltas to a kinematic body's velocity
+      // and writes the sum back; the bits must not depend on which world
+      // solved which island.
+      linear += btVector3(0, 0, 0);
+      angular += btVector3(0, 0, 0);
+    }
+  }
+  const int activation = moved ? ACTIVE_TAG : ISLAND_SLEEPING;
+  const bool same = same_bits(body.getWorldTransform(), to) && same_bits(body.getInterpolationWorldTransform(), to) &&
+                    same_bits(body.getLinearVelocity(), linear) && same_bits(body.getAngularVelocity(), angular) &&
+                    same_bits(body.getInterpolationLinearVelocity(), linear) &&
+                    same_bits(body.getInterpolationAngularVelocity(), angular) &&
+                    body.getActivationState() == activation && body.getDeactivationTime() == btScalar(0);
+  if (same || !write) return !same;
+  body.setWorldTransform(to);
+  body.setInterpolationWorldTransform(to);
+  body.setLinearVelocity(linear);
+  body.setAngularVelocity(angular);
+  body.setInterpolationLinearVelocity(linear);
+  body.setInterpolationAngularVelocity(angular);
+  body.forceActivationState(activation);
+  body.setDeactivationTime(btScalar(0));
+  return true;
+}
+
+bool kinematic_teleported(const btRigidBody& body) {
+  return body.isActive() && body.getLinearVelocity().isZero() && body.getAngularVelocity().isZero();
+}
+
+void kinematic_touch_box(const btRigidBody& body, btScalar h, btVector3& min, btVector3& max) {
+  const btBroadphaseProxy* p = body.getBroadphaseHandle();
+  min = p->m_aabbMin;
+  max = p->m_aabbMax;
+  const btScalar half_diagonal = (max - min).length() * btScalar(0.5);
+  const btScalar grow = (body.getLinearVelocity().length() + body.getAngularVelocity().length() * half_diagonal) * h;
+  const btVector3 g(grow, grow, grow);
+  min -= g;
+  max += g;
 }
 
 BodyState read_body_state(const btRigidBody& body) {

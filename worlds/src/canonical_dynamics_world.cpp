@@ -1,10 +1,13 @@
 #include "canonical_dynamics_world.h"
 
+#include "soda/worlds/bullet_bodies.h"
+
 #include "body_factory.h"
 #include "island_solver_settings.h"
 #include "island_substeps.h"
 #include "joint_factory.h"
 #include "parallel_stages.h"
+#include "soda/worlds/bullet_bodies.h"
 #include "soda/worlds/solver_pool.h"
 #include "speculative_contact.h"
 #include "parking.h"
@@ -79,6 +82,31 @@ bool decide_island_sleeping(btCollisionObject* const* bodies, int count) {
   return !all_sleeping;
 }
 
+bool kinematic_wakes(btCollisionObject* a, btCollisionObject* b) {
+  if (a->getActivationState() == ISLAND_SLEEPING && b->getActivationState() == ISLAND_SLEEPING) return false;
+  bool woke = false;
+  if (a->isKinematicObject() && a->getActivationState() != ISLAND_SLEEPING && a->hasContactResponse())
+    b->activate(), woke = true;
+  if (b->isKinematicObject() && b->getActivationState() != ISLAND_SLEEPING && b->hasContactResponse())
+    a->activate(), woke = true;
+  return woke;
+}
+
+bool wake_touched_by_kinematic(bool awake, btCollisionObject* const* bodies, int count,
+                               btPersistentManifold* const* manifolds, int manifold_count) {
+  bool woke = false;
+  for (int i = 0; i < manifold_count; ++i) {
+    const btPersistentManifold* m = manifolds[i];
+    if (m->getNumContacts() == 0) continue;
+    woke = kinematic_wakes(const_cast<btCollisionObject*>(m->getBody0()), const_cast<btCollisionObject*>(m->getBody1())) ||
+           woke;
+  }
+  if (awake || !woke) return awake;
+  for (int j = 0; j < count; ++j)
+    if (bodies[j]->isActive()) return true;
+  return false;
+}
+
 CanonicalDynamicsWorld::CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtBroadphase* broadphase,
                                                ColouredSolver* solver, btCollisionConfiguration* config)
     : DetachableWorld(dispatcher, broadphase, solver, config), broadphase_(broadphase), solver_(solver) {
@@ -94,6 +122,7 @@ void CanonicalDynamicsWorld::add_body(btRigidBody* body, int group, int mask) {
     bodies_sorted_ = false;
   } else {
     body->setIslandTag(-1);
+    if (body->isKinematicObject()) kinematic_bodies_.push_back(body);
   }
 }
 
@@ -131,6 +160,16 @@ void CanonicalDynamicsWorld::computeOverlappingPairs() {
         if (!b->isActive()) continue;
         const btBroadphaseProxy* p = b->getBroadphaseHandle();
         parking_->touch(p->m_aabbMin, p->m_aabbMax);
+      }
+      for (btRigidBody* b : kinematic_bodies_) {
+        if (!b->isActive()) continue;  // active in the steps it moves
+        if (kinematic_teleported(*b)) {
+          parking_->touch_all();
+          break;
+        }
+        btVector3 lo, hi;
+        kinematic_touch_box(*b, getDispatchInfo().m_timeStep, lo, hi);
+        parking_->touch(lo, hi);
       }
     }
     parking_->wake_touched();
@@ -243,10 +282,7 @@ void CanonicalDynamicsWorld::collect_island_manifolds() {
     auto* b = const_cast<btCollisionObject*>(m->getBody1());
     if (a->getActivationState() == ISLAND_SLEEPING && b->getActivationState() == ISLAND_SLEEPING)
       continue;
-    if (a->isKinematicObject() && a->getActivationState() != ISLAND_SLEEPING && a->hasContactResponse())
-      b->activate();
-    if (b->isKinematicObject() && b->getActivationState() != ISLAND_SLEEPING && b->hasContactResponse())
-      a->activate();
+    kinematic_wakes(a, b);
     if (!dispatcher->needsResponse(a, b)) continue;
     const int island = a->getIslandTag() >= 0 ? a->getIslandTag() : b->getIslandTag();
     if (island < 0) continue;

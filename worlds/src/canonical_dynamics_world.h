@@ -72,6 +72,18 @@ std::size_t remove_stale_pairs(btDbvtBroadphase& broadphase, btDispatcher* dispa
 /// awake afterwards (it must be solved).
 bool decide_island_sleeping(btCollisionObject* const* bodies, int count);
 
+/// After decide_island_sleeping, as the manifold loop of Bullet's
+/// btSimulationIslandManager::buildIslands: a kinematic body that is not
+/// ISLAND_SLEEPING (it moves this step: docs/scene-format.md, "Kinematic
+/// bodies") activates the other body of each manifold with points it is in.
+/// Returns whether the island is awake now (any body active).
+bool wake_touched_by_kinematic(bool awake, btCollisionObject* const* bodies, int count,
+                               btPersistentManifold* const* manifolds, int manifold_count);
+
+/// The step of that rule for one pair: activates the body a moving
+/// kinematic body touches. Returns whether it did.
+bool kinematic_wakes(btCollisionObject* a, btCollisionObject* b);
+
 class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost {
  public:
   CanonicalDynamicsWorld(btDispatcher* dispatcher, btDbvtBroadphase* broadphase,
@@ -123,6 +135,10 @@ class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost 
   void calculateSimulationIslands() override {}
   /// As Bullet's, per body on the solver pool's threads (parallel_stages.h).
   void predictUnconstraintMotion(btScalar time_step) override;
+  // Kinematic bodies are moved by their owner (write_kinematic_state) before
+  // the step, velocities included: Bullet's pass, which would derive them
+  // from the interpolation transform, must not run.
+  void saveKinematicState(btScalar) override {}
   /// As Bullet's: AABBs computed on the pool's threads, the broadphase
   /// updated on the stepping thread in object order.
   void updateAabbs() override;
@@ -147,6 +163,7 @@ class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost 
   bool bodies_sorted_ = true;
   bool bullet_defaults_ = false;
   std::vector<btRigidBody*> dynamic_bodies_;  // sorted by id; user index 2 = position
+  std::vector<btRigidBody*> kinematic_bodies_;  // any order: they wake parked islands they touch while they move
   std::size_t sorted_count_ = 0;  // while !bodies_sorted_: its first ones, sorted by id
 
   // Per-step scratch, kept to avoid reallocation.

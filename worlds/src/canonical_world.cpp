@@ -100,12 +100,15 @@ void CanonicalWorld::insert_body(const Body& description, const BodyDynamicState
   entry->shape = make_collision_shape(description.shape);
   if (!state) {
     entry->body = make_rigid_body(description, *entry->shape);
+    if (description.kinematic)
+      write_kinematic_state(*entry->body, description, settings_, steps_done_ * settings_.substeps);
   } else {
     // Activation state: restored after the manifolds (see import_manifolds).
     entry->body = make_body_from_state(description, *entry->shape, *state);
   }
   parts_->world.add_body(entry->body.get(), proxy_bits(description.collision_group),
                          proxy_bits(description.collision_mask));
+  if (description.kinematic) kinematic_.push_back(entry.get());
   entries_.push_back(std::move(entry));
 }
 
@@ -123,7 +126,16 @@ void CanonicalWorld::set_solver_defaults(SolverDefaults defaults) {
 void CanonicalWorld::step() {
   // maxSubSteps = 0: exactly one internal step of h per call (as StockWorld).
   const btScalar h = btScalar(settings_.dt / settings_.substeps);
-  for (int i = 0; i < settings_.substeps; ++i) parts_->world.stepSimulation(h, 0, h);
+  // Kinematic bodies move to their next pose before the internal step
+  // (collision detection and the solve see them there, with the velocity of
+  // the move) and are written again after it: the solver writes their
+  // velocities back and Bullet's updateActivationState their timers.
+  const std::int64_t first = steps_done_ * settings_.substeps;
+  for (int i = 0; i < settings_.substeps; ++i) {
+    for (const Entry* e : kinematic_) write_kinematic_state(*e->body, e->description, settings_, first + i + 1);
+    parts_->world.stepSimulation(h, 0, h);
+    for (const Entry* e : kinematic_) write_kinematic_state(*e->body, e->description, settings_, first + i + 1);
+  }
   ++steps_done_;
   if (parking_) park_settled_islands(parts_->parking, parts_->world, parts_->dispatcher, h);
 }

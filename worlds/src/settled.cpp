@@ -1,22 +1,10 @@
 #include "settled.h"
 
 #include <cmath>
-#include <cstring>
+
+#include "same_bits.h"
 
 namespace soda {
-namespace {
-
-bool same_bits(const btVector3& a, const btVector3& b) {
-  return std::memcmp(&a[0], &b[0], 3 * sizeof(btScalar)) == 0;
-}
-
-bool same_bits(const btTransform& a, const btTransform& b) {
-  for (int r = 0; r < 3; ++r)
-    if (!same_bits(a.getBasis()[r], b.getBasis()[r])) return false;
-  return same_bits(a.getOrigin(), b.getOrigin());
-}
-
-}  // namespace
 
 bool zero_bits(const btVector3& v) { return same_bits(v, btVector3(0, 0, 0)); }
 

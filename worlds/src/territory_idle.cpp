@@ -15,6 +15,7 @@
 // migrates. What differs is not state: the broadphase's internal tree and
 // its pairs without points (docs/determinism.md).
 #include "settled.h"
+#include "soda/worlds/bullet_bodies.h"
 #include "territory_world_parts.h"
 
 namespace soda {
@@ -22,6 +23,12 @@ bool TerritoryWorld::idle_ready() const {
   if (gDisableDeactivation || halos_unknown_ || parts_->replay.armed() || !ghosts_.empty() || !ghost_senders_.empty() || !outgoing_.empty() ||
       !kept_.empty() || !parts_->speculative.empty())
     return false;
+  // A kinematic body that moves (or stops) in this step changes state in
+  // every world: no world skips it.
+  for (const Entry* e : statics_)
+    if (e->description.kinematic &&
+        write_kinematic_state(*e->body, e->description, settings_, steps_done_ + 1, false))
+      return false;
   if (quiet_ < 0) {
     const btScalar h = btScalar(settings_.dt / settings_.substeps);
     quiet_ = 1;

@@ -183,13 +183,17 @@ void TerritoryWorld::solve_local(const std::vector<int>& components) {
     }
     local_islands_.begin.push_back(static_cast<std::uint32_t>(local_islands_.ids.size()));
     // An island with joints is always solved: whether a joint holds is
-    // part of its contents, which the replay does not compare.
-    if (joint_count == 0 && parts_->replay.armed() && parts_->replay.take(bodies, body_count, parts_->held, k)) {
+    // part of its contents, which the replay does not compare. One touching
+    // a commanded kinematic body too: the old run may have had other commands.
+    if (joint_count == 0 && parts_->replay.armed() && !touches_commanded_kinematic(k) &&
+        parts_->replay.take(bodies, body_count, parts_->held, k)) {
       ++counters_.islands_replayed;
       counters_.bodies_replayed += static_cast<std::size_t>(body_count);
       if (!parts_->replay.verify()) continue;
     }
-    if (!decide_island_sleeping(bodies, body_count)) continue;
+    if (!wake_touched_by_kinematic(decide_island_sleeping(bodies, body_count), bodies, body_count,
+                                   parts_->held.values(k), manifold_count))
+      continue;
     ++counters_.local_islands;
     if (body_count == 1 && manifold_count == 0 && joint_count == 0) {
       lone.push_back(bodies[0]);
@@ -214,6 +218,16 @@ void TerritoryWorld::solve_local(const std::vector<int>& components) {
 // --- Rollback and Propagate: replayed islands (island_replay.h) -------------
 
 void TerritoryWorld::set_replay(const StepReplay& replay) { parts_->replay.set(replay); }
+
+bool TerritoryWorld::touches_commanded_kinematic(int island) const {
+  const std::vector<btPersistentManifold*>& ms = parts_->held.values();
+  for (int i = parts_->held.begin(island); i < parts_->held.begin(island + 1); ++i)
+    for (const btCollisionObject* o : {ms[static_cast<std::size_t>(i)]->getBody0(), ms[static_cast<std::size_t>(i)]->getBody1()}) {
+      const Entry& e = entry_of(o);
+      if (e.description.kinematic && !e.description.commands.empty()) return true;
+    }
+  return false;
+}
 
 // predict(), before anything moves: which owned bodies are clean.
 void TerritoryWorld::mark_clean() {

@@ -60,6 +60,7 @@ void TerritoryWorld::integrate() {
     if (!parts_->replay.mid_step()) parts_->replay.finish(id_, steps_done_);
     parts_->replay.clear();
   }
+  move_kinematic_bodies();
   park_settled_islands();
   counters_.parked_bodies = parked_.size();
 }

@@ -135,6 +135,17 @@ void TerritoryWorld::wake_parked() {
         const btBroadphaseProxy* p = e->body->getBroadphaseHandle();
         parking.touch(p->m_aabbMin, p->m_aabbMax);
       }
+    const btScalar h = btScalar(settings_.dt / settings_.substeps);
+    for (const Entry* e : statics_) {
+      if (!e->description.kinematic || !e->body->isActive()) continue;  // active in the steps it moves
+      if (kinematic_teleported(*e->body)) {
+        parking.touch_all();
+        break;
+      }
+      btVector3 lo, hi;
+      kinematic_touch_box(*e->body, h, lo, hi);
+      parking.touch(lo, hi);
+    }
   }
   parking.wake_touched();
   sort_lists();

@@ -36,6 +36,7 @@ void TerritoryWorld::predict() {
   local_islands_.clear();
   if (parts_->replay.armed()) mark_clean();
   const btScalar h = btScalar(settings_.dt / settings_.substeps);
+  move_kinematic_bodies();
   outgoing_.clear();
   attachments_.clear();
   const bool cull = border_culling();
@@ -52,6 +53,16 @@ void TerritoryWorld::predict() {
     find_ghost_targets(e, cull);
   }
   if (!outgoing_.empty()) attach_kept_contacts();
+}
+
+// Every world holds every kinematic body (as every static) and moves it to
+// its pose of the step's end, with the velocity of the move, before
+// collision detection: the same bits in every world (bullet_bodies.h).
+// integrate() writes them again after the solve, which writes the
+// velocities of the kinematic bodies it touched back.
+void TerritoryWorld::move_kinematic_bodies() {
+  for (Entry* e : statics_)
+    if (e->description.kinematic) write_kinematic_state(*e->body, e->description, settings_, steps_done_ + 1);
 }
 
 // The halo of an owned body (the AABB Bullet gives it for the step, which

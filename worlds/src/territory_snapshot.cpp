@@ -29,7 +29,23 @@ TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, Territ
     const Body& d = b.description;
     if (d.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
     if (d.is_static) {
-      insert_static(d);
+      // A rollback's rebuild: the world it replaces has every command of
+      // its kinematic bodies applied so far (the snapshot's statics may be
+      // the scene's); commands are keyed by step and never change.
+      const Entry* old = nullptr;
+      if (d.kinematic && share_pools_of)
+        if (auto it = share_pools_of->entries_.find(d.id); it != share_pools_of->entries_.end()) old = it->second.get();
+      if (old && !old->description.commands.empty()) {
+        Body merged = d;
+        for (const KinematicCommand& c : old->description.commands) {
+          auto at = std::lower_bound(merged.commands.begin(), merged.commands.end(), c.step,
+                                     [](const KinematicCommand& x, std::int64_t step) { return x.step < step; });
+          if (at == merged.commands.end() || at->step != c.step) merged.commands.insert(at, c);
+        }
+        insert_static(merged);
+      } else {
+        insert_static(d);
+      }
       continue;
     }
     dynamic.push_back(&d);
@@ -160,6 +176,35 @@ void TerritoryWorld::set_gravity(const Vec3& gravity) {
   parts_->world.setGravity(g);
   for (const auto& [id, e] : entries_)
     if (e->role != Role::Static) e->body->setGravity(g);
+}
+
+bool TerritoryWorld::command_kinematic(BodyId id, const KinematicCommand& command) {
+  auto it = entries_.find(id);
+  if (it == entries_.end() || !it->second->description.kinematic) return false;
+  std::vector<KinematicCommand>& cs = it->second->description.commands;
+  auto at = std::lower_bound(cs.begin(), cs.end(), command.step,
+                             [](const KinematicCommand& x, std::int64_t step) { return x.step < step; });
+  if (at != cs.end() && at->step == command.step)
+    *at = command;
+  else
+    cs.insert(at, command);
+  quiet_ = -1;
+  return true;
+}
+
+bool TerritoryWorld::set_pose(BodyId id, const Pose& pose) {
+  auto it = entries_.find(id);
+  if (it == entries_.end() || it->second->role != Role::Owned) return false;
+  unpark_for_input(*it->second);
+  quiet_ = -1;
+  btRigidBody& rb = *it->second->body;
+  const btTransform t = to_bt_transform(pose.position, pose.orientation);
+  rb.setWorldTransform(t);
+  rb.setInterpolationWorldTransform(t);
+  rb.updateInertiaTensor();
+  rb.forceActivationState(ACTIVE_TAG);
+  rb.setDeactivationTime(btScalar(0));
+  return true;
 }
 
 TerritoryWorld::Entry* TerritoryWorld::owned_for_input(BodyId id) {

@@ -104,6 +104,9 @@ void TerritoryWorld::insert_static(const Body& b) {
   e->description = b;
   e->shape = make_collision_shape(b.shape);
   e->body = make_rigid_body(b, *e->shape);
+  // A kinematic body at its pose of this step (a pure function of the step:
+  // a world rebuilt for a rollback needs nothing else).
+  if (b.kinematic) write_kinematic_state(*e->body, b, settings_, steps_done_);
   e->role = Role::Static;
   e->body->setUserPointer(e.get());
   add_body_with_canonical_proxy(parts_->world, parts_->broadphase, e->body.get(), proxy_bits(b.collision_group),

@@ -195,14 +195,34 @@ std::string body_format_loss(const Body& d, BodyFormat format) {
   if (format < BodyFormat::WithoutUserData && d.shape.kind == ShapeKind::Compound) return "its compound shape";
   if (format < BodyFormat::WithoutMeshes && d.user_data != 0) return "its user data";
   if (format < BodyFormat::WithoutSensor && d.shape.is_concave()) return std::string("its ") + shape_kind_name(d.shape.kind);
-  if (format < BodyFormat::Current && d.sensor) return "its sensor flag";
+  if (format < BodyFormat::WithoutKinematic && d.sensor) return "its sensor flag";
+  if (format < BodyFormat::Current && d.kinematic) return "its kinematic motion";
   return "";
 }
 
 void write_body(ByteWriter& w, const BodySnapshot& b, BodyFormat format) {
   const Body& d = b.description;
   w.put(d.id);
-  w.put(static_cast<std::uint8_t>(d.is_static));
+  // 0 dynamic, 1 static, 2 kinematic (a static that moves) followed by its
+  // path: files and messages without kinematic bodies are as they were.
+  w.put(static_cast<std::uint8_t>(d.kinematic ? 2 : d.is_static ? 1 : 0));
+  if (d.kinematic) {
+    w.put(static_cast<std::uint8_t>(d.path.loop));
+    w.count(d.path.keys.size());
+    for (const PathKey& k : d.path.keys) {
+      w.put(k.time);
+      w.vec3(k.position);
+      w.put(k.orientation.w()), w.put(k.orientation.x()), w.put(k.orientation.y()), w.put(k.orientation.z());
+    }
+    w.count(d.commands.size());
+    for (const KinematicCommand& c : d.commands) {
+      w.put(c.step);
+      w.put(static_cast<std::uint8_t>(c.teleport));
+      w.vec3(c.pose.position);
+      const Quat& q = c.pose.orientation;
+      w.put(q.w()), w.put(q.x()), w.put(q.y()), w.put(q.z());
+    }
+  }
   write_shape(w, d.shape, format);
   w.put(d.mass), w.put(d.friction), w.put(d.restitution);
   w.vec3(d.position);
@@ -211,7 +231,7 @@ void write_body(ByteWriter& w, const BodySnapshot& b, BodyFormat format) {
   w.vec3(d.angular_velocity);
   if (format >= BodyFormat::WithoutCompounds) w.put(d.collision_group), w.put(d.collision_mask);
   if (format >= BodyFormat::WithoutMeshes) w.put(d.user_data);
-  if (format >= BodyFormat::Current) w.put(static_cast<std::uint8_t>(d.sensor));
+  if (format >= BodyFormat::WithoutKinematic) w.put(static_cast<std::uint8_t>(d.sensor));
   auto io = [&w](const auto& field) { w.put(field); };
   visit_state(io, b.state);
 }
@@ -222,8 +242,37 @@ BodySnapshot read_body(ByteReader& r, BodyFormat format) {
   d.id = r.get<BodyId>();
   if (d.id > kMaxBodyId) r.fail("body id above kMaxBodyId");
   const auto is_static = r.get<std::uint8_t>();
-  if (is_static > 1) r.fail("bad static flag");
-  d.is_static = is_static == 1;
+  if (is_static > (format >= BodyFormat::Current ? 2 : 1)) r.fail("bad static flag");
+  d.is_static = is_static >= 1;
+  d.kinematic = is_static == 2;
+  if (d.kinematic) {
+    const auto loop = r.get<std::uint8_t>();
+    if (loop > 1) r.fail("bad path loop flag");
+    d.path.loop = loop == 1;
+    const std::uint32_t nk = r.count(64);  // time, position, orientation: 8 doubles
+    d.path.keys.resize(nk);
+    for (PathKey& k : d.path.keys) {
+      k.time = r.finite();
+      k.position = r.vec3();
+      const double kw = r.finite(), kx = r.finite(), ky = r.finite(), kz = r.finite();
+      k.orientation = Quat(kw, kx, ky, kz);
+    }
+    for (std::size_t i = 1; i < d.path.keys.size(); ++i)
+      if (!(d.path.keys[i].time > d.path.keys[i - 1].time)) r.fail("path times not ascending");
+    const std::uint32_t nc = r.count(65);  // step, flag, position, orientation
+    d.commands.resize(nc);
+    for (KinematicCommand& c : d.commands) {
+      c.step = r.get<std::int64_t>();
+      const auto teleport = r.get<std::uint8_t>();
+      if (teleport > 1) r.fail("bad kinematic command flag");
+      c.teleport = teleport == 1;
+      c.pose.position = r.vec3();
+      const double cw = r.finite(), cx = r.finite(), cy = r.finite(), cz = r.finite();
+      c.pose.orientation = Quat(cw, cx, cy, cz);
+    }
+    for (std::size_t i = 1; i < d.commands.size(); ++i)
+      if (!(d.commands[i].step > d.commands[i - 1].step)) r.fail("kinematic command steps not ascending");
+  }
   d.shape = read_shape(r, format, false);
   d.mass = r.finite(), d.friction = r.finite(), d.restitution = r.finite();
   d.position = r.vec3();
@@ -236,7 +285,7 @@ BodySnapshot read_body(ByteReader& r, BodyFormat format) {
     d.collision_mask = r.get<std::uint32_t>();
   }
   if (format >= BodyFormat::WithoutMeshes) d.user_data = r.get<std::uint64_t>();
-  if (format >= BodyFormat::Current) {
+  if (format >= BodyFormat::WithoutKinematic) {
     const auto sensor = r.get<std::uint8_t>();
     if (sensor > 1) r.fail("bad sensor flag");
     d.sensor = sensor == 1;
@@ -321,7 +370,23 @@ bool same_shape(SameBits& same, const Shape& a, const Shape& b) {
 bool same_bits(const Body& a, const Body& b) {
   SameBits same;
   auto vec = [&](const Vec3& x, const Vec3& y) { same_vec(same, x, y); };
-  same(a.id, b.id), same(a.is_static, b.is_static);
+  same(a.id, b.id), same(a.is_static, b.is_static), same(a.kinematic, b.kinematic), same(a.path.loop, b.path.loop);
+  if (a.path.keys.size() != b.path.keys.size()) return false;
+  for (std::size_t i = 0; i < a.path.keys.size(); ++i) {
+    const PathKey &x = a.path.keys[i], &y = b.path.keys[i];
+    same(x.time, y.time);
+    same_vec(same, x.position, y.position);
+    same(x.orientation.w(), y.orientation.w()), same(x.orientation.x(), y.orientation.x());
+    same(x.orientation.y(), y.orientation.y()), same(x.orientation.z(), y.orientation.z());
+  }
+  if (a.commands.size() != b.commands.size()) return false;
+  for (std::size_t i = 0; i < a.commands.size(); ++i) {
+    const KinematicCommand &x = a.commands[i], &y = b.commands[i];
+    same(x.step, y.step), same(x.teleport, y.teleport);
+    same_vec(same, x.pose.position, y.pose.position);
+    same(x.pose.orientation.w(), y.pose.orientation.w()), same(x.pose.orientation.x(), y.pose.orientation.x());
+    same(x.pose.orientation.y(), y.pose.orientation.y()), same(x.pose.orientation.z(), y.pose.orientation.z());
+  }
   if (!same_shape(same, a.shape, b.shape)) return false;
   same(a.mass, b.mass), same(a.friction, b.friction), same(a.restitution, b.restitution);
   vec(a.position, b.position);

@@ -53,14 +53,20 @@ T load(const std::vector<std::uint8_t>& bytes, std::size_t at) {
 // after apply_impulse.
 constexpr std::uint32_t kSettersVersion = 4;
 
+// The first version with kinematic bodies (body records of type 2, their
+// commands) and the pose inputs (an orientation in every input record).
+constexpr std::uint32_t kKinematicVersion = 7;
+
 // The newest input kind a version knows.
 UserInput::Kind last_kind(std::uint32_t version) {
+  if (version >= kKinematicVersion) return UserInput::Kind::SetKinematicTarget;
   return version >= kSettersVersion ? UserInput::Kind::SetUserData : UserInput::Kind::ApplyImpulse;
 }
 
 // How a version writes a body record: 1 without a collision filter, 2
 // without compound children, 3 without user data, 4 without triangle mesh
-// and heightfield data, 5 without the sensor flag.
+// and heightfield data, 5 without the sensor flag, 6 without kinematic
+// bodies.
 BodyFormat body_format(std::uint32_t version) {
   switch (version) {
     case 1: return BodyFormat::WithoutFilter;
@@ -68,12 +74,14 @@ BodyFormat body_format(std::uint32_t version) {
     case 3: return BodyFormat::WithoutUserData;
     case 4: return BodyFormat::WithoutMeshes;
     case 5: return BodyFormat::WithoutSensor;
+    case 6: return BodyFormat::WithoutKinematic;
     default: return BodyFormat::Current;
   }
 }
 
 // Input records: u8 kind, i64 step, u32 id, linear and angular as 3 f64 each;
-// from version 4: f64 value, u64 user data; an added body's record
+// from version 4: f64 value, u64 user data; from version 7: the
+// orientation as 4 f64 (w, x, y, z); an added body's record
 // (write_body, its raw state unused) follows.
 void write_input(ByteWriter& w, const UserInput& in, std::uint32_t version) {
   w.put(static_cast<std::uint8_t>(in.kind));
@@ -82,6 +90,8 @@ void write_input(ByteWriter& w, const UserInput& in, std::uint32_t version) {
   w.vec3(in.linear);
   w.vec3(in.angular);
   if (version >= kSettersVersion) w.put(in.value), w.put(in.user_data);
+  if (version >= kKinematicVersion)
+    w.put(in.orientation.w()), w.put(in.orientation.x()), w.put(in.orientation.y()), w.put(in.orientation.z());
   if (in.kind == UserInput::Kind::AddBody)
     write_body(w, BodySnapshot{in.body, BodyDynamicState{}}, body_format(version));
 }
@@ -100,6 +110,10 @@ UserInput read_input(ByteReader& r, std::uint32_t version) {
   if (version >= kSettersVersion) {
     in.value = r.get<double>();
     in.user_data = r.get<std::uint64_t>();
+    if (version >= kKinematicVersion) {
+      const double qw = r.get<double>(), qx = r.get<double>(), qy = r.get<double>(), qz = r.get<double>();
+      in.orientation = Quat(qw, qx, qy, qz);
+    }
     if (const std::string why = check_input_value(in); !why.empty())
       r.fail("an input to " + describe(in) + ": " + why);
   }

@@ -10,7 +10,7 @@
 namespace soda {
 
 InputLedger::InputLedger(const Scene& scene) : settings_(scene.settings) {
-  for (const Body& b : scene.bodies) lives_[b.id] = Life{b.is_static};
+  for (const Body& b : scene.bodies) lives_[b.id] = Life{b.is_static, b.kinematic};
 }
 
 void InputLedger::check(const UserInput& in) const {
@@ -36,7 +36,16 @@ void InputLedger::check(const UserInput& in) const {
   auto it = lives_.find(in.id);
   if (it == lives_.end()) throw std::invalid_argument(what + ": no body has that id");
   const Life& life = it->second;
-  if (life.is_static) throw std::invalid_argument(what + ": the body is static");
+  const bool moves_kinematic =
+      in.kind == UserInput::Kind::SetPose || in.kind == UserInput::Kind::SetKinematicTarget;
+  if (in.kind == UserInput::Kind::SetKinematicTarget && !life.kinematic)
+    throw std::invalid_argument(what + ": body " + std::to_string(in.id) +
+                                " is not kinematic (set_kinematic_target moves kinematic bodies; set_pose puts any "
+                                "body that is not static somewhere)");
+  if (life.kinematic && !moves_kinematic)
+    throw std::invalid_argument(what + ": body " + std::to_string(in.id) +
+                                " is kinematic: it is moved by its path, set_kinematic_target and set_pose only");
+  if (life.is_static && !life.kinematic) throw std::invalid_argument(what + ": the body is static");
   if (life.retired)
     throw std::invalid_argument(what + ": the body was removed before the snapshot this run was restored from");
   if (in.step < life.added || in.step >= life.removed)
@@ -46,7 +55,7 @@ void InputLedger::check(const UserInput& in) const {
                                 ")");
   if (in.kind == UserInput::Kind::RemoveBody && life.last_input > in.step)
     throw std::invalid_argument(what + ": the body has an input at the later step " + std::to_string(life.last_input));
-  if (!in.linear.allFinite() || !in.angular.allFinite())
+  if (!moves_kinematic && (!in.linear.allFinite() || !in.angular.allFinite()))
     throw std::invalid_argument(what + ": velocities and impulses must be finite");
   if (const std::string why = check_input_value(in); !why.empty()) throw std::invalid_argument(what + ": " + why);
 }

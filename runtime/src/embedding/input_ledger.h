@@ -36,6 +36,7 @@ class InputLedger {
  private:
   struct Life {
     bool is_static = false;
+    bool kinematic = false;
     std::int64_t added = 0;                // present from this boundary on
     std::int64_t removed = INT64_MAX;      // gone from this boundary on
     std::int64_t last_input = -1;          // newest step of an input naming it

@@ -173,6 +173,28 @@ void Simulation::set_user_data(double time, BodyId id, std::uint64_t user_data) 
   engine_->input(in);
 }
 
+namespace {
+
+UserInput pose_input(UserInput::Kind kind, std::int64_t step, BodyId id, const Pose& pose) {
+  UserInput in;
+  in.kind = kind;
+  in.step = step;
+  in.id = id;
+  in.linear = pose.position;
+  in.orientation = pose.orientation;
+  return in;
+}
+
+}  // namespace
+
+void Simulation::set_kinematic_target(double time, BodyId id, const Pose& pose) {
+  engine_->input(pose_input(UserInput::Kind::SetKinematicTarget, engine_->core->step_at(time), id, pose));
+}
+
+void Simulation::set_pose(double time, BodyId id, const Pose& pose) {
+  engine_->input(pose_input(UserInput::Kind::SetPose, engine_->core->step_at(time), id, pose));
+}
+
 BodyId Simulation::give(const UserInput& input) {
   const double time = time_of(input.step);
   switch (input.kind) {
@@ -185,6 +207,10 @@ BodyId Simulation::give(const UserInput& input) {
     case UserInput::Kind::SetFriction: set_friction(time, input.id, input.value); break;
     case UserInput::Kind::SetRestitution: set_restitution(time, input.id, input.value); break;
     case UserInput::Kind::SetUserData: set_user_data(time, input.id, input.user_data); break;
+    case UserInput::Kind::SetPose: set_pose(time, input.id, Pose{input.linear, input.orientation}); break;
+    case UserInput::Kind::SetKinematicTarget:
+      set_kinematic_target(time, input.id, Pose{input.linear, input.orientation});
+      break;
   }
   return input.id;
 }

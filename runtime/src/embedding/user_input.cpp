@@ -14,6 +14,9 @@ std::string describe(const UserInput& input) {
     case UserInput::Kind::SetFriction: return "set the friction of body " + std::to_string(input.id) + at;
     case UserInput::Kind::SetRestitution: return "set the restitution of body " + std::to_string(input.id) + at;
     case UserInput::Kind::SetUserData: return "set the user data of body " + std::to_string(input.id) + at;
+    case UserInput::Kind::SetPose: return "set the pose of body " + std::to_string(input.id) + at;
+    case UserInput::Kind::SetKinematicTarget:
+      return "set the kinematic target of body " + std::to_string(input.id) + at;
   }
   return "input" + at;
 }

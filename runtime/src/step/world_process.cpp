@@ -55,8 +55,9 @@ void PartitionedWorld::Process::rewind(TerritoryWorld& world, std::int64_t scene
 
 // Inputs at this boundary, in sequence order; each world applies those that
 // concern its territory (the owner of a body, the owner of a new body's home
-// cell), so that exactly one world applies each; a gravity change concerns
-// every world, and each applies it at the same boundary.
+// cell), so that exactly one world applies each; a gravity change and a
+// kinematic body's command concern every world, and each applies it at the
+// same boundary.
 void PartitionedWorld::Process::apply_inputs() {
   for (const UserInput& in : output_.inputs->at(s_.step / substeps_)) {
     switch (in.kind) {
@@ -69,6 +70,13 @@ void PartitionedWorld::Process::apply_inputs() {
       case UserInput::Kind::SetFriction: s_.world->set_friction(in.id, in.value); break;
       case UserInput::Kind::SetRestitution: s_.world->set_restitution(in.id, in.value); break;
       case UserInput::Kind::SetUserData: s_.world->set_user_data(in.id, in.user_data); break;
+      case UserInput::Kind::SetPose:  // a kinematic body: every world; a dynamic one: its owner
+        if (!s_.world->command_kinematic(in.id, KinematicCommand{in.step, true, Pose{in.linear, in.orientation}}))
+          s_.world->set_pose(in.id, Pose{in.linear, in.orientation});
+        break;
+      case UserInput::Kind::SetKinematicTarget:  // every world
+        s_.world->command_kinematic(in.id, KinematicCommand{in.step, false, Pose{in.linear, in.orientation}});
+        break;
     }
   }
 }

@@ -38,13 +38,14 @@ class CheckpointError : public std::runtime_error {
 
 /// The checkpoint format version this build writes. It reads this one and
 /// every one from kOldestCheckpointVersion on (docs/checkpoints.md, "Versions").
-inline constexpr std::uint32_t kCheckpointVersion = 6;
+inline constexpr std::uint32_t kCheckpointVersion = 7;
 /// Version 1: body records without a collision filter (they read back with
 /// the default one); version 2: without compound children; version 3:
 /// without user data (it reads back as 0), and inputs without the value and
 /// user data fields and the kinds after apply_impulse; version 4: without
 /// triangle mesh and heightfield data (no such statics); version 5: without
-/// the sensor flag (bodies read back as not sensors).
+/// the sensor flag (bodies read back as not sensors); version 6: without
+/// kinematic bodies, and inputs without an orientation and kinds 9 and 10.
 inline constexpr std::uint32_t kOldestCheckpointVersion = 1;
 
 /// What a checkpoint's fixed header says (docs/checkpoints.md, "Header").

@@ -278,6 +278,26 @@ class Simulation {
   /// Sets a dynamic body's user data (Body::user_data): frames from the next
   /// step on read it (SceneReader::body_at); no physics reads it.
   void set_user_data(double time, BodyId id, std::uint64_t user_data);
+  /// Moves a kinematic body (Body::kinematic) to `pose` over the next step:
+  /// it reaches the pose at the end of that step, its velocity from the move
+  /// (so that what it touches is pushed and carried), in every world at the
+  /// same step. The first such input (or set_pose) ends the body's path;
+  /// from then on it holds the pose it last reached (docs/scene-format.md,
+  /// "Kinematic bodies"). Refused, naming the body and field: an id that is
+  /// not a kinematic body, a non-finite position, a zero or non-finite
+  /// orientation.
+  void set_kinematic_target(double time, BodyId id, const Pose& pose);
+  /// Puts a body at `pose` at once (a teleport). A kinematic body: there
+  /// from the next internal step on, with zero velocity for that move (it
+  /// pushes nothing on the way), then holding it. A dynamic body: its owner
+  /// moves it there at the step's boundary, keeping its velocities, and wakes
+  /// it; its contacts refresh at the next narrowphase (a pair whose bodies
+  /// are apart loses its points). In a partitioned run the new pose must be
+  /// within the run's reach of the old one (a neighbour's cells), else the run
+  /// fails with a PartitionError naming the body, as a too fast body does.
+  /// Refused: a static body, a non-finite position, a zero or non-finite
+  /// orientation.
+  void set_pose(double time, BodyId id, const Pose& pose);
   /// The call for `input`'s kind at time_of(input.step): an input record
   /// as an input file or input_log() holds it (user_input.h), given as the
   /// calls above give it, with their errors. Returns the body's id.

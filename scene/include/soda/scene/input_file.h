@@ -29,6 +29,8 @@ struct UserInput {
     SetFriction,     // a body's friction coefficient (>= 0)
     SetRestitution,  // a body's restitution coefficient (in [0, 1])
     SetUserData,     // a body's user data (Body::user_data)
+    SetPose,             // a dynamic or kinematic body put at a pose (teleport): linear, orientation
+    SetKinematicTarget,  // a kinematic body moved to a pose over the next step: linear, orientation
   };
   Kind kind = Kind::SetVelocity;
   /// Applied at the boundary after scene step `step` (0: before the first
@@ -38,8 +40,9 @@ struct UserInput {
   Body body;                   // AddBody: the new body (its id must be unused)
   BodyId id = 0;               // every kind but AddBody and SetGravity
   Vec3 linear = Vec3::Zero();  // SetVelocity: linear velocity; ApplyImpulse: impulse (N s) at the centre;
-                               // SetGravity: the gravity (m/s^2)
+                               // SetGravity: the gravity (m/s^2); SetPose, SetKinematicTarget: position (m)
   Vec3 angular = Vec3::Zero(); // SetVelocity: angular velocity
+  Quat orientation = Quat::Identity();  // SetPose, SetKinematicTarget: the pose's orientation (linear: its position)
   double value = 0.0;          // SetMass: mass; SetFriction: friction; SetRestitution: restitution
   std::uint64_t user_data = 0; // SetUserData
 };
@@ -49,7 +52,8 @@ bool names_body(UserInput::Kind kind);
 
 /// "add_body" | "remove_body" | "set_velocity" | "apply_impulse" |
 /// "set_gravity" | "set_mass" | "set_friction" | "set_restitution" |
-/// "set_user_data", the names the file uses.
+/// "set_user_data" | "set_pose" | "set_kinematic_target", the names the
+/// file uses.
 const char* input_kind_name(UserInput::Kind kind);
 
 /// Reads an input file. Returns its inputs sorted by step (stable: inputs of
@@ -63,9 +67,11 @@ const char* input_kind_name(UserInput::Kind kind);
 /// are checked against the scene by the run (Simulation's input calls).
 std::vector<UserInput> load_input_file(const std::string& path);
 
-/// The range check of a set_mass, set_friction, set_restitution or
-/// set_gravity input's value (mass > 0 and finite, friction >= 0 and finite,
-/// restitution in [0, 1], gravity finite): empty when it holds, else the
+/// The range check of a set_mass, set_friction, set_restitution,
+/// set_gravity, set_pose or set_kinematic_target input's value (mass > 0 and
+/// finite, friction >= 0 and finite, restitution in [0, 1], gravity finite,
+/// a pose's position finite and orientation a finite non-zero quaternion):
+/// empty when it holds, else the
 /// reason, naming the field ("mass must be > 0 and finite, got -1"). Other
 /// kinds: empty. Shared by the input file reader and the Simulation's calls.
 std::string check_input_value(const UserInput& input);

@@ -8,6 +8,8 @@
 //  1. every body has a unique id below 2^31 (BodyId), statics included; ids are
 //     never reused within a run;
 //  2. every number is finite; dynamic bodies have mass > 0; shape extents > 0;
+//     a kinematic body is a static body that moves (is_static and kinematic),
+//     its path's times ascending;
 //  3. no body is so large or fast that Bullet would silently disable it
 //     (its one-step swept AABB has length^2 >= 1e12, see kBulletMaxAabbLength2).
 #pragma once
@@ -120,10 +122,63 @@ inline constexpr std::uint32_t kDefaultCollisionGroup = 1;
 /// Every group: the default mask (collide with every body).
 inline constexpr std::uint32_t kAllCollisionGroups = 0xffffffffu;
 
-/// One rigid body. Static bodies have mass 0 and never move.
+/// One pose of a kinematic body's path: where it is at `time`.
+struct PathKey {
+  double time = 0.0;                    // s since step 0
+  Vec3 position = Vec3::Zero();         // m, world frame
+  Quat orientation = Quat::Identity();  // unit quaternion (normalised on use)
+};
+
+/// The motion of a kinematic body (docs/scene-format.md, "Kinematic
+/// bodies"): piecewise-linear poses over time. Between two keys the position
+/// is interpolated linearly and the orientation by normalised linear
+/// interpolation (the shorter way round); before the first key the body is
+/// at the first, after the last at the last, unless `loop`: then the path
+/// repeats with the last key's time as its period (the first key's time is
+/// 0 and its pose is where each period starts).
+struct KinematicPath {
+  std::vector<PathKey> keys;  // ascending time; empty: no path
+  bool loop = false;
+};
+
+/// A pose in the world frame.
+struct Pose {
+  Vec3 position = Vec3::Zero();
+  Quat orientation = Quat::Identity();
+};
+
+/// An input that moved a kinematic body (Simulation::set_kinematic_target,
+/// Simulation::set_pose; docs/scene-format.md, "Kinematic bodies"), at the
+/// boundary after scene step `step`.
+struct KinematicCommand {
+  std::int64_t step = 0;
+  /// set_pose: at `pose` from the next internal step on, with zero
+  /// velocity. Else a target: reached at the end of step + 1, moving
+  /// there over that step (every substep a part), velocity from the move.
+  bool teleport = false;
+  Pose pose;
+};
+
+/// One rigid body. Static bodies have mass 0 and never move, but for
+/// kinematic ones.
 struct Body {
   BodyId id = 0;
   bool is_static = false;
+  /// A kinematic body is a static body that moves (is_static is true too):
+  /// infinite mass, it pushes dynamic bodies and is never pushed; every
+  /// world holds it, as every static, and its pose at each step is a pure
+  /// function of its path (docs/scene-format.md, "Kinematic bodies"). Its
+  /// velocities are derived from the pose change over each step, so
+  /// contacts carry and push what it touches.
+  bool kinematic = false;
+  /// Kinematic bodies only: the path; empty, the body stays at
+  /// position/orientation.
+  KinematicPath path;
+  /// Kinematic bodies only: the inputs that moved it, ascending step, one
+  /// per step (the last input of a step). The first ends the path: from
+  /// then on the body holds the pose of the last command it reached.
+  /// Written to snapshots and checkpoints, never to scene files.
+  std::vector<KinematicCommand> commands;
   Shape shape;
   double mass = 1.0;         // kg; > 0 for dynamic bodies, ignored for statics
   double friction = 0.5;     // Bullet's friction coefficient
@@ -160,6 +215,7 @@ struct Body {
   /// Half extents of the world-frame AABB of the body at its initial pose.
   Vec3 aabb_half_extents() const;
 };
+
 
 /// The sleep timer (seconds) of a body created asleep: Bullet's
 /// gDeactivationTime, the time below the sleeping thresholds after which a
@@ -246,5 +302,31 @@ struct Scene {
   /// Largest extent (AABB edge length) over dynamic bodies, 0 if none.
   double largest_dynamic_extent() const;
 };
+
+/// The time (s) of the state after `internal_steps` internal steps of
+/// dt / substeps: the one expression every world uses.
+double internal_step_time(const SceneSettings& settings, std::int64_t internal_steps);
+
+/// The pose of a kinematic body at `time` (s): its path's, or its
+/// position/orientation without a path. A pure function of the description
+/// and the time, the same in every world (docs/scene-format.md, "Kinematic
+/// bodies").
+Pose kinematic_pose(const Body& body, double time);
+
+/// Where a kinematic body is after `internal_steps` internal steps: its
+/// path's pose (kinematic_pose at internal_step_time) until its first
+/// command takes effect, then its commands' (KinematicCommand). `teleported`:
+/// a set_pose lands at this very internal step (the move into it has zero
+/// velocity). A pure function of the description, settings and step.
+struct KinematicPlace {
+  Pose pose;
+  bool teleported = false;
+};
+KinematicPlace kinematic_place(const Body& body, const SceneSettings& settings, std::int64_t internal_steps);
+
+/// The pose a fraction u in [0, 1] of the way from a to b: positions
+/// linearly, orientations by normalised linear interpolation the shorter way
+/// round (docs/scene-format.md, "Kinematic bodies").
+Pose interpolate_pose(const Pose& a, const Pose& b, double u);
 
 }  // namespace soda

@@ -51,6 +51,37 @@ inline void mark_sensor(btCollisionObject& object) {
 /// Reads the raw state of a Bullet body (id taken from its user index).
 BodyState read_body_state(const btRigidBody& body);
 
+/// Makes a body made by make_rigid_body (or from a state) for a kinematic
+/// description kinematic for Bullet: CF_KINEMATIC_OBJECT instead of
+/// CF_STATIC_OBJECT, so that the solver reads its velocities.
+void mark_kinematic(btRigidBody& body);
+
+/// Writes the state of a kinematic body after `internal_steps` internal
+/// steps (docs/scene-format.md, "Kinematic bodies"): transform and
+/// interpolation transform at its pose then (kinematic_place: its path, then
+/// its commands), linear and angular velocity of the move from the pose one
+/// internal step before (as btRigidBody::saveKinematicState computes them;
+/// zero at step 0 and for a teleport), and
+/// activation state ACTIVE_TAG if it moved in that step, else
+/// ISLAND_SLEEPING (it then acts as a static: it wakes nothing). A pure
+/// function of the description, the settings and the step: every world
+/// writes the same bits. Returns whether any bit of the body changed.
+/// With write false, only tells whether it would change a bit.
+bool write_kinematic_state(btRigidBody& body, const Body& description, const SceneSettings& settings,
+                           std::int64_t internal_steps, bool write = true);
+
+/// Where parked islands a moving kinematic body may touch lie: its
+/// broadphase AABB grown by how far any of its points moved in the step
+/// (|v| h plus |w| h times the AABB's half diagonal), so that a parked body
+/// it touched before the move and is leaving wakes too. Its AABB alone for a
+/// body at rest.
+void kinematic_touch_box(const btRigidBody& body, btScalar h, btVector3& min, btVector3& max);
+
+/// A kinematic body that moved in the step without velocity: a teleport
+/// (set_pose), from anywhere. Parking then brings back every parked island:
+/// what it left may hold a contact with it.
+bool kinematic_teleported(const btRigidBody& body);
+
 /// Owns the shapes and bodies of a scene, in the scene's body order.
 struct BulletBodies {
   std::vector<std::shared_ptr<btCollisionShape>> shapes;

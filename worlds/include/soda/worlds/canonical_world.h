@@ -17,6 +17,10 @@
 // island's joints are solved in joint id order (docs/determinism.md,
 // "Joints"); snapshots carry them and whether each has broken.
 //
+// Kinematic bodies (Body::kinematic) move along their paths: before each
+// internal step every one is written at its next pose with the velocity of
+// the move (write_kinematic_state, bullet_bodies.h), and again after it.
+//
 // Outside the contract: continuous collision detection (CCD motion clamping
 // sweeps against the whole world; bodies are created with CCD off),
 // constraints added through bullet() rather than the scene, compound shapes
@@ -166,6 +170,7 @@ class CanonicalWorld {
 
   SceneSettings settings_;
   std::vector<std::unique_ptr<Entry>> entries_;  // sorted by id after construction
+  std::vector<const Entry*> kinematic_;          // the kinematic bodies' entries, any order
   std::vector<std::unique_ptr<JointEntry>> joints_;  // sorted by joint id
   // After entries_: destroyed first, while the bodies it holds are alive.
   std::unique_ptr<CanonicalWorldParts> parts_;

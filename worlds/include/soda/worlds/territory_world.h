@@ -326,6 +326,17 @@ class TerritoryWorld {
   bool set_friction(BodyId id, double friction);
   bool set_restitution(BodyId id, double restitution);
   bool set_user_data(BodyId id, std::uint64_t user_data);
+  /// Input at the boundary after scene step `command.step`, in every world:
+  /// a kinematic body's command (set_kinematic_target, or set_pose of a
+  /// kinematic body; docs/scene-format.md, "Kinematic bodies"), kept in its
+  /// description (one per step: a second one at a step replaces the
+  /// first). False if the body is not a kinematic body.
+  bool command_kinematic(BodyId id, const KinematicCommand& command);
+  /// Input at a step boundary, set_pose of a dynamic body: its owner puts it
+  /// at `pose` (transform and interpolation transform, inertia tensor),
+  /// keeps its velocities and wakes it; the next steps ghost and migrate it
+  /// from there (within the run's reach). False if not owned here.
+  bool set_pose(BodyId id, const Pose& pose);
   /// Input at a step boundary: adds a dynamic body (as the scene constructor
   /// would) if the map gives its home cell to this world; true if it did.
   /// Throws PartitionError if the id is present here.
@@ -350,6 +361,9 @@ class TerritoryWorld {
   void init_world(const TerritoryWorld* share_pools_of = nullptr);
   void init_interior();
   void insert_static(const Body& body);
+  /// An island of this step (solve_local) touches a kinematic body moved by
+  /// commands: never replayed (an old run may have had other commands).
+  bool touches_commanded_kinematic(int island) const;
   Entry& insert_dynamic(const Body& description, const BodyDynamicState* state, bool owned, WorldId owner);
   void remove_entry(BodyId id);
   void sort_lists();
@@ -383,6 +397,7 @@ class TerritoryWorld {
   void update_aabbs();
   // predict (territory_predict.cpp).
   void find_ghost_targets(Entry& e, bool cull);
+  void move_kinematic_bodies();
   void attach_kept_contacts();
   void solve_local(const std::vector<int>& components);
   void snapshot_into(WorldSnapshot& out, bool with_kept) const;

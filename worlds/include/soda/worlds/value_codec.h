@@ -98,8 +98,9 @@ inline constexpr std::size_t kMinChildBytes = 1 + 8 * 5 + 4 + 4 + 8 * 7;
 /// (no user data after the collision filter: it reads back as 0),
 /// WithoutMeshes (no triangle mesh or heightfield data after a shape's
 /// children: such shapes cannot be written), WithoutSensor (no sensor flag
-/// after the user data: not a sensor), Current.
-enum class BodyFormat { WithoutFilter, WithoutCompounds, WithoutUserData, WithoutMeshes, WithoutSensor, Current };
+/// after the user data: not a sensor), WithoutKinematic (no kinematic
+/// bodies: static byte 2 and its path and commands), Current.
+enum class BodyFormat { WithoutFilter, WithoutCompounds, WithoutUserData, WithoutMeshes, WithoutSensor, WithoutKinematic, Current };
 /// A body: description (shape, mass, friction, ..., collision filter, user
 /// data) and raw state. An older `format` leaves out what it has no field
 /// for; the caller checks that the body needs none of it (body_format_loss).
