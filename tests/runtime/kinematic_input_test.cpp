@@ -8,13 +8,16 @@
 // are refused naming the body and the field.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <condition_variable>
 #include <mutex>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "runtime/partitioned_test_util.h"
@@ -96,9 +99,10 @@ TEST(KinematicInputs, TheInputsMoveThePlatforms) {
   EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
   const UserInput& last = plan()[200 - 30];
   ASSERT_EQ(last.step, 200);
-  for (const BodyState& b : sim.body_states())
-    if (b.id == kElevator)
-      for (int k = 0; k < 3; ++k) EXPECT_EQ(b.origin[k], btScalar(last.linear[k])) << "axis " << k;
+  for (const BodyState& b : sim.body_states()) {
+    if (b.id != kElevator) continue;
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(b.origin[k], btScalar(last.linear[k])) << "axis " << k;
+  }
   sim.stop();
 }
 
@@ -171,6 +175,155 @@ TEST(KinematicInputs, LateInputsUnderSpeculationRollBackToTheOneTerritoryHash) {
     EXPECT_EQ(hash_hex(sim.state_hash()), reference()) << "K=" << k;
     sim.stop();
   }
+}
+
+// What an application reads back sees the platforms where the worlds have
+// them: every frame's SceneFrame::kinematic equals, bit for bit, the
+// kinematic bodies' states of a one-territory run at that step (path and
+// inputs alike); a query's ray finds the elevator at its raised height, not
+// where the scene put it; a static sensor above the elevator reports it
+// once it has risen into it. Read while 4 territories speculate.
+TEST(KinematicInputs, ReadersQueriesAndSensorsSeeThePlatformsWhereTheWorldsHaveThem) {
+  const std::vector<std::int64_t> checks{0, 1, 30, 31, 45, 91, 100, 150, 151, 200, 201, kSteps};
+  // The reference: kinematic states of one territory, step by step.
+  std::vector<std::vector<ScenePose>> expected;
+  {
+    Simulation one(conveyor(), SimulationConfig{.territories = 1});
+    for (const UserInput& in : plan()) one.give(in);
+    for (std::int64_t s : checks) {
+      ASSERT_TRUE(one.advance_to(one.time_of(s)));
+      std::vector<ScenePose> k;
+      for (const BodyState& b : one.body_states())
+        for (const Body& d : conveyor().bodies)
+          if (d.id == b.id && d.kinematic) k.push_back(body_pose(b));
+      expected.push_back(std::move(k));
+    }
+    one.stop();
+  }
+  // A sensor 1.5 m above the elevator's rest, where the plan lifts it.
+  Scene scene = conveyor();
+  const Body& lift = conveyor().bodies[kElevator];
+  ASSERT_TRUE(lift.kinematic);
+  Body zone;
+  zone.id = 100000;
+  zone.is_static = true;
+  zone.sensor = true;
+  zone.shape = Shape::box(Vec3(0.3, 0.05, 0.3));
+  zone.position = lift.position + Vec3(0.0, 1.5, 0.0);
+  scene.bodies.push_back(zone);
+
+  SimulationConfig config{.territories = 4};
+  config.runtime.anticipation = 8;
+  Simulation sim(scene, config);
+  for (const UserInput& in : plan()) sim.give(in);
+  SceneReader reader = sim.add_reader();
+  SceneQuery query = sim.add_query();
+  SensorReader sensors = sim.add_sensor_reader();
+  sim.start(sim.time_of(kSteps));
+  QueryFilter statics_only;
+  statics_only.dynamics = false;
+  for (std::size_t c = 0; c < checks.size(); ++c) {
+    const std::int64_t s = checks[c];
+    const double t = sim.time_of(s);
+    const std::optional<SceneFrame> frame = reader.read_at(t);
+    ASSERT_TRUE(frame.has_value()) << "step " << s;
+    ASSERT_EQ(frame->kinematic.size(), expected[c].size());
+    for (std::size_t i = 0; i < expected[c].size(); ++i) {
+      const ScenePose &got = frame->kinematic[i], &want = expected[c][i];
+      EXPECT_EQ(got.id, want.id);
+      EXPECT_EQ(0, std::memcmp(got.position, want.position, sizeof got.position)) << "step " << s << " body " << got.id;
+      EXPECT_EQ(0, std::memcmp(got.orientation, want.orientation, sizeof got.orientation)) << "step " << s;
+      EXPECT_EQ(0, std::memcmp(got.linear_velocity, want.linear_velocity, sizeof got.linear_velocity)) << "step " << s;
+      EXPECT_EQ(got.sleeping, want.sleeping) << "step " << s << " body " << got.id;
+    }
+    const ScenePose* elevator = frame->find_kinematic(kElevator);
+    ASSERT_NE(elevator, nullptr);
+    const std::optional<BodyAt> at = reader.body_at(t, kElevator);
+    ASSERT_TRUE(at.has_value());
+    EXPECT_EQ(at->owner, kNoWorld);
+    EXPECT_EQ(at->pose.position[1], elevator->position[1]);
+    // A level ray through the elevator's middle at its frame height hits its
+    // side (x = 5 - 1.5); through where the scene put it, nothing once it
+    // has risen more than its thickness.
+    const double y = elevator->position[1];
+    const auto side = query.ray_cast(t, Vec3(-20.0, y, lift.position.z()), Vec3(20.0, y, lift.position.z()),
+                                     statics_only);
+    ASSERT_TRUE(side.has_value());
+    EXPECT_EQ(side->step, s);
+    ASSERT_FALSE(side->items.empty()) << "step " << s;
+    EXPECT_EQ(side->items[0].id, kElevator) << "step " << s;
+    // The plan turns it about y by θ: the face is 1.5 / cos θ from its centre.
+    const double theta = 2.0 * std::atan2(double(elevator->orientation[1]), double(elevator->orientation[3]));
+    // (Bullet's ray test against a convex shape is good to a few mm; unturned
+    // it would be 1.5 m.)
+    EXPECT_NEAR(side->items[0].point.x(), elevator->position[0] - 1.5 / std::cos(theta), 0.01) << "step " << s;
+    const double rest = lift.position.y();
+    if (y > rest + 0.25) {
+      const auto below = query.ray_cast(t, Vec3(-20.0, rest, lift.position.z()),
+                                        Vec3(20.0, rest, lift.position.z()), statics_only);
+      ASSERT_TRUE(below.has_value());
+      for (const QueryHit& h : below->items) EXPECT_NE(h.id, kElevator) << "step " << s;
+    }
+    // The sensor holds the elevator exactly when its box reaches the zone
+    // (the elevator's top at y + 0.1, the zone's bottom at rest + 1.45).
+    const std::optional<SensorStep> sensed = sensors.read_step(s);
+    ASSERT_TRUE(sensed.has_value());
+    const bool inside = std::find(sensed->inside.begin(), sensed->inside.end(),
+                                  SensorOverlap{zone.id, kElevator}) != sensed->inside.end();
+    const double gap = (rest + 1.45) - (y + 0.1);
+    if (std::abs(gap) > 1e-3) {
+      EXPECT_EQ(inside, gap < 0.0) << "step " << s << " elevator at " << y;
+    }
+    std::printf("[ conveyor 72 %s, K 4, anticipation 8 ] step %lld: elevator at y %.4f, sensor %s\n",
+                kPrecisionName, static_cast<long long>(s), y, inside ? "holds it" : "empty");
+  }
+  sim.stop();
+}
+
+// Contact events with platforms (a box on a pallet, the elevator's load):
+// the stream of one territory, for 4 territories speculating on one thread
+// (the worlds run round-robin, so some run ahead and roll back), bit for bit.
+std::vector<ContactStep> contact_stream(int territories, int threads, std::uint64_t* rollbacks) {
+  SimulationConfig config{.territories = territories, .threads = threads, .contact_events = true};
+  config.runtime.anticipation = territories > 1 ? 8 : 0;
+  Simulation sim(conveyor(), config);
+  for (const UserInput& in : plan()) sim.give(in);
+  std::vector<ContactStep> out;
+  std::thread reader([&, r = sim.add_contact_reader()]() mutable {
+    for (int t = 0; t <= kSteps; ++t) {
+      std::optional<ContactStep> st = r.read_step(t);
+      if (!st) break;
+      out.push_back(std::move(*st));
+    }
+  });
+  EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
+  reader.join();
+  EXPECT_EQ(hash_hex(sim.state_hash()), reference());
+  if (rollbacks) *rollbacks = sim.rollbacks();
+  sim.stop();
+  return out;
+}
+
+TEST(KinematicInputs, ContactEventsWithPlatformsAreTheOneTerritoryStream) {
+  const std::vector<ContactStep> one = contact_stream(1, 1, nullptr);
+  ASSERT_EQ(one.size(), static_cast<std::size_t>(kSteps + 1));
+  std::size_t with_platform = 0, ends_with_platform = 0;
+  for (const ContactStep& st : one)
+    for (const ContactEvent& e : st.events) {
+      const bool platform = conveyor().bodies[e.a].kinematic;  // ids are indices; a < b, platforms first
+      with_platform += platform;
+      ends_with_platform += platform && e.kind == ContactEventKind::End;
+    }
+  EXPECT_GT(with_platform, 20u);
+  EXPECT_GT(ends_with_platform, 0u);  // the teleported box leaves its pallet
+  std::uint64_t rollbacks = 0;
+  const std::vector<ContactStep> four = contact_stream(4, 1, &rollbacks);
+  std::printf("[ conveyor 72 %s ] %zu events with a platform (%zu ends); K 4 speculating on one thread: "
+              "%llu rollbacks, stream %016llx, one territory %016llx\n",
+              kPrecisionName, with_platform, ends_with_platform, static_cast<unsigned long long>(rollbacks),
+              static_cast<unsigned long long>(contact_stream_hash(four)),
+              static_cast<unsigned long long>(contact_stream_hash(one)));
+  EXPECT_EQ(contact_stream_hash(four), contact_stream_hash(one));
 }
 
 // Saved at step 120 (the elevator's commands so far in its record, later

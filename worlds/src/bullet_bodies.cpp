@@ -132,28 +132,57 @@ namespace {
 
 btTransform pose_transform(const Pose& p) { return to_bt_transform(p.position, p.orientation); }
 
-}  // namespace
-
-bool write_kinematic_state(btRigidBody& body, const Body& d, const SceneSettings& settings,
-                           std::int64_t internal_steps, bool write) {
-  const KinematicPlace place = kinematic_place(d, settings, internal_steps);
-  const btTransform to = pose_transform(place.pose);
-  btVector3 linear(0, 0, 0), angular(0, 0, 0);
+// Where a kinematic body is after `internal_steps` and how it moved into
+// it: what write_kinematic_state writes and kinematic_state reads.
+struct KinematicMove {
+  btTransform to;
+  btVector3 linear{0, 0, 0}, angular{0, 0, 0};
   bool moved = false;
+};
+
+KinematicMove kinematic_move(const Body& d, const SceneSettings& settings, std::int64_t internal_steps) {
+  const KinematicPlace place = kinematic_place(d, settings, internal_steps);
+  KinematicMove m{pose_transform(place.pose)};
   if (internal_steps > 0) {
     const btTransform from = pose_transform(kinematic_place(d, settings, internal_steps - 1).pose);
-    moved = !same_bits(from, to);
-    if (moved && !place.teleported) {  // a teleport moves without velocity
+    m.moved = !same_bits(from, m.to);
+    if (m.moved && !place.teleported) {  // a teleport moves without velocity
       const btScalar h = btScalar(settings.dt / settings.substeps);
-      btTransformUtil::calculateVelocity(from, to, h, linear, angular);
+      btTransformUtil::calculateVelocity(from, m.to, h, m.linear, m.angular);
       // +0 for -0: the solver adds +0 deltas to a kinematic body's velocity
       // and writes the sum back; the bits must not depend on which world
       // solved which island.
-      linear += btVector3(0, 0, 0);
-      angular += btVector3(0, 0, 0);
+      m.linear += btVector3(0, 0, 0);
+      m.angular += btVector3(0, 0, 0);
     }
   }
-  const int activation = moved ? ACTIVE_TAG : ISLAND_SLEEPING;
+  return m;
+}
+
+}  // namespace
+
+BodyState kinematic_state(const Body& d, const SceneSettings& settings, std::int64_t internal_steps) {
+  const KinematicMove m = kinematic_move(d, settings, internal_steps);
+  BodyState s;
+  s.id = d.id;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) s.basis[r * 3 + c] = m.to.getBasis()[r][c];
+  for (int i = 0; i < 3; ++i) {
+    s.origin[i] = m.to.getOrigin()[i];
+    s.linear_velocity[i] = m.linear[i];
+    s.angular_velocity[i] = m.angular[i];
+  }
+  s.activation_state = m.moved ? ACTIVE_TAG : ISLAND_SLEEPING;
+  return s;
+}
+
+bool write_kinematic_state(btRigidBody& body, const Body& d, const SceneSettings& settings,
+                           std::int64_t internal_steps, bool write) {
+  const KinematicMove m = kinematic_move(d, settings, internal_steps);
+  const btTransform& to = m.to;
+  const btVector3& linear = m.linear;
+  const btVector3& angular = m.angular;
+  const int activation = m.moved ? ACTIVE_TAG : ISLAND_SLEEPING;
   const bool same = same_bits(body.getWorldTransform(), to) && same_bits(body.getInterpolationWorldTransform(), to) &&
                     same_bits(body.getLinearVelocity(), linear) && same_bits(body.getAngularVelocity(), angular) &&
                     same_bits(body.getInterpolationLinearVelocity(), linear) &&

@@ -5,12 +5,15 @@
 #include <stdexcept>
 #include <string>
 
+#include "soda/worlds/bullet_bodies.h"
+
 namespace soda {
 
-Census::Census(const Scene& scene) {
+Census::Census(const Scene& scene) : settings_(scene.settings) {
   for (const Body& b : scene.bodies) {
     if (b.is_static) {
       statics_.push_back(b);
+      if (b.kinematic) kinematic_.emplace(b.id, b);
       continue;
     }
     scene_.push_back(b.id);
@@ -43,7 +46,27 @@ void Census::record(const UserInput& in) {
     list.insert(std::upper_bound(list.begin(), list.end(), in,
                                  [&](const UserInput& a, const UserInput& b) { return key(a) < key(b); }),
                 in);
+  } else if (in.kind == UserInput::Kind::SetPose || in.kind == UserInput::Kind::SetKinematicTarget) {
+    auto it = kinematic_.find(in.id);
+    if (it == kinematic_.end()) return;  // a dynamic body's set_pose: in its owner's frames
+    // As TerritoryWorld::command_kinematic records it: one command per step.
+    const KinematicCommand c{in.step, in.kind == UserInput::Kind::SetPose, Pose{in.linear, in.orientation}};
+    std::vector<KinematicCommand>& cs = it->second.commands;
+    auto at = std::lower_bound(cs.begin(), cs.end(), c.step,
+                               [](const KinematicCommand& x, std::int64_t step) { return x.step < step; });
+    if (at != cs.end() && at->step == c.step)
+      *at = c;
+    else
+      cs.insert(at, c);
   }
+}
+
+std::vector<BodyState> Census::kinematic_states(std::int64_t step) const {
+  std::lock_guard lock(mutex_);
+  std::vector<BodyState> out;
+  out.reserve(kinematic_.size());
+  for (const auto& [id, b] : kinematic_) out.push_back(kinematic_state(b, settings_, step * settings_.substeps));
+  return out;
 }
 
 bool Census::properties(BodyId id, std::int64_t step, Body& out) const {

@@ -23,6 +23,7 @@
 
 #include "soda/scene/input_file.h"
 #include "soda/scene/scene.h"
+#include "soda/worlds/body_state.h"
 
 namespace soda {
 
@@ -32,7 +33,8 @@ class Census {
   explicit Census(const Scene& scene);
   /// Takes an accepted input into account: AddBody and RemoveBody change
   /// presence, SetMass, SetFriction, SetRestitution and SetUserData a body's
-  /// properties; other kinds are ignored.
+  /// properties, SetPose and SetKinematicTarget a kinematic body's commands
+  /// (as every world records them); other kinds are ignored.
   void record(const UserInput& input);
   /// Number of dynamic bodies in the frame of `step`.
   std::size_t count_at(std::int64_t step) const;
@@ -44,8 +46,13 @@ class Census {
   /// added it gave it (shape, mass, ...; not its state). Null for an
   /// unknown id. The pointer stays valid for the census' life.
   const Body* description(BodyId id) const;
-  /// The scene's static bodies (they never change), ascending id.
+  /// The scene's static bodies, kinematic ones included, ascending id, as
+  /// the scene gave them (without the commands inputs gave kinematic ones).
   const std::vector<Body>& statics() const { return statics_; }
+  /// Every kinematic body's state at the end of scene step `step`, bit for
+  /// bit what every world writes (kinematic_state: its path, then the
+  /// commands of inputs at boundaries before `step`), ascending id.
+  std::vector<BodyState> kinematic_states(std::int64_t step) const;
   /// Body `id` as the frame of `step` holds it: its description with the
   /// mass, friction, restitution and user data that inputs at boundaries
   /// before `step` gave it, in (step, sequence) order. Null (false) for an
@@ -65,6 +72,8 @@ class Census {
   std::vector<BodyId> scene_;            // the scene's dynamic bodies, ascending
   std::map<BodyId, Span> changed_;       // bodies an input added or removed
   std::vector<Body> statics_;
+  SceneSettings settings_;
+  std::map<BodyId, Body> kinematic_;     // kinematic bodies with their commands
   std::map<BodyId, Body> dynamics_;      // every dynamic body ever, by id (node-stable)
   // Property inputs (set_mass, ..., set_user_data) by body, each list in
   // (step, sequence) order.

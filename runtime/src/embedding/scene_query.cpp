@@ -40,6 +40,7 @@ struct SceneQuery::World {
     std::shared_ptr<btCollisionShape> shape;
     btCollisionObject body;
     bool is_static = false;
+    bool fixed = false;  // static and not kinematic: it never moves
     bool sensor = false;
     std::uint32_t mask = kAllCollisionGroups;  // a sensor's: the groups it reports
   };
@@ -59,6 +60,7 @@ struct SceneQuery::World {
     o.body.setUserIndex(static_cast<int>(description.id));
     o.body.setWorldTransform(to_bt_transform(description.position, description.orientation));
     o.is_static = description.is_static;
+    o.fixed = description.is_static && !description.kinematic;
     o.body.setCollisionFlags(o.is_static ? btCollisionObject::CF_STATIC_OBJECT : 0);
     o.sensor = description.sensor;
     o.mask = description.collision_mask;
@@ -163,6 +165,11 @@ struct InBox final : btBroadphaseAabbCallback {
   std::vector<BodyId> ids;
 };
 
+void place(btCollisionObject& body, const ScenePose& p) {
+  const btQuaternion q(p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3]);
+  body.setWorldTransform(btTransform(q, btVector3(p.position[0], p.position[1], p.position[2])));
+}
+
 void sort_unique(std::vector<BodyId>& ids) {
   std::sort(ids.begin(), ids.end());
   ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
@@ -213,9 +220,11 @@ SceneQuery::World* SceneQuery::at(double time, bool wait) {
                                      std::to_string(frame->step) + " has no description");
       o = &w.add(*d);
     }
-    const btQuaternion q(p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3]);
-    o->body.setWorldTransform(btTransform(q, btVector3(p.position[0], p.position[1], p.position[2])));
+    place(o->body, p);
   }
+  // Kinematic bodies are statics of the query world that move.
+  for (const ScenePose& p : frame->kinematic)
+    if (auto it = w.objects.find(p.id); it != w.objects.end()) place(it->second.body, p);
   w.world.updateAabbs();
   w.step = frame->step;
   return &w;
@@ -295,11 +304,13 @@ std::optional<std::vector<std::pair<BodyId, BodyId>>> SceneQuery::sensor_overlap
   for (auto& [id, o] : w->objects) {
     if (!o.sensor) continue;
     QueryFilter filter;
-    filter.statics = !o.is_static;
     filter.mask = o.mask;
     Touching touching(&o.body, filter);
     w->world.contactTest(&o.body, touching);
     sort_unique(touching.ids);
+    // Two bodies that never move: their overlap never changes.
+    if (o.fixed)
+      std::erase_if(touching.ids, [&](BodyId b) { return w->objects.at(b).fixed; });
     for (BodyId b : touching.ids) out.emplace_back(id, b);
   }
   return out;  // objects go by id: ascending

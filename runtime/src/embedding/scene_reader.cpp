@@ -44,14 +44,22 @@ ScenePose body_pose(const BodyState& s) {
   return p;
 }
 
-const ScenePose* SceneFrame::find(BodyId id) const {
+namespace {
+
+const ScenePose* find_pose(const std::vector<ScenePose>& poses, BodyId id) {
   auto it = std::lower_bound(poses.begin(), poses.end(), id, [](const ScenePose& p, BodyId i) { return p.id < i; });
   return it != poses.end() && it->id == id ? &*it : nullptr;
 }
 
-SceneReader::SceneReader(std::shared_ptr<SimulationCore> core) : core_(std::move(core)) {
+}  // namespace
+
+const ScenePose* SceneFrame::find(BodyId id) const { return find_pose(poses, id); }
+
+const ScenePose* SceneFrame::find_kinematic(BodyId id) const { return find_pose(kinematic, id); }
+
+SceneReader::SceneReader(std::shared_ptr<SimulationCore> core, bool pins) : core_(std::move(core)) {
   for (auto& b : core_->buffers) ids_.push_back(b->add_reader());
-  if (core_->reader_pins) pinned_ = core_->pin_first();
+  if (pins && core_->reader_pins) pinned_ = core_->pin_first();
 }
 
 SceneReader::SceneReader(SceneReader&& other) noexcept
@@ -182,6 +190,7 @@ SceneFrame SceneReader::assemble(std::int64_t step,
   ids.reserve(f.poses.size());
   for (const ScenePose& p : f.poses) ids.push_back(p.id);
   core_->census.check(step, ids);
+  for (const BodyState& k : core_->census.kinematic_states(step)) f.kinematic.push_back(body_pose(k));
   return f;
 }
 
@@ -224,12 +233,13 @@ namespace {
 std::optional<BodyAt> body_of(const SceneReader& reader, const std::optional<SceneFrame>& frame, BodyId id) {
   if (!frame) return std::nullopt;
   const ScenePose* pose = frame->find(id);
-  if (!pose) return std::nullopt;
+  const ScenePose* kinematic = pose ? nullptr : frame->find_kinematic(id);
+  if (!pose && !kinematic) return std::nullopt;
   std::optional<BodyAt> out = reader.properties(frame->step, id);
   if (!out) return std::nullopt;
   out->time = frame->time;
-  out->pose = *pose;
-  out->owner = frame->owners[static_cast<std::size_t>(pose - frame->poses.data())];
+  out->pose = pose ? *pose : *kinematic;
+  out->owner = pose ? frame->owners[static_cast<std::size_t>(pose - frame->poses.data())] : kNoWorld;
   return out;
 }
 

@@ -235,7 +235,7 @@ void Simulation::write_input_log(const std::string& path) const {
   if (!out) throw std::runtime_error("cannot write the input log " + path);
 }
 
-SceneReader Simulation::add_reader() { return SceneReader(engine_->core); }
+SceneReader Simulation::add_reader() { return SceneReader(engine_->core, true); }
 
 ContactReader Simulation::add_contact_reader(bool persist) {
   if (!engine_->core->contacts)
@@ -243,7 +243,9 @@ ContactReader Simulation::add_contact_reader(bool persist) {
   return ContactReader(engine_->core, persist);
 }
 
-SceneQuery Simulation::add_query() { return SceneQuery(engine_->core, add_reader()); }
+// A query only reads: it holds no pin, so a render thread may read a frame
+// and query it (docs/embedding.md, "Final frames").
+SceneQuery Simulation::add_query() { return SceneQuery(engine_->core, SceneReader(engine_->core, false)); }
 
 SensorReader Simulation::add_sensor_reader() { return SensorReader(engine_->core->first_step, add_query()); }
 

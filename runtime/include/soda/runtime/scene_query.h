@@ -6,7 +6,8 @@
 // A SceneQuery reads the frame of τ's step as a SceneReader does (it waits
 // until every world has published it and it is final: no rollback can
 // change it), places every body of that frame and every static body in a
-// collision world of its own, and asks Bullet. Each body's answer is a
+// collision world of its own (kinematic bodies where the frame has them:
+// SceneFrame::kinematic), and asks Bullet. Each body's answer is a
 // function of its shape and pose alone, and the answers are sorted (by
 // fraction, then body id; overlaps by id), so a query at a step gives the
 // same ids and bits for any number of territories, any schedule and any
@@ -38,7 +39,7 @@ namespace soda {
 
 /// What a query considers.
 struct QueryFilter {
-  bool statics = true;          // static bodies
+  bool statics = true;          // static bodies, kinematic ones included
   bool dynamics = true;         // dynamic bodies
   std::vector<BodyId> ignore;   // never these bodies (e.g. the caster itself)
   /// Only bodies whose Body::collision_group shares a bit with this mask

@@ -55,9 +55,17 @@ struct SceneFrame {
   /// Per world: thread CPU time it spent since its previous entry
   /// (TransformEntry::busy_seconds), seconds; 0 for step 0.
   std::vector<double> busy_seconds;
+  /// Every kinematic body (docs/scene-format.md, "Kinematic bodies") at
+  /// `step`, ascending id: where every world has it then (its path, then the
+  /// set_kinematic_target and set_pose inputs at boundaries before `step`),
+  /// with the velocity of its last internal step's move; sleeping when that
+  /// move was none. Not in `poses`, `owners` or the census check.
+  std::vector<ScenePose> kinematic;
   /// The pose of `id`, or null if it is not a dynamic body of the scene at
   /// this step.
   const ScenePose* find(BodyId id) const;
+  /// The pose of kinematic body `id`, or null if it is not one.
+  const ScenePose* find_kinematic(BodyId id) const;
 };
 
 /// What an application reads back of one body at one committed step
@@ -67,8 +75,8 @@ struct SceneFrame {
 struct BodyAt {
   std::int64_t step = 0;     // the frame's scene step
   double time = 0.0;         // step * dt, seconds
-  ScenePose pose;            // as SceneFrame::find(id) gives it, bit for bit
-  WorldId owner = kNoWorld;  // the world whose entry held it
+  ScenePose pose;            // as SceneFrame::find (or find_kinematic) gives it, bit for bit
+  WorldId owner = kNoWorld;  // the world whose entry held it; kNoWorld for a kinematic body (every world holds it)
   double mass = 0.0;         // kg, as the scene or set_mass gave it before `step`
   double friction = 0.0;     // as the scene or set_friction gave it before `step`
   double restitution = 0.0;  // as the scene or set_restitution gave it before `step`
@@ -130,8 +138,8 @@ class SceneReader {
   /// One body at the closest step at or before `time`: read_at(time) (it
   /// waits, moves the cursor and holds the horizon as read_at does) and
   /// that body of the frame, with its properties at that step. nullopt as
-  /// read_at, and when `id` is not a dynamic body of the scene at that
-  /// step. Costs a frame's assembly (O(bodies)): to read many bodies of one
+  /// read_at, and when `id` is neither a dynamic body of the scene at that
+  /// step nor a kinematic body. Costs a frame's assembly (O(bodies)): to read many bodies of one
   /// step, read the frame and call properties(). Reader's thread.
   ///   if (auto b = reader.body_at(2.0, 17)) aim_at(b->pose.position, b->user_data);
   std::optional<BodyAt> body_at(double time, BodyId id);
@@ -151,7 +159,9 @@ class SceneReader {
  private:
   friend class Simulation;
   enum class Got { Frame, NotYet, Gone };
-  explicit SceneReader(std::shared_ptr<SimulationCore> core);
+  // pins: hold the commit horizon at the frame in use (with past inputs,
+  // docs/embedding.md, "Final frames"); a query's reader does not.
+  SceneReader(std::shared_ptr<SimulationCore> core, bool pins);
   Got gather(std::int64_t step, bool move_cursors, std::vector<std::shared_ptr<const TransformEntry<btScalar>>>& out);
   SceneFrame assemble(std::int64_t step, const std::vector<std::shared_ptr<const TransformEntry<btScalar>>>& entries) const;
   std::optional<SceneFrame> read(double time, bool wait);

@@ -329,8 +329,9 @@ class Simulation {
   /// std::logic_error unless config.contact_events. Any thread.
   ContactReader add_contact_reader(bool persist = false);
   /// Queries at a time — ray casts, sweeps, overlaps — answered from the
-  /// committed frame of its step (scene_query.h); a reader of its own inside.
-  /// Any thread.
+  /// committed frame of its step (scene_query.h); a reader of its own inside,
+  /// which never holds the commit horizon (with past_inputs an add_reader()
+  /// reader does), so one thread may read a frame and query it. Any thread.
   SceneQuery add_query();
   /// A reader of sensor events per committed step (sensor_reader.h): the
   /// bodies each sensor (Body::sensor) overlaps, begin and end. Any thread.

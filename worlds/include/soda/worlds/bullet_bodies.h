@@ -70,6 +70,11 @@ void mark_kinematic(btRigidBody& body);
 bool write_kinematic_state(btRigidBody& body, const Body& description, const SceneSettings& settings,
                            std::int64_t internal_steps, bool write = true);
 
+/// The state write_kinematic_state writes, as read_body_state would read
+/// it back from the body: for readers that pose kinematic bodies without a
+/// world (SceneReader frames, queries, sensors).
+BodyState kinematic_state(const Body& description, const SceneSettings& settings, std::int64_t internal_steps);
+
 /// Where parked islands a moving kinematic body may touch lie: its
 /// broadphase AABB grown by how far any of its points moved in the step
 /// (|v| h plus |w| h times the AABB's half diagonal), so that a parked body
