@@ -226,6 +226,15 @@ TEST_P(SensorsAnyK, StreamEqualsOneTerritory) {
   EXPECT_GE(w.sensors_seen.size(), 2u);
   EXPECT_TRUE(std::binary_search(w.sensors_seen.begin(), w.sensors_seen.end(), s.bodies.back().id))
       << "the dynamic sensor saw something";
+  // On terrain the dynamic sensor passes through the heightfield: a sensor
+  // reports a static mesh or heightfield as it reports a box.
+  for (const Body& b : s.bodies) {
+    if (!b.is_static || (b.shape.kind != ShapeKind::Heightfield && b.shape.kind != ShapeKind::TriangleMesh)) continue;
+    bool seen = false;
+    for (const SensorStep& st : want)
+      for (const SensorOverlap& o : st.inside) seen = seen || (o.sensor == s.bodies.back().id && o.body == b.id);
+    EXPECT_TRUE(seen) << "the dynamic sensor never reported body " << b.id;
+  }
   const TerritoryMap map = make_partition(c.partition, s, c.territories, GridOptions{});
   Simulation sim(s, map, test::speculation_config(c));
   std::vector<SensorStep> got;
@@ -247,7 +256,8 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(Case{"falling-cubes", 100, 8, "grid:8x1x1", 1, 8},  // rolls back in every run
                       Case{"cube-pile", 64, 4, "grid:4x1x1", 1, 8},
                       Case{"cube-pile", 64, 4, "kmeans", 0, 8},           // a thread per world
-                      Case{"cube-pile", 64, 2, "rcb", 2, 0}),             // a pool of 2, lockstep
+                      Case{"cube-pile", 64, 2, "rcb", 2, 0},              // a pool of 2, lockstep
+                      Case{"terrain", 40, 4, "grid:4x1x1", 1, 8}),        // over a heightfield
     test::speculation_case_name);
 
 // A body removed while inside ends at the step it is gone; reads go
