@@ -33,14 +33,10 @@
 //  5. every island is solved as one solveGroup with its bodies by id, its
 //     manifolds by (id0, id1) and its joints by joint id: local islands in
 //     place, border islands on copies built from their fragments;
-//  6. joints (docs/partitioned-step.md, "Joints"): the dynamic bodies that
-//     joints connect, broken or not, form a joint group, whose home cell is
-//     that of its anchor, the group's smallest body id. So a group has one
-//     owner, which holds its joints (Bullet constraints between owned and
-//     static bodies, island edges while they hold); the group and its
-//     joints migrate together; a joint is never held in two worlds, and
-//     the merged island of a border island gets its joints from the
-//     fragment of their owner.
+//  6. a joint group (the dynamic bodies joints connect, broken or not) has
+//     its anchor's (smallest id's) home cell, so one owner holds its joints
+//     and they migrate together; a merged island gets them from that
+//     owner's fragment (docs/partitioned-step.md, "Joints").
 //
 // The world keeps the territory's state and the stage entry points; three
 // rooms of its own do the island work (worlds/src): IslandBuilder
@@ -56,7 +52,6 @@
 #include <cstdint>
 #include <map>
 #include <memory>
-#include <stdexcept>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -66,6 +61,7 @@
 #include "soda/worlds/body_state.h"
 #include "soda/worlds/border_records.h"
 #include "soda/worlds/step_replay.h"
+#include "soda/worlds/territory_errors.h"
 #include "soda/worlds/territory_counters.h"
 #include "soda/worlds/watchdog.h"
 
@@ -78,25 +74,6 @@ class btRigidBody;
 class btCollisionObject;
 
 namespace soda {
-
-/// A scene or a trajectory outside what the partitioned step supports (a halo
-/// reaching a world that is not a neighbour, a body moving to a non-neighbour
-/// — beyond the map's reach, see reach.h: the message names the body, its
-/// speed and the reach speed that would cover it —) or a broken protocol
-/// invariant (two owners for one body). The message names the body, the
-/// step and the worlds.
-class PartitionError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-/// Border culling (docs/skip.md): predict() looks up the cells of an owned
-/// body's halo only when the halo leaves the block of 27 owned cells it was
-/// last found in. On by default; results are the same either way (tests
-/// compare). Process-wide, for tests and benches: set it while no territory
-/// world steps (a relaxed atomic read once per predict()).
-void set_border_culling(bool on);
-bool border_culling();
 
 class TerritoryWorld {
  public:
@@ -326,11 +303,9 @@ class TerritoryWorld {
   bool set_friction(BodyId id, double friction);
   bool set_restitution(BodyId id, double restitution);
   bool set_user_data(BodyId id, std::uint64_t user_data);
-  /// Input at the boundary after scene step `command.step`, in every world:
-  /// a kinematic body's command (set_kinematic_target, or set_pose of a
-  /// kinematic body; docs/scene-format.md, "Kinematic bodies"), kept in its
-  /// description (one per step: a second one at a step replaces the
-  /// first). False if the body is not a kinematic body.
+  /// Input after scene step `command.step`, in every world: a kinematic
+  /// body's command (docs/scene-format.md, "Kinematic bodies"), kept in its
+  /// description, one per step (the later replaces). False if not kinematic.
   bool command_kinematic(BodyId id, const KinematicCommand& command);
   /// Input at a step boundary, set_pose of a dynamic body: its owner puts it
   /// at `pose` (transform and interpolation transform, inertia tensor),
