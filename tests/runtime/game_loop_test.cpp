@@ -90,30 +90,6 @@ std::vector<std::vector<ScenePose>> reference_frames(const Scene& s, const Plan&
   return frames;
 }
 
-// The newest scene step any world has finished (re-runs included), with a
-// condition variable: the render thread waits on it, never on a clock.
-struct Progress {
-  std::mutex mutex;
-  std::condition_variable cv;
-  std::int64_t newest = 0;
-  std::function<void(WorldId, std::int64_t)> hook() {
-    return [this](WorldId, std::int64_t step) {
-      std::lock_guard lock(mutex);
-      if (step > newest) newest = step;
-      cv.notify_all();
-    };
-  }
-  void wait_past(std::int64_t step) {
-    std::unique_lock lock(mutex);
-    cv.wait(lock, [&] { return newest > step; });
-  }
-  // After an input at `step` every world goes back to it: count from there.
-  void rolled_back_to(std::int64_t step) {
-    std::lock_guard lock(mutex);
-    newest = step;
-  }
-};
-
 // territories, anticipation, threads (0: one per world, 1: one for all, else a pool)
 class GameLoop : public ::testing::TestWithParam<std::tuple<int, int, int>> {};
 
@@ -123,7 +99,7 @@ TEST_P(GameLoop, EveryFrameWhileBodiesComeAndGoEqualsOneTerritory) {
   const Plan plan = make_plan(s);
   static const std::vector<std::vector<ScenePose>> ref = reference_frames(s, plan);
 
-  Progress progress;
+  test::Progress progress;
   SimulationConfig config{.territories = territories, .threads = threads, .buffer_capacity = 16, .past_inputs = true};
   config.runtime.anticipation = anticipation;
   config.after_step = progress.hook();
@@ -192,7 +168,7 @@ INSTANTIATE_TEST_SUITE_P(Simulation, GameLoop,
 // message says what to set.
 TEST(GameLoopInput, AtAPassedStepWithoutPastInputsSaysWhatToSet) {
   const Scene s = test::scene("falling-cubes", 60);
-  Progress progress;
+  test::Progress progress;
   SimulationConfig config{.territories = 2, .buffer_capacity = 8};
   config.after_step = progress.hook();
   Simulation sim(s, config);

@@ -20,7 +20,7 @@
 #include <thread>
 #include <vector>
 
-#include "runtime/partitioned_test_util.h"
+#include "runtime/simulation_test_util.h"
 #include "soda/runtime/checkpoint.h"
 #include "soda/runtime/simulation.h"
 
@@ -127,31 +127,12 @@ TEST(KinematicInputs, EveryTerritoryCountGivesTheOneTerritoryHash) {
   }
 }
 
-// The newest scene step any world has finished (a condition variable,
-// never a clock).
-struct Progress {
-  std::mutex mutex;
-  std::condition_variable cv;
-  std::int64_t newest = 0;
-  std::function<void(WorldId, std::int64_t)> hook() {
-    return [this](WorldId, std::int64_t step) {
-      std::lock_guard lock(mutex);
-      if (step > newest) newest = step;
-      cv.notify_all();
-    };
-  }
-  void wait_past(std::int64_t step) {
-    std::unique_lock lock(mutex);
-    cv.wait(lock, [&] { return newest > step; });
-  }
-};
-
 // Given late: the worlds run on in the background, speculating, while a
 // reader holds frame 120 on screen; once some world has passed step 121,
 // the inputs of steps 120 on arrive (those behind it roll every world back).
 TEST(KinematicInputs, LateInputsUnderSpeculationRollBackToTheOneTerritoryHash) {
   for (int k : {2, 4}) {
-    Progress progress;
+    test::Progress progress;
     SimulationConfig config{.territories = k, .buffer_capacity = 64, .past_inputs = true};
     config.runtime.anticipation = 8;
     config.after_step = progress.hook();

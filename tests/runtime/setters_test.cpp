@@ -71,29 +71,6 @@ const Reference& reference() {
   return ref;
 }
 
-// The newest scene step any world has finished; the render thread waits on
-// it (a condition variable, never a clock).
-struct Progress {
-  std::mutex mutex;
-  std::condition_variable cv;
-  std::int64_t newest = 0;
-  std::function<void(WorldId, std::int64_t)> hook() {
-    return [this](WorldId, std::int64_t step) {
-      std::lock_guard lock(mutex);
-      if (step > newest) newest = step;
-      cv.notify_all();
-    };
-  }
-  void wait_past(std::int64_t step) {
-    std::unique_lock lock(mutex);
-    cv.wait(lock, [&] { return newest > step; });
-  }
-  void rolled_back_to(std::int64_t step) {
-    std::lock_guard lock(mutex);
-    newest = step;
-  }
-};
-
 // territories, anticipation
 class Setters : public ::testing::TestWithParam<std::tuple<int, int>> {};
 
@@ -103,7 +80,7 @@ TEST_P(Setters, EveryFrameAndTheHashEqualOneTerritory) {
   const Reference& ref = reference();
   const std::vector<UserInput> plan = test::setter_plan(s);
 
-  Progress progress;
+  test::Progress progress;
   SimulationConfig config{.territories = territories, .buffer_capacity = 16, .past_inputs = true};
   config.runtime.anticipation = anticipation;
   config.after_step = progress.hook();

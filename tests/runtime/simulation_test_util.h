@@ -107,6 +107,31 @@ inline std::optional<Vec3> far_spawn_point(const Scene& s) {
   return Vec3(far->position.x(), top + 2.0, far->position.z());
 }
 
+/// The newest scene step any world has finished (re-runs included), for a
+/// test's thread to wait on with a condition variable, never a clock: pass
+/// hook() as SimulationConfig::after_step.
+struct Progress {
+  std::mutex mutex;
+  std::condition_variable cv;
+  std::int64_t newest = 0;
+  std::function<void(WorldId, std::int64_t)> hook() {
+    return [this](WorldId, std::int64_t step) {
+      std::lock_guard lock(mutex);
+      if (step > newest) newest = step;
+      cv.notify_all();
+    };
+  }
+  void wait_past(std::int64_t step) {
+    std::unique_lock lock(mutex);
+    cv.wait(lock, [&] { return newest > step; });
+  }
+  /// After an input at `step` every world goes back to it: count from there.
+  void rolled_back_to(std::int64_t step) {
+    std::lock_guard lock(mutex);
+    newest = step;
+  }
+};
+
 /// Late spawn: the step the body was added at (-1: never) and the lead over
 /// the commit horizon the far world had then.
 struct Spawned {
