@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <string>
 
+#include "soda/scene/kinematic_command.h"
 #include "soda/worlds/bullet_bodies.h"
 #include "territory_world_parts.h"
 #include "watchdog_scan.h"
@@ -181,13 +182,7 @@ void TerritoryWorld::set_gravity(const Vec3& gravity) {
 bool TerritoryWorld::command_kinematic(BodyId id, const KinematicCommand& command) {
   auto it = entries_.find(id);
   if (it == entries_.end() || !it->second->description.kinematic) return false;
-  std::vector<KinematicCommand>& cs = it->second->description.commands;
-  auto at = std::lower_bound(cs.begin(), cs.end(), command.step,
-                             [](const KinematicCommand& x, std::int64_t step) { return x.step < step; });
-  if (at != cs.end() && at->step == command.step)
-    *at = command;
-  else
-    cs.insert(at, command);
+  record_kinematic_command(it->second->description.commands, command);
   quiet_ = -1;
   return true;
 }

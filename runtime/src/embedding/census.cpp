@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "soda/scene/kinematic_command.h"
 #include "soda/worlds/bullet_bodies.h"
 
 namespace soda {
@@ -49,15 +50,7 @@ void Census::record(const UserInput& in) {
   } else if (in.kind == UserInput::Kind::SetPose || in.kind == UserInput::Kind::SetKinematicTarget) {
     auto it = kinematic_.find(in.id);
     if (it == kinematic_.end()) return;  // a dynamic body's set_pose: in its owner's frames
-    // As TerritoryWorld::command_kinematic records it: one command per step.
-    const KinematicCommand c{in.step, in.kind == UserInput::Kind::SetPose, Pose{in.linear, in.orientation}};
-    std::vector<KinematicCommand>& cs = it->second.commands;
-    auto at = std::lower_bound(cs.begin(), cs.end(), c.step,
-                               [](const KinematicCommand& x, std::int64_t step) { return x.step < step; });
-    if (at != cs.end() && at->step == c.step)
-      *at = c;
-    else
-      cs.insert(at, c);
+    record_kinematic_command(it->second.commands, kinematic_command(in));  // as every world does
   }
 }
 

@@ -13,6 +13,7 @@
 #include "embedding/run_control.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/scene_reader.h"
+#include "soda/scene/kinematic_command.h"
 #include "execution/transport_bytes.h"
 
 namespace soda {
@@ -71,11 +72,11 @@ void PartitionedWorld::Process::apply_inputs() {
       case UserInput::Kind::SetRestitution: s_.world->set_restitution(in.id, in.value); break;
       case UserInput::Kind::SetUserData: s_.world->set_user_data(in.id, in.user_data); break;
       case UserInput::Kind::SetPose:  // a kinematic body: every world; a dynamic one: its owner
-        if (!s_.world->command_kinematic(in.id, KinematicCommand{in.step, true, Pose{in.linear, in.orientation}}))
+        if (!s_.world->command_kinematic(in.id, kinematic_command(in)))
           s_.world->set_pose(in.id, Pose{in.linear, in.orientation});
         break;
       case UserInput::Kind::SetKinematicTarget:  // every world
-        s_.world->command_kinematic(in.id, KinematicCommand{in.step, false, Pose{in.linear, in.orientation}});
+        s_.world->command_kinematic(in.id, kinematic_command(in));
         break;
     }
   }
