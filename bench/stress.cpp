@@ -1,6 +1,7 @@
 // The stress suite (stress.h). Pass criteria: docs/stress.md.
 #include "soda/bench/stress.h"
 #include "soda/bench/csv.h"
+#include "soda/bench/stress_joints.h"
 
 #include <algorithm>
 #include <cmath>
@@ -297,6 +298,7 @@ std::vector<StressCase> stress_suite(bool quick) {
   for (int d : {1000, 10000, 100000})
     s.push_back({"far-origin-1e" + std::to_string(static_cast<int>(std::lround(std::log10(d)))), "far-origin",
                  "far-origin", d, 1200, WorldKind::Canonical, false, true, far_text});
+  add_joint_stress_cases(s, quick);
   s.push_back({"dense-pile-" + std::to_string(quick ? 200 : 1000), "dense-pile", "dense-pile", quick ? 200 : 1000,
                quick ? 60 : 600, WorldKind::Canonical, false, false,
                "contained and stable: every cube stays in the bin (|x|, |z| < 2 m, centre above the ground), max "
@@ -399,12 +401,17 @@ StressResult run_stress_case(const StressCase& c) {
     const Scene scene = case_scene(c, c.scene, c.n);
     r.c.dt = scene.settings.dt;  // report the settings used
     r.c.iterations = scene.settings.iterations;
+    r.c.substeps = scene.settings.substeps;
     if (c.group == "bullet-border") {
       run_bullet_border(r, scene, c);
       return r;
     }
     if (c.group == "heavy-slide") {
       run_heavy_slide(r, scene, c);
+      return r;
+    }
+    if (is_joint_stress_group(c.group)) {
+      run_joint_stress_case(r, scene, c);
       return r;
     }
     const Observed o = run_case_world(scene, c);
@@ -566,7 +573,7 @@ nlohmann::json stress_json(const StressResult& r) {
           {"measured", r.measured},  {"metric", std::isfinite(r.metric) ? nlohmann::json(r.metric) : nlohmann::json()},
           {"threshold", r.threshold}, {"steps_run", r.steps_run},  {"wall_seconds", r.wall_seconds},
           {"sleeping", r.sleeping},  {"state_hash", r.state_hash}, {"dt", r.c.dt},
-          {"iterations", r.c.iterations}};
+          {"iterations", r.c.iterations}, {"substeps", r.c.substeps}};
 }
 
 StressResult stress_from_json(const nlohmann::json& j) {
@@ -591,6 +598,7 @@ StressResult stress_from_json(const nlohmann::json& j) {
   r.state_hash = j.at("state_hash");
   r.c.dt = j.at("dt");
   r.c.iterations = j.at("iterations");
+  r.c.substeps = j.value("substeps", 0);
   return r;
 }
 
@@ -633,7 +641,8 @@ std::string stress_markdown(const std::vector<StressResult>& results) {
     std::string world = world_kind_name(r.c.world);
     if (r.c.ccd) world += " + CCD";
     if (r.c.world == WorldKind::Stock) world += " (comparison)";
-    const std::string dt = r.c.dt > 0 ? "1/" + fmt("%.0f", 1.0 / r.c.dt) : "?";
+    std::string dt = r.c.dt > 0 ? "1/" + fmt("%.0f", 1.0 / r.c.dt) : "?";
+    if (r.c.substeps > 1) dt += " (" + std::to_string(r.c.substeps) + " substeps)";
     s << "| " << r.c.name << " | " << world << " | " << r.precision << " | " << dt << " x " << r.c.iterations
       << " | " << r.steps_run << " | "
       << (r.status == "pass" ? "pass" : "**" + r.status + "**") << " | " << cell(r.measured) << " | "

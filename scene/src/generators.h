@@ -66,6 +66,9 @@ Scene make_idle_territories(const SceneParams& params);
 Scene make_pendulums(const SceneParams& params);
 Scene make_chain_bridge(const SceneParams& params);
 Scene make_ragdolls(const SceneParams& params);
+Scene make_hanging_chain(const SceneParams& params);
+Scene make_heavy_chain(const SceneParams& params);
+Scene make_motor_hinge(const SceneParams& params);
 
 // stress_scenes.cpp: numerical stability (stress) and closed-form answers
 // (analytic).

@@ -1,5 +1,6 @@
 // Scenes with joints (docs/scenes.md, "Joint scenes"): pendulums,
-// chain-bridge, ragdolls. Every joint is given by a pivot and a frame in the
+// chain-bridge, ragdolls, and the joint stress scenes heavy-chain and
+// motor-hinge. Every joint is given by a pivot and a frame in the
 // world at the bodies' start poses (joint_at below), so that its two local
 // frames agree exactly where the scene begins.
 #include <algorithm>
@@ -51,6 +52,24 @@ Body capsule(BodyId id, double radius, double height, double mass, const Vec3& p
   b.position = position;
   b.orientation = orientation;
   return b;
+}
+
+// A chain of `links` boxes (0.5 x 0.1 x 0.1 m, 1 kg) joined end to end by
+// point-to-point joints, hanging straight down from a static anchor whose
+// bottom face is `height` m up; the pivots are 0.5 m apart. Returns the last
+// link's id (next id: + 1).
+BodyId hanging_links(Scene& scene, int links, double height) {
+  constexpr double kLink = 0.5;
+  const BodyId anchor = 1;
+  scene.bodies.push_back(static_box(anchor, Vec3(0.1, 0.1, 0.1), Vec3(0.0, height + 0.1, 0.0)));
+  BodyId previous = anchor;
+  for (int i = 0; i < links; ++i) {
+    const BodyId id = previous + 1;
+    scene.bodies.push_back(dynamic_box(id, Vec3(0.05, 0.5 * kLink, 0.05), 1.0, Vec3(0.0, height - kLink * (i + 0.5), 0.0)));
+    joint_at(scene, JointKind::PointToPoint, previous, id, Vec3(0.0, height - kLink * i, 0.0));
+    previous = id;
+  }
+  return previous;
 }
 
 }  // namespace
@@ -172,6 +191,70 @@ Scene make_ragdolls(const SceneParams& params) {
       elbow.limited = true;
       elbow.lower = s == 0 ? -kPi / 2 : 0.0, elbow.upper = s == 0 ? 0.0 : kPi / 2;
     }
+  }
+  return scene;
+}
+
+// N links (default 100, N <= 1000) of hanging_links from an anchor 0.5 N + 2 m
+// up, at rest, the lowest link pushed along +x at 2 m/s: the chain sways.
+Scene make_hanging_chain(const SceneParams& params) {
+  Scene scene;
+  scene.name = "hanging-chain";
+  scene.seed = params.seed;
+  const int n = count_or_default(params, 100, 1000);
+  scene.bodies.push_back(flat_ground(0.5 * n + kGroundMargin, 0.5));
+  const BodyId last = hanging_links(scene, n, 0.5 * n + 2.0);
+  for (Body& b : scene.bodies)
+    if (b.id == last) b.linear_velocity = Vec3(2.0, 0.0, 0.0);
+  return scene;
+}
+
+// Ten links of hanging_links and a box of 0.5 m and N kg (default 100) joined
+// under the last (a mass ratio of N : 1 across that joint), at rest, the box
+// pushed along +x at 1 m/s: it sways on the chain.
+Scene make_heavy_chain(const SceneParams& params) {
+  Scene scene;
+  scene.name = "heavy-chain";
+  scene.seed = params.seed;
+  const int mass = magnitude_or_default(params, 100);
+  constexpr int kLinks = 10;
+  const double height = 0.5 * kLinks + 0.5 + 2.0;
+  scene.bodies.push_back(flat_ground(0.5 * kLinks + kGroundMargin, 0.5));
+  const BodyId last = hanging_links(scene, kLinks, height);
+  const double bottom = height - 0.5 * kLinks;
+  Body box = dynamic_box(last + 1, Vec3::Constant(0.25), mass, Vec3(0.0, bottom - 0.25, 0.0));
+  box.linear_velocity = Vec3(1.0, 0.0, 0.0);
+  scene.bodies.push_back(box);
+  joint_at(scene, JointKind::PointToPoint, last, box.id, Vec3(0.0, bottom, 0.0));
+  return scene;
+}
+
+// Two arms (boxes 1 x 0.1 x 0.1 m, 1 kg) hinged at one end about z to static
+// posts 3 m up, 1 m apart along z, held out along +x, each driven by its
+// hinge's motor (max impulse 1 N m s a step: at 1/60 s twelve times what
+// holding the arm against gravity takes). The first hinge is free, its
+// motor's target N rad/s (default 2): the arm turns round and round at that
+// speed. The second is limited to [-pi/2, 0], its motor's target -1 rad/s:
+// it lifts its arm to the vertical, the lower limit, and holds it there
+// (Bullet's hinge angle, btHingeConstraint::getHingeAngle, is the rotation
+// of body b's frame about frame a's z axis, clockwise positive).
+Scene make_motor_hinge(const SceneParams& params) {
+  Scene scene;
+  scene.name = "motor-hinge";
+  scene.seed = params.seed;
+  const int speed = magnitude_or_default(params, 2);
+  constexpr double kHeight = 3.0;
+  scene.bodies.push_back(flat_ground(1.0 + kGroundMargin, 0.5));
+  for (int k = 0; k < 2; ++k) {
+    const double z = k;
+    const BodyId post = static_cast<BodyId>(1 + 2 * k), arm = post + 1;
+    scene.bodies.push_back(static_box(post, Vec3(0.05, 0.05, 0.05), Vec3(-0.1, kHeight, z)));
+    scene.bodies.push_back(dynamic_box(arm, Vec3(0.5, 0.05, 0.05), 1.0, Vec3(0.5, kHeight, z)));
+    Joint& hinge = joint_at(scene, JointKind::Hinge, post, arm, Vec3(0.0, kHeight, z));
+    hinge.motor = true;
+    hinge.motor_max_impulse = 1.0;
+    hinge.motor_velocity = k == 0 ? speed : -1.0;
+    if (k == 1) hinge.limited = true, hinge.lower = -kPi / 2, hinge.upper = 0.0;
   }
   return scene;
 }

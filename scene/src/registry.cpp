@@ -99,6 +99,19 @@ const std::vector<SceneGenerator>& scene_registry() {
        "N ragdolls (default 16) of 11 capsules each, joined by cone-twist (neck, shoulders, hips) and hinge "
        "(waist, elbows, knees) joints, standing in columns 2 m apart and layers 2 m apart, falling into a pile",
        detail::make_ragdolls},
+      {"hanging-chain",
+       "N links (default 100, N <= 1000; boxes 0.1 x 0.5 x 0.1 m, 1 kg) joined by point-to-point joints, hanging "
+       "straight down from a static anchor, the lowest pushed sideways at 2 m/s: the chain sways",
+       detail::make_hanging_chain},
+      {"heavy-chain",
+       "a box of 0.5 m and N kg (default 100) under a chain of 10 links (boxes 0.1 x 0.5 x 0.1 m, 1 kg) joined by "
+       "point-to-point joints, hanging from a static anchor, the box pushed sideways at 1 m/s: a mass ratio of "
+       "N : 1 across a joint",
+       detail::make_heavy_chain},
+      {"motor-hinge",
+       "two arms (1 x 0.1 x 0.1 m, 1 kg) hinged at one end to static posts and driven by hinge motors: the first "
+       "free at N rad/s (default 2), the second limited to [-pi/2, 0] at -1 rad/s, lifted to the vertical and held",
+       detail::make_motor_hinge},
       // Stress scenes (numerical stability).
       {"tower", "N unit boxes (default 10, N <= 100) stacked exactly resting on the origin",
        detail::make_tower},

@@ -60,7 +60,7 @@ TEST(JointJson, AGoodJointParses) {
 }
 
 TEST(JointJson, RegistryJointScenesRoundTrip) {
-  for (const char* name : {"pendulums", "chain-bridge", "ragdolls"}) {
+  for (const char* name : {"pendulums", "chain-bridge", "ragdolls", "hanging-chain", "heavy-chain", "motor-hinge"}) {
     const Scene scene = make_scene(name, SceneParams{3, 7, false});
     ASSERT_FALSE(scene.joints.empty()) << name;
     const std::string text = scene_to_json(scene);

@@ -32,6 +32,7 @@ struct StressCase {
   int substeps = 0;       // > 0: override the scene's substeps
   std::string variant{};  // diagnosis: solver_variant.h (canonical world only)
   int solver_threads = 1; // > 1: the canonical world's coloured solve on a pool (results never depend on it)
+  double bound = 0;       // > 0: replaces the case's main pass bound (the joint cases; tests show a case can fail)
 };
 
 /// The case with dt and iterations overridden (0: unchanged); steps are
