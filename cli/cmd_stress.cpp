@@ -150,14 +150,15 @@ int run_stress(StressOptions& o) {
 Command add_stress_command(CLI::App& app) {
   auto o = std::make_shared<StressOptions>();
   CLI::App* cmd = app.add_subcommand("stress", "Numerical-stability suite: towers, pyramids, mass ratios, "
-                                               "bullet vs wall, far origin, dense pile, long run");
+                                               "bullet vs wall, far origin, joints (chains, a ragdoll pile, motors), "
+                                               "dense pile, long run");
   cmd->add_option("--cases", o->cases, "Cases or groups to run (default: all), e.g. tower-20,far-origin")
       ->delimiter(',');
   cmd->add_flag("--quick", o->quick, "Short versions of the cases whose criterion holds over a shorter run (far-origin keeps its 20 s: "
               "settling is its criterion)");
   cmd->add_option("--dt", o->dt, "Override every scene's step (1/120 or seconds); steps scale to the same time");
   cmd->add_option("--iterations", o->iterations, "Override every scene's solver iterations");
-  cmd->add_option("--substeps", o->substeps, "Override every scene's substeps per step");
+  cmd->add_option("--substeps", o->substeps, "Override every case's substeps per step (the joint chains run 4)");
   cmd->add_option("--variant", o->variant,
                   "Diagnosis: solver settings to change, e.g. ws=1,erp2=0.8,nosleep (bench/include/soda/bench/"
                   "solver_variant.h)");
