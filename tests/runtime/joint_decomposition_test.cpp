@@ -3,13 +3,14 @@
 // chain bridge with boxes dropped on it, ragdolls falling into a pile) and
 // pendulums whose joints break end with the one-world hash for K = 1, 2, 4,
 // 8 territories, speculating (anticipation 8), under SyncTest and with
-// parking on and off. One territory world gives the canonical world's hash;
+// parking on and off; hinge motors turning arms across a border do too. One territory world gives the canonical world's hash;
 // a joint group has one owner, its joints travel in the fragments of
 // border islands and with migrants, and break where their island is solved.
 #include <gtest/gtest.h>
 
 #include <cstdio>
 #include <string>
+#include <utility>
 
 #include "runtime/partitioned_test_util.h"
 #include "soda/worlds/canonical_world.h"
@@ -128,6 +129,33 @@ TEST(JointDecomposition, SnapshotsHoldEveryJointOnce) {
   }
   EXPECT_GT(broken, 0u);
   EXPECT_EQ(hash_hex(four.state_hash()), hash_hex(one.state_hash()));
+}
+
+// Hinge motors across a border: motor-hinge on grid:2x1x1, whose border
+// x = 0 runs through both hinges. The free arm, turned by its motor, crosses
+// it every half turn (its owner changes), the limited arm is lifted onto it
+// and held against its limit there. Lockstep, speculating and under SyncTest:
+// the one world's hash.
+TEST(JointDecomposition, MotorsTurnArmsAcrossABorder) {
+  const Scene s = test::scene("motor-hinge", 0);
+  constexpr int kSteps = 300;  // 5 s: the free arm turns 10 rad
+  CanonicalWorld one(s);
+  for (int i = 0; i < kSteps; ++i) one.step();
+  const TerritoryMap map = make_partition("grid:2x1x1", s, 2, GridOptions{});
+  for (const auto& [anticipation, sync_test] : {std::pair{0, 0}, std::pair{8, 0}, std::pair{0, 2}}) {
+    PartitionedOptions o;
+    o.runtime.anticipation = anticipation;
+    o.runtime.validate = true;
+    o.sync_test = sync_test;
+    PartitionedWorld w(s, map, o);
+    w.step(kSteps);
+    const WorldMetrics t = test::total(w.metrics());
+    std::printf("[ motor-hinge, grid:2x1x1, anticipation %d, sync-test %d ] %s; %s, one world %s\n", anticipation,
+                sync_test, test::summary(t).c_str(), hash_hex(w.state_hash()).c_str(),
+                hash_hex(one.state_hash()).c_str());
+    EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(one.state_hash()));
+    EXPECT_GT(t.migrations_out, 0u);  // the free arm changes owner as it turns
+  }
 }
 
 }  // namespace
