@@ -101,7 +101,7 @@ TEST_F(CliCheckpoint, BadFilesAndOptionsAreBadInput) {
   std::string v9 = bytes;
   v9[8] = 9;
   const std::string version = write("v9.ckpt", v9);
-  expect_refused("run --resume " + version, "format version 9; this build reads versions 1 to 7");
+  expect_refused("run --resume " + version, "format version 9; this build reads versions 1 to 8");
   const std::string scene_file = write("scene.json", R"({"format": "soda-scene", "version": 1, "bodies": []})");
   expect_refused("run --resume " + scene_file, "not a SODA checkpoint");
   expect_refused("run --resume " + (dir_ / "missing.ckpt").string(), "cannot open");

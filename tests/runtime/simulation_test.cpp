@@ -181,26 +181,3 @@ TEST(Simulation, BadConfigIsRejected) {
 
 }  // namespace
 }  // namespace soda
-
-namespace soda {
-namespace {
-
-// A Simulation does not take joints yet (its inputs, readers and
-// checkpoints are not built for them; territory worlds are): a Simulation
-// over a scene with joints is refused by name before anything runs, for
-// any K (docs/scene-format.md, "Joints").
-TEST(SimulationJoints, ASceneWithJointsIsRefusedByName) {
-  const Scene s = make_scene("pendulums", SceneParams{2, 1, false});
-  ASSERT_FALSE(s.joints.empty());
-  for (int k : {1, 2}) {
-    try {
-      Simulation sim(s, SimulationConfig{.territories = k});
-      ADD_FAILURE() << "K = " << k << ": a Simulation took a scene with joints";
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find("a Simulation does not take joints yet"), std::string::npos) << e.what();
-    }
-  }
-}
-
-}  // namespace
-}  // namespace soda

@@ -119,6 +119,40 @@ void TerritoryWorld::hold_joint(const Joint& joint, bool broken) {
   quiet_ = -1;
 }
 
+// A body removed by input takes its joints with it, broken or not, before
+// it leaves the Bullet world (a constraint must not outlive its bodies).
+// What is left of its joint group falls apart into the groups its remaining
+// joints connect, each anchored by its own smallest id; the group's owner
+// holds them all. A group whose new anchor's home cell belongs to another
+// world migrates there, whole, at the end of the next step (as a body moved
+// by set_pose does): one world alone holds each group throughout, so the
+// step is the one world's.
+void TerritoryWorld::drop_joints_of(BodyId id) {
+  auto own = anchor_.find(id);
+  if (own == anchor_.end()) return;
+  const BodyId old_anchor = own->second;
+  std::vector<const Joint*> kept;  // the group's other joints
+  for (auto it = joints_.begin(); it != joints_.end();) {
+    const Joint& j = it->second->description;
+    if (j.body_a != id && j.body_b != id) {
+      const auto a = anchor_.find(j.body_a), b = anchor_.find(j.body_b);
+      if ((a != anchor_.end() && a->second == old_anchor) || (b != anchor_.end() && b->second == old_anchor))
+        kept.push_back(&j);
+      ++it;
+      continue;
+    }
+    parts_->world.removeConstraint(it->second->constraint.get());
+    for (BodyId body : {j.body_a, j.body_b})
+      if (Entry& e = *entries_.at(body); e.role == Role::Owned) --e.joints;
+    it = joints_.erase(it);
+  }
+  for (auto it = anchor_.begin(); it != anchor_.end();)
+    it = it->second == old_anchor ? anchor_.erase(it) : std::next(it);
+  for (const auto& [body, anchor] : joint_anchors(kept, [&](BodyId b) { return entries_.at(b)->role == Role::Static; }))
+    anchor_.emplace(body, anchor);
+  quiet_ = -1;
+}
+
 std::size_t TerritoryWorld::broken_joint_count() const {
   std::size_t n = 0;
   for (const auto& [id, j] : joints_) n += j->constraint->isEnabled() ? 0 : 1;

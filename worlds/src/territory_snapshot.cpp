@@ -257,10 +257,8 @@ bool TerritoryWorld::add_body(const Body& body) {
 
 bool TerritoryWorld::remove_body(BodyId id) {
   if (!owns(id)) return false;
-  if (entries_.at(id)->joints > 0 || anchor_.count(id))
-    throw std::invalid_argument("body " + std::to_string(id) +
-                                " has joints: a jointed body cannot be removed from a running scene");
   unpark_for_input(*entries_.at(id));
+  drop_joints_of(id);
   for (auto it = kept_.begin(); it != kept_.end();)
     it = (it->first.first == id || it->first.second == id) ? kept_.erase(it) : std::next(it);
   remove_entry(id);

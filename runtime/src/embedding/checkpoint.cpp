@@ -5,7 +5,7 @@
 //            u32 bodies, u32 manifolds, u32 inputs, u32 retired ids,
 //            u64 body length L                                  (48 bytes)
 //   body     settings, body records, manifold records, input records,
-//            retired ids                                        (L bytes)
+//            retired ids, from version 8 joints                 (L bytes)
 //   trailer  u64 FNV-1a of the 48 + L bytes before it
 // The first 16 bytes (magic, version, precision) keep their place in every
 // version, so that any version is recognised and refused by name.
@@ -56,6 +56,10 @@ constexpr std::uint32_t kSettersVersion = 4;
 // The first version with kinematic bodies (body records of type 2, their
 // commands) and the pose inputs (an orientation in every input record).
 constexpr std::uint32_t kKinematicVersion = 7;
+
+// The first version with joints (a joint count and joint records after the
+// retired ids).
+constexpr std::uint32_t kJointsVersion = 8;
 
 // The newest input kind a version knows.
 UserInput::Kind last_kind(std::uint32_t version) {
@@ -189,6 +193,10 @@ std::vector<std::uint8_t> encode_checkpoint(const SimulationSnapshot& snapshot, 
     if (in.kind > last_kind(version) ||
         (in.kind == UserInput::Kind::AddBody && !body_format_loss(in.body, format).empty()))
       throw CheckpointError(cannot + "the input to " + describe(in));
+  if (version < kJointsVersion && !s.joints.empty())
+    throw CheckpointError(cannot + "joint " + std::to_string(s.joints.front().description.id) + " (" +
+                          std::to_string(s.joints.size()) + " joints; joints from version " +
+                          std::to_string(kJointsVersion) + ")");
   ByteWriter w;
   write_header(w, kCheckpointMagic, version);
   w.put(s.steps_done);
@@ -204,6 +212,10 @@ std::vector<std::uint8_t> encode_checkpoint(const SimulationSnapshot& snapshot, 
   for (const ManifoldState& m : s.manifolds) write_manifold(w, m);
   for (const UserInput& in : snapshot.inputs) write_input(w, in, version);
   for (BodyId id : snapshot.retired_ids) w.put(id);
+  if (version >= kJointsVersion) {
+    w.count(s.joints.size());
+    for (const JointSnapshot& j : s.joints) write_joint(w, j);
+  }
   const std::uint64_t length = w.bytes.size() - kHeaderBytes;
   std::memcpy(w.bytes.data() + 40, &length, sizeof length);
   w.put(fnv1a(w.bytes.data(), w.bytes.size()));
@@ -259,6 +271,18 @@ SimulationSnapshot decode_checkpoint(const std::vector<std::uint8_t>& bytes, con
     if (id > kMaxBodyId) r.fail("a retired id above kMaxBodyId");
     if (!out.retired_ids.empty() && id <= out.retired_ids.back()) r.fail("retired ids not ascending");
     out.retired_ids.push_back(id);
+  }
+  if (h.version >= kJointsVersion) {
+    const std::uint32_t joints = r.count(kMinJointBytes);
+    for (std::uint32_t i = 0; i < joints; ++i) {
+      JointSnapshot j = read_joint(r);
+      if (!has_body(j.description.body_a) || !has_body(j.description.body_b) ||
+          j.description.body_a == j.description.body_b)
+        r.fail("joint " + std::to_string(j.description.id) + " naming a body not in the checkpoint");
+      if (!s.joints.empty() && !(s.joints.back().description.id < j.description.id))
+        r.fail("joints not sorted by id or a duplicate id");
+      s.joints.push_back(std::move(j));
+    }
   }
   r.get<std::uint64_t>();  // the checksum, checked above
   if (!r.done()) r.fail("bytes left after the last field");

@@ -19,17 +19,7 @@ SimulationError::SimulationError(WorldId world, const std::string& message, std:
 
 namespace {
 
-// Joints run in territory worlds (PartitionedWorld), but a Simulation's
-// inputs, readers and checkpoints are not yet built for them.
-void refuse_joints(std::size_t joints) {
-  if (joints != 0)
-    throw std::invalid_argument("Simulation: the scene has " + std::to_string(joints) +
-                                " joints; a Simulation does not take joints yet (they run in soda run and "
-                                "PartitionedWorld: docs/scene-format.md, \"Joints\")");
-}
-
 TerritoryMap partition_for(const Scene& scene, const SimulationConfig& config) {
-  refuse_joints(scene.joints.size());
   if (config.territories < 1) throw std::invalid_argument("SimulationConfig: territories must be >= 1");
   return make_partition(config.partition, scene, config.territories, config.grid);
 }
@@ -40,8 +30,7 @@ Simulation::Simulation(const Scene& scene, SimulationConfig config)
     : Simulation(scene, partition_for(scene, config), config) {}
 
 Simulation::Simulation(const Scene& scene, TerritoryMap map, SimulationConfig config)
-    : engine_((refuse_joints(scene.joints.size()),
-               std::make_unique<SimulationEngine>(scene, std::move(map), std::move(config)))) {}
+    : engine_(std::make_unique<SimulationEngine>(scene, std::move(map), std::move(config))) {}
 
 namespace {
 
@@ -62,8 +51,7 @@ Simulation::Simulation(const SimulationSnapshot& snapshot, SimulationConfig conf
     : Simulation(snapshot, partition_for(scene_now(snapshot.state), config), config) {}
 
 Simulation::Simulation(const SimulationSnapshot& snapshot, TerritoryMap map, SimulationConfig config)
-    : engine_((refuse_joints(snapshot.state.joints.size()),
-               std::make_unique<SimulationEngine>(snapshot, std::move(map), std::move(config)))) {}
+    : engine_(std::make_unique<SimulationEngine>(snapshot, std::move(map), std::move(config))) {}
 
 Simulation Simulation::resume(const std::string& path, SimulationConfig config) {
   return Simulation(read_checkpoint(path), std::move(config));

@@ -257,8 +257,7 @@ class TerritoryWorld {
   BodyId key_body(BodyId id0, BodyId id1) const { return key_of(id0, id1); }
   /// Sleeping owned bodies.
   std::size_t sleeping_count() const;
-  /// Joints held here (those of the joint groups owned here), and how many
-  /// of them have broken.
+  /// Joints held here (of the groups owned here), and how many broke.
   std::size_t joint_count() const { return joints_.size(); }
   std::size_t broken_joint_count() const;
   /// This world's part of the scene's state at a step boundary (after
@@ -316,13 +315,13 @@ class TerritoryWorld {
   /// would) if the map gives its home cell to this world; true if it did.
   /// Throws PartitionError if the id is present here.
   bool add_body(const Body& body);
-  /// Input at a step boundary: removes an owned body with its contact state
-  /// (live manifolds and kept values of pairs it is the key of). False if
-  /// not owned here.
+  /// Input at a step boundary: removes an owned body with its joints (what
+  /// is left of its joint group regroups: territory_joints.cpp) and its
+  /// contact state (live manifolds and kept values of pairs it is the key
+  /// of). False if not owned here.
   bool remove_body(BodyId id);
 
-  // Internal types, defined in worlds/src/territory_world_parts.h.
-  struct Entry;
+  struct Entry;  // internal types: worlds/src/territory_world_parts.h
   struct Parts;
   struct Component;
   struct BorderLink;
@@ -360,6 +359,7 @@ class TerritoryWorld {
                                const std::vector<const BodyDynamicState*>& states,
                                const std::vector<JointSnapshot>& joints);
   void hold_joint(const Joint& joint, bool broken);
+  void drop_joints_of(BodyId id);  // remove_body: its joints go first
   /// Removes the joints of the leaving bodies from the Bullet world, into
   /// their destination's batch (before the bodies go).
   void export_joints(const std::map<BodyId, WorldId>& destination, std::map<WorldId, MigrantBatch>& out);
