@@ -49,6 +49,7 @@ build/consumer/trigger_zones
 build/consumer/snapshot_restore
 build/consumer/save_resume
 build/consumer/moving_platform
+build/consumer/ragdoll_pile
 # ThreadSanitizer cannot see inside Debian's (uninstrumented) Bullet; see
 # docs/bullet-globals.md for how its shared state is handled.
 cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSODA_SANITIZE=thread -DSODA_BUILD_DOUBLE=OFF
