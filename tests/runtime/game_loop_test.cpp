@@ -16,6 +16,7 @@
 #include <tuple>
 #include <vector>
 
+#include "driver/testing_hooks.h"
 #include "runtime/simulation_test_util.h"
 
 namespace soda {
@@ -90,11 +91,9 @@ std::vector<std::vector<ScenePose>> reference_frames(const Scene& s, const Plan&
   return frames;
 }
 
-// territories, anticipation, threads (0: one per world, 1: one for all, else a pool)
-class GameLoop : public ::testing::TestWithParam<std::tuple<int, int, int>> {};
-
-TEST_P(GameLoop, EveryFrameWhileBodiesComeAndGoEqualsOneTerritory) {
-  const auto [territories, anticipation, threads] = GetParam();
+// The render thread's run for K territories, anticipation, threads (0: one
+// per world, 1: one for all, else a pool) and the fuzzer's seed (0: off).
+void expect_game_loop_equals_one_territory(int territories, int anticipation, int threads, std::uint64_t fuzz_seed) {
   const Scene s = test::scene("falling-cubes", 100);
   const Plan plan = make_plan(s);
   static const std::vector<std::vector<ScenePose>> ref = reference_frames(s, plan);
@@ -103,6 +102,7 @@ TEST_P(GameLoop, EveryFrameWhileBodiesComeAndGoEqualsOneTerritory) {
   SimulationConfig config{.territories = territories, .threads = threads, .buffer_capacity = 16, .past_inputs = true};
   config.runtime.anticipation = anticipation;
   config.after_step = progress.hook();
+  if (fuzz_seed != 0) detail::edit_testing_hooks(config).fuzz_seed = fuzz_seed;
   Simulation sim(s, config);
   SceneReader reader = sim.add_reader();
   std::size_t at_frame = 0;
@@ -142,9 +142,10 @@ TEST_P(GameLoop, EveryFrameWhileBodiesComeAndGoEqualsOneTerritory) {
   EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
   const std::uint64_t hash = sim.state_hash();
   sim.stop();
-  std::printf("[ falling-cubes 100, K %d, anticipation %d, threads %d ] %zu rollbacks for %zu inputs at the frame on "
-              "screen; bodies at frames 0/21/46/76/101: %zu/%zu/%zu/%zu/%zu; hash %s\n",
-              territories, anticipation, threads, static_cast<std::size_t>(sim.rollbacks()), at_frame, bodies.at(0),
+  std::printf("[ falling-cubes 100, K %d, anticipation %d, threads %d, fuzz %llu ] %zu rollbacks for %zu inputs at the "
+              "frame on screen; bodies at frames 0/21/46/76/101: %zu/%zu/%zu/%zu/%zu; hash %s\n",
+              territories, anticipation, threads, static_cast<unsigned long long>(fuzz_seed),
+              static_cast<std::size_t>(sim.rollbacks()), at_frame, bodies.at(0),
               bodies.at(21), bodies.at(46), bodies.at(76), bodies.at(101), hash_hex(hash).c_str());
   EXPECT_TRUE(bad.empty()) << bad.size() << " bad frames, the first: " << (bad.empty() ? "" : bad.front());
   EXPECT_EQ(sim.rollbacks(), at_frame);  // every input at the frame on screen was at a past step
@@ -152,6 +153,34 @@ TEST_P(GameLoop, EveryFrameWhileBodiesComeAndGoEqualsOneTerritory) {
   EXPECT_EQ(bodies.at(21), 101u);  // a added at 20
   EXPECT_EQ(bodies.at(101), 100u);  // +a +b +c -7 -a -11
 }
+
+// territories, anticipation, threads
+class GameLoop : public ::testing::TestWithParam<std::tuple<int, int, int>> {};
+
+TEST_P(GameLoop, EveryFrameWhileBodiesComeAndGoEqualsOneTerritory) {
+  const auto [territories, anticipation, threads] = GetParam();
+  expect_game_loop_equals_one_territory(territories, anticipation, threads, 0);
+}
+
+// The fuzzer pauses every world at random, also between taking a pending
+// rewind and reading its mailbox: a rollback for an input at the frame on
+// screen then lands while a world is inside its advance, and its
+// neighbours' first messages after it reach that world before it has taken
+// it (messages.h, "rewinds"). Lockstep, where every past input is such a
+// rewind; seeds, threads.
+class GameLoopFuzzed : public ::testing::TestWithParam<std::tuple<std::uint64_t, int>> {};
+
+TEST_P(GameLoopFuzzed, EveryFrameWhileWorldsPauseAtRandomEqualsOneTerritory) {
+  const auto [seed, threads] = GetParam();
+  expect_game_loop_equals_one_territory(4, 0, threads, seed);
+}
+
+INSTANTIATE_TEST_SUITE_P(Simulation, GameLoopFuzzed,
+                         ::testing::Combine(::testing::Values<std::uint64_t>(3, 11), ::testing::Values(0, 1, 2)),
+                         [](const auto& info) {
+                           return "seed" + std::to_string(std::get<0>(info.param)) + "_threads" +
+                                  std::to_string(std::get<1>(info.param));
+                         });
 
 INSTANTIATE_TEST_SUITE_P(Simulation, GameLoop,
                          ::testing::Values(std::tuple{1, 0, 0}, std::tuple{1, 8, 0}, std::tuple{4, 0, 0},

@@ -1,7 +1,8 @@
 // runtime/ — internal: the knobs of a PartitionedWorld that only tests set
-// (they include runtime/src). They ride in PartitionedOptions::testing, an
-// opaque handle the public header only declares, so the public options
-// carry no test-only field and an installed tree has no way to set them.
+// (they include runtime/src). They ride in PartitionedOptions::testing (and
+// SimulationConfig::testing), an opaque handle the public headers only
+// declare, so the public options carry no test-only field and an installed
+// tree has no way to set them.
 //
 //   soda::PartitionedOptions o;
 //   soda::detail::edit_testing_hooks(o).fuzz_seed = 7;
@@ -46,8 +47,10 @@ struct TestingHooks {
   bool verify_replay = false;
 };
 
-/// The hooks `options` carries (all off if none).
-inline const TestingHooks& testing_hooks_of(const PartitionedOptions& options) {
+/// The hooks `options` (PartitionedOptions or SimulationConfig) carries
+/// (all off if none).
+template <class Options>
+const TestingHooks& testing_hooks_of(const Options& options) {
   static const TestingHooks none;
   return options.testing ? *options.testing : none;
 }
@@ -55,7 +58,8 @@ inline const TestingHooks& testing_hooks_of(const PartitionedOptions& options) {
 /// The hooks of `options`, to set: a copy of what it carried, now its own
 /// (copies of `options` made before are not affected). The reference is
 /// valid while `options.testing` is not reassigned.
-inline TestingHooks& edit_testing_hooks(PartitionedOptions& options) {
+template <class Options>
+TestingHooks& edit_testing_hooks(Options& options) {
   auto hooks = std::make_shared<TestingHooks>(testing_hooks_of(options));
   options.testing = hooks;
   return *hooks;

@@ -17,8 +17,10 @@ RunControl::RunControl(int worlds, int substeps, std::int64_t start)
 bool RunControl::may_start(WorldId world, std::int64_t steps_done) {
   std::lock_guard lock(mutex_);
   const auto w = static_cast<std::size_t>(world);
+  // A world with a rewind pending takes it first (take_rewind): a step it
+  // began now would be one of the run the rewind undid.
   if (shut_down_ || steps_done >= limit_ || (hold_ >= 0 && steps_done >= hold_) ||
-      held_by_readers_locked(steps_done)) {
+      held_by_readers_locked(steps_done) || rewind_to_[w]) {
     if (parked_at_[w] != steps_done) {
       parked_at_[w] = steps_done;
       watch_cv_.notify_all();

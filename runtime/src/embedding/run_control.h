@@ -44,8 +44,8 @@ class RunControl {
   // --- step limit (internal steps) -----------------------------------------
 
   /// World thread, before it begins step steps_done + 1: true (and the start
-  /// is recorded) if steps_done < limit and the run is not shut down; false
-  /// otherwise (the world is parked at the limit).
+  /// is recorded) if steps_done < limit, the run is not shut down and no
+  /// rewind is pending for the world; false otherwise (the world is parked).
   bool may_start(WorldId world, std::int64_t steps_done);
   /// World thread with a thread of its own, parked at the limit: waits until
   /// the limit exceeds steps_done (true) or never will (frozen, shut down:
@@ -83,7 +83,8 @@ class RunControl {
   /// is woken.
   void rewind(std::int64_t internal_step, std::shared_ptr<const WorldSnapshot> state);
   /// World thread, at a step boundary: the state to rebuild from if a
-  /// rollback is pending for this world (once), else null.
+  /// rollback is pending for this world (once), else null. Until it takes
+  /// it, may_start refuses it every step.
   std::shared_ptr<const WorldSnapshot> take_rewind(WorldId world);
   /// Speculating, an input at boundary `internal_step` was posted as a
   /// rollback of every world (each takes it on its own thread): the

@@ -27,6 +27,7 @@ PartitionedOptions partitioned_options(const SimulationConfig& c, int k) {
   o.serialise = c.serialise;
   o.keep_states = c.past_inputs;
   o.runtime = c.runtime;
+  o.testing = c.testing;
   if (c.runtime.watchdog.response == WatchdogResponse::Heal)
     throw std::invalid_argument("SimulationConfig: watchdog heal is not supported by a Simulation (off or stop)");
   if (c.runtime.balance.policy != "none")

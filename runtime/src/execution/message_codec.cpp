@@ -12,9 +12,9 @@ namespace soda {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'M', 'S', 'G', '1'};
-constexpr std::uint32_t kVersion = 8;  // 2: epoch, Control; 3: a fragment's weight; 4: collision filters; 5: compound shapes;
+constexpr std::uint32_t kVersion = 9;  // 2: epoch, Control; 3: a fragment's weight; 4: collision filters; 5: compound shapes;
                                        // 6: a body's user data; 7: its sensor flag; 8: joints (fragments,
-                                       // island results, migrants)
+                                       // island results, migrants); 9: rewinds
 constexpr std::size_t kMinRecordBytes = kMinBodyBytes + 6 * sizeof(btScalar);
 
 [[noreturn]] void raise_message_error(const std::string& message) { throw MessageFormatError(message); }
@@ -297,14 +297,15 @@ std::string describe(const Message& m) {
     if (c->type != Control::Type::Wake) kind += "#" + std::to_string(c->seq) + "[" + std::to_string(c->rolled_to) + "]";
   }
   return kind + "(" + std::to_string(m.step) + ") " + std::to_string(m.from) + "->" + std::to_string(m.to) +
-         (m.epoch ? " epoch " + std::to_string(m.epoch) : "");
+         (m.epoch ? " epoch " + std::to_string(m.epoch) : "") +
+         (m.rewinds ? " rewind " + std::to_string(m.rewinds) : "");
 }
 
 std::vector<std::uint8_t> encode_message(const Message& m) {
   ByteWriter w;
   write_header(w, kMagic, kVersion);
   w.put(static_cast<std::uint8_t>(m.kind()));
-  w.put(m.from), w.put(m.to), w.put(m.step), w.put(m.epoch);
+  w.put(m.from), w.put(m.to), w.put(m.step), w.put(m.epoch), w.put(m.rewinds);
   std::visit([&w](const auto& payload) { write_payload(w, payload); }, m.payload);
   return std::move(w.bytes);
 }
@@ -329,6 +330,7 @@ Message decode_message(const std::vector<std::uint8_t>& bytes) {
   m.step = r.get<std::int64_t>();
   if (m.step < 0) r.fail("negative step");
   m.epoch = r.get<std::uint32_t>();
+  m.rewinds = r.get<std::uint32_t>();
   switch (kind) {
     case static_cast<std::uint8_t>(MessageKind::Ghosts): m.payload = read_ghosts(r); break;
     case static_cast<std::uint8_t>(MessageKind::Glue): m.payload = read_glue(r); break;

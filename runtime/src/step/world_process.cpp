@@ -42,18 +42,6 @@ PartitionedWorld::Process::Process(TerritoryWorld& world, Transport& transport, 
   if (safety_.keep_states || spec_->runs_ahead()) kept_.states().emplace(s_.step, world.part_snapshot());
 }
 
-// Going back in time from outside (docs/rollback.md): the step begins again
-// at the boundary; nothing of later steps stays.
-void PartitionedWorld::Process::rewind(TerritoryWorld& world, std::int64_t scene_step) {
-  s_.begin_again(world, scene_step * substeps_);
-  s_.inbox.clear();
-  s_.fragments.clear();
-  s_.next_publish = scene_step + 1;  // the buffer dropped the later entries
-  kept_.states().erase(kept_.states().upper_bound(s_.step), kept_.states().end());
-  spec_->reset(s_.step);
-  if (safety_.horizon) safety_.horizon->report(s_.world->id(), s_.step);
-}
-
 // Inputs at this boundary, in sequence order; each world applies those that
 // concern its territory (the owner of a body, the owner of a new body's home
 // cell), so that exactly one world applies each; a gravity change and a
@@ -82,11 +70,6 @@ void PartitionedWorld::Process::apply_inputs() {
   }
 }
 
-const WorldSnapshot* PartitionedWorld::Process::kept_state(std::int64_t scene_step) const {
-  auto it = kept_.states().find(scene_step * substeps_);
-  return it == kept_.states().end() ? nullptr : &it->second;
-}
-
 // After integrate, before anything of the step leaves the world: a bad state
 // never reaches a neighbour.
 void PartitionedWorld::Process::check_watchdog() {
@@ -109,6 +92,13 @@ void PartitionedWorld::Process::deliver(Message m) {
   if (!graph_.adjacent(s_.world->id(), m.from))
     throw PartitionError("world " + std::to_string(s_.world->id()) + " got " + describe(m) +
                          " from a world that is not a neighbour");
+  // Rewinds (messages.h): a message of a run this world has rewound is
+  // void; one sent after a rewind this world has not taken yet (its sender
+  // took it first) waits for it, and so does this world no longer.
+  if (m.rewinds < rewinds_) return;
+  if (m.rewinds > rewinds_ && !take_rewind())
+    throw std::logic_error("world " + std::to_string(s_.world->id()) + " got " + describe(m) + " after " +
+                           std::to_string(rewinds_) + " rewinds, with none pending");
   Verdict screened = spec_->screen(m);
   const bool drop = screened.drop;
   apply(std::move(screened));
@@ -132,11 +122,10 @@ PartitionedWorld::Process::Advance PartitionedWorld::Process::advance() {
   // A pending rollback first: the mailbox may already hold messages of the
   // re-run steps from neighbours that rewound before this world.
   apply(spec_->catch_up());
-  if (s_.phase == StepPhase::Predict && output_.rewind && output_.control)
-    if (std::shared_ptr<const WorldSnapshot> state = output_.control->take_rewind(s_.world->id())) {
-      StageClock::Scope rollback(clock_, Stage::Rollback);
-      output_.rewind(*state);
-    }
+  take_rewind();
+  // Fuzzing: a rewind may come now, and its first messages before this
+  // world's mailbox is read (deliver takes it then).
+  if (safety_.fuzz) fuzz_pause(*safety_.fuzz);
   Advance result;
   {
     // Opened at the first message: a call that finds none reads no clock.
@@ -201,6 +190,7 @@ void PartitionedWorld::Process::send(WorldId to, Message message) {
   message.to = to;
   message.step = s_.step;
   message.epoch = spec_->epoch();
+  message.rewinds = rewinds_;
   spec_->sent(message);
   ++sums_.messages_sent;
   const std::uint64_t bytes0 = thread_bytes_sent();

@@ -85,6 +85,8 @@ class PartitionedWorld::Process {
   /// it): the process goes on from `world`, rebuilt at scene step boundary
   /// `scene_step`, forgetting everything of later steps.
   void rewind(TerritoryWorld& world, std::int64_t scene_step);
+  /// Rewinds taken (messages.h: every message it sends carries the count).
+  std::uint32_t rewinds() const { return rewinds_; }
   const CommitHorizon* horizon() const { return safety_.horizon; }
 
   struct Advance {
@@ -168,6 +170,7 @@ class PartitionedWorld::Process {
   void edit_inbox(InboxEdit& e);
   void resend(Message m);
   void check_watchdog();
+  bool take_rewind();
   void apply_inputs();
   // Idle territories (docs/skip.md).
   bool fault_due() const;
@@ -201,6 +204,7 @@ class PartitionedWorld::Process {
   WorldMetrics sums_;
   StageClock clock_;                       // per-stage costs; its published() totals are the metrics
   std::vector<Message> held_;              // hold(): for the next advance()
+  std::uint32_t rewinds_ = 0;              // rewind() calls: stamped on every message sent
   std::int64_t step_start_cpu_ns_ = 0;     // clock_ total at the last step's end
   std::int64_t entry_cpu_mark_ns_ = 0;     // clock_ total when the last entry was made (busy_seconds)
   std::int64_t step_start_rollback_ns_ = 0;  // ... its rollback stage's

@@ -19,7 +19,10 @@
 //                 itself, when the commit horizon moved or every world must
 //                 roll back (rollback_board.h).
 // Every message carries the epoch of the rollbacks of every world its sender
-// had seen.
+// had seen, and the number of rewinds (a Simulation's lockstep rollback for
+// an input at a past step: every world goes back together) its sender had
+// taken: a world drops a message of a rewind it has gone past, and takes its
+// own pending rewind before a message of one it has not taken yet.
 #pragma once
 
 #include <cstdint>
@@ -74,6 +77,7 @@ struct Message {
   std::int64_t step = 0;  // the internal step the message belongs to
   std::variant<GhostBatch, GlueBatch, FragmentBatch, MigrantBatch, ResultBatch, GatherBatch, Control> payload;
   std::uint32_t epoch = 0;  // rollbacks of every world the sender had seen (rollback_board.h)
+  std::uint32_t rewinds = 0;  // rewinds the sender had taken (RunControl::rewind)
 
   MessageKind kind() const { return static_cast<MessageKind>(payload.index() + 1); }
 };

@@ -62,6 +62,10 @@
 #include "soda/worlds/body_state.h"
 #include "soda/worlds/world_snapshot.h"
 
+namespace soda::detail {
+struct TestingHooks;  // internal (runtime/src/driver/testing_hooks.h)
+}  // namespace soda::detail
+
 namespace soda {
 
 struct WorldMetrics;  // soda/runtime/world_metrics.h
@@ -122,6 +126,9 @@ struct SimulationConfig {
   /// "none": a Simulation's worlds run freely and are never all stopped at
   /// one step, where a cession is applied (docs/loadbalance.md).
   RuntimeOptions runtime = {};
+  /// Knobs only tests set (the fuzzer's pauses, ...), as
+  /// PartitionedOptions::testing. Leave empty.
+  std::shared_ptr<const detail::TestingHooks> testing = {};
 };
 
 /// A world failed. world(): the world whose thread threw (kNoWorld if no
