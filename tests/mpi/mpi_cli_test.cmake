@@ -1,7 +1,7 @@
 # `mpirun -np 2 soda run ... --territories K` prints the hash of the
 # threaded 1-territory run, writes the JSON (with its per-rank traffic) from
-# rank 0 only, gives it with speculation and SyncTest too, and refuses a
-# bad --ranks-worlds or --validate with exit 2.
+# rank 0 only, gives it with speculation and SyncTest too, also for a scene
+# with joints, and refuses a bad --ranks-worlds or --validate with exit 2.
 # Run by ctest: cmake -DSODA=... -DMPIEXEC=... -P mpi_cli_test.cmake
 set(scene --scene falling-cubes --n 120 --steps 60)
 
@@ -61,3 +61,21 @@ foreach(bad "--ranks-worlds;0,2,1" "--ranks-worlds;0,1" "--validate")
     message(FATAL_ERROR "${bad}: expected exit 2 with an error, got ${rc}:\n${out}\n${err}")
   endif()
 endforeach()
+
+# Joints over ranks: ragdolls whose joint groups cross territory borders.
+set(ragdolls --scene ragdolls --n 6 --steps 80)
+execute_process(COMMAND ${SODA} run ${ragdolls} --territories 1 OUTPUT_VARIABLE one RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "soda run ragdolls --territories 1 failed (${rc}):\n${one}")
+endif()
+hash_of(ragdolls_reference "${one}")
+execute_process(COMMAND ${MPIEXEC} --oversubscribe -np 2 ${SODA} run ${ragdolls} --territories 3 --anticipation 8
+                OUTPUT_VARIABLE text ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 120)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "mpirun -np 2 soda run ragdolls failed (${rc}):\n${text}\n${err}")
+endif()
+hash_of(ranked "${text}")
+if(NOT ranked STREQUAL ragdolls_reference)
+  message(FATAL_ERROR "ragdolls, 3 territories on 2 ranks: state_hash ${ranked}, one territory ${ragdolls_reference}")
+endif()
+message(STATUS "ragdolls 6: one territory ${ragdolls_reference}; 3 territories on 2 ranks, speculating: the same")

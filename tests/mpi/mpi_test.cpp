@@ -54,6 +54,9 @@ SpeculationSums expect_reference_hash(const Case& c, PartitionedOptions options 
   if (g_group->rank() != 0) return sums;
   EXPECT_EQ(bodies, s.bodies.size());
   const std::uint64_t reference = test::reference_hash(s, c.steps);
+  std::printf("[ %s %d, %s K %d on %d ranks, anticipation %d ] %s (one world %s)\n", c.scene.c_str(), c.n,
+              c.partition.c_str(), c.territories, g_group->size(), options.runtime.anticipation, hash_hex(hash).c_str(),
+              hash_hex(reference).c_str());
   EXPECT_EQ(hash, reference) << c.scene << " " << c.partition << " K=" << c.territories << " on "
                              << g_group->size() << " ranks: " << hash_hex(hash) << " vs one world "
                              << hash_hex(reference);
@@ -176,6 +179,22 @@ TEST(Mpi, SyncTestGivesTheOneWorldHash) {
   spec.sync_test = 3;
   expect_reference_hash({"cube-pile", 100, "kmeans", 4, 30}, spec);
   expect_reference_hash({"border-shuttle", 40, "grid:4x1x1", 4, 30}, spec);
+}
+
+// What an application's scene has beyond free convex bodies, over ranks:
+// level geometry (a heightfield, a triangle mesh, compound shapes), joints
+// (fragments and migrants carry them between ranks; a jointed group moves
+// whole) and kinematic bodies on scene paths; lockstep and speculating.
+TEST(Mpi, LevelGeometryJointsAndKinematicBodiesGiveTheOneWorldHash) {
+  for (const PartitionedOptions& o : {threads_per_world(), speculating()}) {
+    expect_reference_hash({"terrain", 40, "kmeans", 4, 60}, o);
+    expect_reference_hash({"city", 40, "kmeans", 4, 60}, o);
+    expect_reference_hash({"compounds", 30, "kmeans", 4, 60}, o);
+    expect_reference_hash({"pendulums", 8, "grid:2x1x1", 2, 80}, o);
+    expect_reference_hash({"chain-bridge", 12, "grid:4x1x1", 4, 80}, o);
+    expect_reference_hash({"ragdolls", 6, "kmeans", 4, 80}, o);
+    expect_reference_hash({"conveyor", 48, "kmeans", 4, 80}, o);
+  }
 }
 
 // A world that throws on one rank stops the run on every rank, each with the
