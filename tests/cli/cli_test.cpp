@@ -440,9 +440,9 @@ namespace {
 
 using namespace soda_cli_test;
 
-// Joints run in one world and in territory worlds, bit-identical; a scene
-// with joints is refused, by name, where joints are not built yet
-// (docs/scene-format.md, "Joints").
+// Joints run in one world and in territory worlds, bit-identical, with
+// inputs, recording and checkpoints; a scene with joints is refused, by
+// name, where joints are not built yet (docs/scene-format.md, "Joints").
 TEST_F(CliTest, JointScenesRunInEveryWorldAndAreRefusedElsewhere) {
   std::string first;
   for (const char* seed : {"0", "3"}) {
@@ -460,6 +460,28 @@ TEST_F(CliTest, JointScenesRunInEveryWorldAndAreRefusedElsewhere) {
     const Outcome o = run_cli(args);
     ASSERT_EQ(o.exit_code, 0) << args << "\n" << o.output;
     EXPECT_EQ(hash_of(o), hash_of(one)) << args;
+  }
+  // Inputs (a kick and the removal of a jointed plank, through a Simulation
+  // and, with --sync-test, through the PartitionedWorld), --record and a checkpoint
+  // resumed on other territory counts: the one-territory hash with the
+  // same inputs.
+  const std::string inputs = (dir_ / "bridge-inputs.json").string();
+  std::ofstream(inputs) << R"({"format": "soda-inputs", "version": 1, "inputs": [
+      {"type": "apply_impulse", "step": 20, "id": 3, "impulse": [0, 40, 0]},
+      {"type": "remove_body", "step": 35, "id": 5}]})";
+  const std::string with = "run --scene chain-bridge --n 8 --steps 60 --log-level warn --inputs " + inputs;
+  const Outcome plain = run_cli(with);
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  EXPECT_NE(hash_of(plain), hash_of(one));
+  const std::string ckpt = (dir_ / "bridge.ckpt").string(), replay = (dir_ / "bridge.replay").string();
+  for (const std::string& args :
+       {with + " --territories 2", with + " --territories 4 --anticipation 8", with + " --territories 2 --sync-test 2",
+        with + " --territories 2 --record " + replay, with + " --territories 2 --checkpoint-at 30 --checkpoint " + ckpt,
+        "run --resume " + ckpt + " --steps 60 --log-level warn --territories 4",
+        "run --resume " + ckpt + " --steps 60 --log-level warn --territories 1"}) {
+    const Outcome o = run_cli(args);
+    ASSERT_EQ(o.exit_code, 0) << args << "\n" << o.output;
+    EXPECT_EQ(hash_of(o), hash_of(plain)) << args;
   }
   const Outcome heal = run_cli("run --scene chain-bridge --n 8 --steps 10 --watchdog heal");
   EXPECT_EQ(heal.exit_code, 2) << heal.output;
