@@ -16,9 +16,11 @@ namespace soda::replay {
 inline constexpr char kFileMagic[8] = {'S', 'O', 'D', 'A', 'R', 'P', 'L', 'Y'};
 inline constexpr char kEndMagic[8] = {'S', 'O', 'D', 'A', 'E', 'N', 'D', '.'};
 /// The version this build writes; it reads kOldestVersion .. kFormatVersion.
-/// 2: frames whose set of bodies changes (KEYF population, BODS chunks, the
-/// index's list of BODS chunks); 1: a fixed set of bodies.
-inline constexpr std::uint32_t kFormatVersion = 2;
+/// 3: every shape whole (a compound's children, a triangle mesh's and a
+/// heightfield's data; before, the box of its local AABB); 2: frames whose
+/// set of bodies changes (KEYF population, BODS chunks, the index's list of
+/// BODS chunks); 1: a fixed set of bodies.
+inline constexpr std::uint32_t kFormatVersion = 3;
 inline constexpr std::uint32_t kOldestVersion = 1;
 inline constexpr std::size_t kFileHeaderBytes = 16;   // magic, version, flags (0)
 inline constexpr std::size_t kChunkHeaderBytes = 16;  // tag, raw size, stored size, CRC-32
@@ -65,13 +67,13 @@ struct FrameShape {
 FrameShape frame_shape(const ViewHeader& header);
 
 std::vector<std::uint8_t> encode_header(const ViewHeader& header, std::uint32_t keyframe_every);
-/// Throws FormatError.
-ViewHeader decode_header(std::span<const std::uint8_t> raw, std::uint32_t& keyframe_every);
+/// A file of `version`'s header. Throws FormatError.
+ViewHeader decode_header(std::span<const std::uint8_t> raw, std::uint32_t version, std::uint32_t& keyframe_every);
 
 /// Bodies added after the header (BODS): their descriptions, ascending id.
 std::vector<std::uint8_t> encode_bodies(const std::vector<ViewBody>& bodies);
 /// Throws FormatError (a static body, ids not ascending).
-std::vector<ViewBody> decode_bodies(std::span<const std::uint8_t> raw);
+std::vector<ViewBody> decode_bodies(std::span<const std::uint8_t> raw, std::uint32_t version);
 
 std::vector<std::uint8_t> encode_keyframe(const StoredFrame& frame);
 /// `prev`: the frame before `frame` (same box, same ids).

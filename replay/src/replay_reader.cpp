@@ -91,7 +91,7 @@ ReplayReader::ReplayReader(std::string path) : path_(std::move(path)) {
 
     std::uint32_t every = 1;
     try {
-      header_ = decode_header(read_chunk(kFileHeaderBytes, kHeaderTag, "the scene header"), every);
+      header_ = decode_header(read_chunk(kFileHeaderBytes, kHeaderTag, "the scene header"), version_, every);
     } catch (const FormatError& e) {
       fail(e.what());
     }
@@ -142,7 +142,7 @@ ReplayReader::ReplayReader(std::string path) : path_(std::move(path)) {
     for (std::uint64_t at : bodies_at) {
       const std::vector<std::uint8_t> chunk = read_chunk(at, kBodiesTag, "the added bodies");
       try {
-        for (ViewBody& b : decode_bodies(chunk)) added_.push_back(std::move(b));
+        for (ViewBody& b : decode_bodies(chunk, version_)) added_.push_back(std::move(b));
       } catch (const FormatError& e) {
         fail("the added bodies at byte " + std::to_string(at) + ": " + e.what());
       }

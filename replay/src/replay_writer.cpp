@@ -19,8 +19,33 @@ std::string body_field(const std::vector<BodyId>& ids, std::int64_t step, std::s
 }
 
 bool same_shape(const Shape& a, const Shape& b) {
-  return a.kind == b.kind && a.half_extents == b.half_extents && a.radius == b.radius && a.height == b.height &&
-         a.points == b.points;
+  if (!(a.kind == b.kind && a.half_extents == b.half_extents && a.radius == b.radius && a.height == b.height &&
+        a.points == b.points && a.children.size() == b.children.size() && a.mesh == b.mesh &&
+        a.heightfield == b.heightfield))
+    return false;
+  for (std::size_t i = 0; i < a.children.size(); ++i) {
+    const CompoundChild &x = a.children[i], &y = b.children[i];
+    if (!same_shape(x.shape, y.shape) || x.position != y.position || x.orientation.coeffs() != y.orientation.coeffs())
+      return false;
+  }
+  return true;
+}
+
+// What the file could not store of `body`'s shape ("" if nothing): a mesh or
+// heightfield without its data, or heights that do not fill its grid.
+std::string shape_gap(const ViewBody& body) {
+  const Shape& s = body.shape;
+  if (s.kind == ShapeKind::TriangleMesh && !s.mesh) return "a triangle mesh without its triangles";
+  if (s.kind == ShapeKind::Heightfield) {
+    if (!s.heightfield) return "a heightfield without its heights";
+    const HeightfieldData& h = *s.heightfield;
+    if (h.columns < 2 || h.rows < 2 || h.heights.size() != std::size_t(h.columns) * std::size_t(h.rows))
+      return "a heightfield of " + std::to_string(h.columns) + " x " + std::to_string(h.rows) + " samples with " +
+             std::to_string(h.heights.size()) + " heights";
+  }
+  for (const CompoundChild& c : s.children)
+    if (c.shape.kind >= ShapeKind::Compound) return "a compound child that is not convex";
+  return "";
 }
 
 }  // namespace
@@ -37,8 +62,11 @@ ReplayWriter::ReplayWriter(std::string path, ViewHeader header, ReplayWriterOpti
     if (header_.bodies[i].id <= header_.bodies[i - 1].id)
       throw std::invalid_argument(path_ + ": header bodies not in ascending id order at body " +
                                   std::to_string(header_.bodies[i].id));
-  for (const ViewBody& b : header_.bodies)
+  for (const ViewBody& b : header_.bodies) {
+    if (const std::string gap = shape_gap(b); !gap.empty())
+      throw std::invalid_argument(path_ + ": body " + std::to_string(b.id) + ": " + gap);
     if (!b.is_static) header_ids_.push_back(b.id);
+  }
   const std::vector<std::uint8_t> head = encode_header(header_, static_cast<std::uint32_t>(options_.keyframe_every));
   file_ = std::fopen(path_.c_str(), "wb");
   if (!file_) throw ReplayError(path_, std::string("cannot open for writing: ") + std::strerror(errno));
@@ -87,6 +115,7 @@ void ReplayWriter::describe(const ViewBody& body) {
   if (body.is_static) throw std::invalid_argument(what + ": a static body (only dynamic bodies are added)");
   if (FrameSource::header_body(header_, body.id))
     throw std::invalid_argument(what + ": the header has a body with that id");
+  if (const std::string gap = shape_gap(body); !gap.empty()) throw std::invalid_argument(what + ": " + gap);
   auto [it, added] = described_.try_emplace(body.id, Described{body, false});
   if (!added && !same_shape(it->second.body.shape, body.shape))
     throw std::invalid_argument(what + ": described before with another shape");

@@ -40,7 +40,7 @@ TEST_F(CliTest, RecordWithInputsKeepsTheHashAndHoldsTheAddedBodies) {
     EXPECT_EQ(hash_of(recorded), hash_of(plain)) << "K = " << k;
     const Outcome info = run_cli("replay-info " + file);
     ASSERT_EQ(info.exit_code, 0) << info.output;
-    EXPECT_NE(info.output.find("format version 2"), std::string::npos) << info.output;
+    EXPECT_NE(info.output.find("format version 3"), std::string::npos) << info.output;
     EXPECT_NE(info.output.find("bodies added during the run: 1 (ids 500 .. 500)"), std::string::npos) << info.output;
     EXPECT_NE(info.output.find("last frame: step 40, 100 bodies"), std::string::npos) << info.output;  // +500, -3
     EXPECT_NE(info.output.find("state_hash " + hash_of(plain)), std::string::npos) << info.output;

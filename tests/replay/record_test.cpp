@@ -145,7 +145,7 @@ TEST_P(RecordInputs, BodiesComeAndGoAndTheHashIsTheUnrecordedRuns) {
               static_cast<unsigned long long>(plain.state_hash));
 
   replay::ReplayReader in(file.path);
-  EXPECT_EQ(in.version(), 2u);
+  EXPECT_EQ(in.version(), 3u);
   ASSERT_EQ(in.frame_count(), 121u);
   ASSERT_EQ(in.added_bodies().size(), 1u);
   EXPECT_EQ(in.added_bodies()[0].id, kAdded);

@@ -68,16 +68,20 @@ TEST_F(Damaged, WrongMagic) {
 
 TEST_F(Damaged, WrongVersion) {
   std::vector<char> b = bytes;
-  b[8] = 3;
+  b[8] = 4;
   write_bytes(bad.path, b);
-  EXPECT_NE(read_all(bad.path).find("replay format version 3, this build reads versions 1 to 2 (a newer writer?)"),
+  EXPECT_NE(read_all(bad.path).find("replay format version 4, this build reads versions 1 to 3 (a newer writer?)"),
             std::string::npos)
       << read_all(bad.path);
   b[8] = 0;
   write_bytes(bad.path, b);
-  EXPECT_NE(read_all(bad.path).find("replay format version 0, this build reads versions 1 to 2"), std::string::npos)
+  EXPECT_NE(read_all(bad.path).find("replay format version 0, this build reads versions 1 to 3"), std::string::npos)
       << read_all(bad.path);
-  // A version 2 file read as version 1: its keyframes do not decode.
+  // A version 3 file read as version 2 or 1: its bodies or keyframes do not
+  // decode.
+  b[8] = 2;
+  write_bytes(bad.path, b);
+  EXPECT_NE(read_all(bad.path), "");
   b[8] = 1;
   write_bytes(bad.path, b);
   EXPECT_NE(read_all(bad.path), "");

@@ -67,7 +67,7 @@ TEST(ReplayFile, HeaderRoundTripsExactly) {
     EXPECT_EQ(r.bodies[i].position, h.bodies[i].position);
     EXPECT_EQ(r.bodies[i].orientation.coeffs(), h.bodies[i].orientation.coeffs());
   }
-  EXPECT_EQ(in.version(), 2u);
+  EXPECT_EQ(in.version(), 3u);
   EXPECT_EQ(in.keyframe_every(), 4);
   EXPECT_TRUE(in.finished());
 }

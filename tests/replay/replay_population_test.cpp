@@ -59,7 +59,7 @@ TEST(ReplayPopulation, BodiesComeAndGoAtRandomAccess) {
   for (int t : {count / 3, count / 3 + 1, count / 2, 2 * count / 3})
     EXPECT_NE(std::find(keyframe_at.begin(), keyframe_at.end(), t), keyframe_at.end()) << t;
   ReplayReader in(file.path);
-  EXPECT_EQ(in.version(), 2u);
+  EXPECT_EQ(in.version(), 3u);
   EXPECT_EQ(in.keyframe_count(), keyframes);
   ASSERT_EQ(in.added_bodies().size(), 2u);
   for (std::size_t k = 0; k < 2; ++k) {

@@ -3,6 +3,7 @@
 //   node viewer_test.mjs live SODA_EXE OUT_DIR       soda run --serve 0 (a running scene)
 //   node viewer_test.mjs file SODA_EXE OUT_DIR       soda run --record, then soda view FILE
 //   node viewer_test.mjs inputs SODA_EXE OUT_DIR     the same with --inputs: bodies come and go
+//   node viewer_test.mjs shapes SODA_EXE OUT_DIR     the same on compounds: each drawn as its children
 // Starts the server on 127.0.0.1, loads the page in headless chromium, waits
 // for the page to report a frame, screenshots it into OUT_DIR, checks that
 // every world's colour is drawn somewhere and the background elsewhere, and
@@ -14,8 +15,8 @@ import path from 'node:path';
 import { countColours, fail, launchBrowser, loadPlaywright, startServer, status } from './browser.mjs';
 
 const [mode, exe, outDir] = process.argv.slice(2);
-if (!['replay', 'live', 'file', 'inputs'].includes(mode) || !exe || !outDir)
-  fail('usage: node viewer_test.mjs replay|live|file|inputs EXE OUT_DIR');
+if (!['replay', 'live', 'file', 'inputs', 'shapes'].includes(mode) || !exe || !outDir)
+  fail('usage: node viewer_test.mjs replay|live|file|inputs|shapes EXE OUT_DIR');
 const playwright = loadPlaywright();
 const palette = paletteFromSource();
 const TERRITORIES = 4;
@@ -32,6 +33,10 @@ const REMOVED = 5;
 const ADD_STEP = 30;
 const REMOVE_STEP = 50;
 const CUBES = 400;
+// shapes: chairs and tables (compounds of boxes) over two static tables.
+const COMPOUNDS = 120;
+// Vertices of a box drawn unindexed (a compound drawn as one box has these).
+const BOX_VERTICES = 36;
 const INPUTS = {
   format: 'soda-inputs', version: 1,
   inputs: [
@@ -85,7 +90,7 @@ async function run() {
   // view, the user's path (the same checks as the in-memory replay).
   let fileHash = null;
   let args;
-  if (mode === 'file' || mode === 'inputs') {
+  if (mode === 'file' || mode === 'inputs' || mode === 'shapes') {
     const file = path.join(outDir, `viewer-test-${mode}.replay`);
     const extra = [];
     if (mode === 'inputs') {
@@ -93,9 +98,10 @@ async function run() {
       writeFileSync(inputs, JSON.stringify(INPUTS));
       extra.push('--inputs', inputs);
     }
-    const out = execFileSync(exe, ['run', '--scene', 'falling-cubes', '--n', String(CUBES), '--territories',
-                                   String(TERRITORIES), '--steps', '90', '--record', file, '--log-level', 'warn',
-                                   ...extra],
+    const scene = mode === 'shapes' ? ['--scene', 'compounds', '--n', String(COMPOUNDS)]
+                                    : ['--scene', 'falling-cubes', '--n', String(CUBES)];
+    const out = execFileSync(exe, ['run', ...scene, '--territories', String(TERRITORIES), '--steps', '90', '--record',
+                                   file, '--log-level', 'warn', ...extra],
                              { encoding: 'utf8', timeout: TIMEOUT_MS });
     fileHash = /state_hash ([0-9a-f]{16})/.exec(out)?.[1];
     if (!fileHash) fail(`soda run --record printed no state_hash: ${out}`);
@@ -128,6 +134,31 @@ async function run() {
       await checkBodiesAt(page, 60);
       await page.screenshot({ path: path.join(outDir, 'viewer-inputs.png') });
       checkPixels(await countColours(page, palette.list, palette.background), 'inputs step 60');
+    } else if (mode === 'shapes') {
+      // Every compound, static or dynamic, is drawn as its children: as
+      // many boxes as it has children, not the one box of its bounds.
+      await page.goto(`${server.url}?play=0&step=90`, { timeout: TIMEOUT_MS });
+      await page.waitForFunction(() => document.getElementById('status').dataset.step === '90', null,
+                                 { timeout: TIMEOUT_MS });
+      const header = await page.evaluate(() => window.sodaView.header);
+      const compounds = header.bodies.filter((b) => b.shape.kind === 'compound');
+      const drawn = await page.evaluate((ids) => ids.map((id) => window.sodaView.vertexCount(id)),
+                                        compounds.map((b) => b.id));
+      const statics = compounds.filter((b) => b.static).length;
+      console.log(`shapes: ${compounds.length} compounds (${statics} static), ` +
+                  `${compounds[0]?.shape.children.length} children and ${drawn[0]} vertices drawn for body ${compounds[0]?.id}`);
+      if (compounds.length < 2 || statics === 0 || statics === compounds.length)
+        fail(`the header has ${compounds.length} compounds, ${statics} of them static: expected both kinds`);
+      compounds.forEach((b, i) => {
+        const boxes = b.shape.children.filter((c) => c.shape.kind === 'box').length;
+        if (boxes !== b.shape.children.length) fail(`body ${b.id}: children that are not boxes`);
+        if (drawn[i] !== boxes * BOX_VERTICES)
+          fail(`body ${b.id}: ${drawn[i]} vertices drawn for ${boxes} boxes (${boxes * BOX_VERTICES} expected)`);
+      });
+      await page.screenshot({ path: path.join(outDir, 'viewer-shapes.png') });
+      const end = await status(page);
+      if (end.hash !== fileHash || end.finished !== '1')
+        fail(`at the end the page shows hash '${end.hash}' (finished ${end.finished}), the run's is ${fileHash}`);
     } else if (mode === 'replay' || mode === 'file') {
       const step = 60;
       await page.goto(`${server.url}?play=0&step=${step}`, { timeout: TIMEOUT_MS });

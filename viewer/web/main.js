@@ -177,7 +177,7 @@ async function main() {
   $('colour-mode').value = state.colourMode;
   legend(state.header.territories);
   state.view = new SceneView($('view'), state.header);
-  window.sodaView = state.view;  // for the browser tests: isDrawn(id), drawnCount()
+  window.sodaView = state.view;  // for the browser tests: isDrawn(id), drawnCount(), vertexCount(id)
   state.view.render();
   report();
   $('colour-mode').addEventListener('change', (e) => {

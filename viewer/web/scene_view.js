@@ -1,5 +1,6 @@
 // The 3-D view: one InstancedMesh per shape type (unit geometry, scaled per
-// instance; capsules per length/radius ratio, convex hulls per body), bodies
+// instance; capsules per length/radius ratio; convex hulls, compounds,
+// triangle meshes and heightfields per body), bodies
 // coloured by owning world or by sleep, statics in grey, territory borders
 // as lines on the faces between cells of different owners. Bodies come and
 // go with the frames (their ids): a body that comes takes a free instance of
@@ -8,6 +9,7 @@
 import * as THREE from '/three/build/three.module.js';
 import { OrbitControls } from '/three/examples/jsm/controls/OrbitControls.js';
 import { ConvexBufferGeometry } from '/three/examples/jsm/geometries/ConvexGeometry.js';
+import { BufferGeometryUtils } from '/three/examples/jsm/utils/BufferGeometryUtils.js';
 import { ASLEEP_COLOUR, AWAKE_COLOUR, BACKGROUND_COLOUR, BORDER_COLOUR, STATIC_COLOUR, worldColour } from './palette.js';
 
 // Most border segments drawn: beyond, a map is too fine to read as lines.
@@ -19,8 +21,9 @@ const STATIC_FIT_LIMIT = 40;
 // A body's mesh group key, its unit geometry maker and its instance scale.
 function shapeKind(shape) {
   switch (shape.kind) {
-    case 'box':
-    case 'compound': {  // a compound: the box of its local AABB (its children are in shape.children)
+    case 'compound':  // its own geometry: its children's, each at its pose
+      return { key: null, scale: [1, 1, 1], make: () => compoundGeometry(shape.children) };
+    case 'box': {
       const e = shape.half_extents;
       return { key: 'box', scale: [2 * e[0], 2 * e[1], 2 * e[2]], make: () => new THREE.BoxBufferGeometry(1, 1, 1) };
     }
@@ -45,6 +48,24 @@ function shapeKind(shape) {
       return { key: null, scale: [1, 1, 1],
                make: () => new ConvexBufferGeometry(shape.points.map((p) => new THREE.Vector3(p[0], p[1], p[2]))) };
   }
+}
+
+// The children's geometries (unit ones scaled as their kind says, then
+// placed at the child's pose) merged into one: positions and normals only,
+// unindexed, as BufferGeometryUtils merges them.
+function compoundGeometry(children) {
+  const parts = children.map((child) => {
+    const kind = shapeKind(child.shape);
+    let g = kind.make();
+    if (g.index) g = g.toNonIndexed();
+    g.deleteAttribute('uv');
+    if (!g.getAttribute('normal')) g.computeVertexNormals();
+    const [x, y, z, w] = child.orientation;
+    g.applyMatrix(new THREE.Matrix4().compose(new THREE.Vector3(...child.position), new THREE.Quaternion(x, y, z, w),
+                                              new THREE.Vector3(...kind.scale)));
+    return g;
+  });
+  return BufferGeometryUtils.mergeBufferGeometries(parts);
 }
 
 function triangleMeshGeometry(vertices, indices) {
@@ -219,6 +240,14 @@ export class SceneView {
 
   drawnCount() {
     return this.slots.size;
+  }
+
+  // Vertices of the geometry body `id` (static or dynamic) is drawn with
+  // (tests); 0 for an unknown body.
+  vertexCount(id) {
+    const body = this.header.bodies.find((b) => b.id === id) ?? this.described.get(id);
+    const group = body && this.groups.get(this.groupKey(body, shapeKind(body.shape)));
+    return group ? group.mesh.geometry.getAttribute('position').count : 0;
   }
 
   place(slot, p, q) {
