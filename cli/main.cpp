@@ -211,8 +211,11 @@ void resolve_run_config(Options& o) {
 }
 
 void print_summary(const soda::RunResult& r) {
-  std::printf("%s world (%s): %zu bodies, %d steps in %.3f s (%.1f steps/s), state_hash %s, %zu asleep\n",
-              soda::world_kind_name(r.world), soda::kPrecisionName, r.bodies, r.steps, r.wall_seconds,
+  // K > 1: the territory worlds of the partitioned runtime, whatever --world says.
+  const std::string worlds = r.territories > 1 ? std::to_string(r.territories) + " territory worlds"
+                                               : std::string(soda::world_kind_name(r.world)) + " world";
+  std::printf("%s (%s): %zu bodies, %d steps in %.3f s (%.1f steps/s), state_hash %s, %zu asleep\n",
+              worlds.c_str(), soda::kPrecisionName, r.bodies, r.steps, r.wall_seconds,
               r.wall_seconds > 0 ? r.steps / r.wall_seconds : 0.0, soda::hash_hex(r.state_hash).c_str(),
               r.sleeping_bodies);
   std::printf("  setup %.3f s (CPU %.3f s), teardown %.3f s (CPU %.3f s): %.2f us per body\n", r.setup_seconds,
