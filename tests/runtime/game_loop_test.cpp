@@ -32,16 +32,7 @@ using test::unused_id;
 // after it (so each is at a step a world has passed: a rollback); the others
 // are given ahead of every world (before the run, or far ahead of the frame
 // on screen).
-struct Plan {
-  struct Input {
-    UserInput input;
-    bool at_frame = false;  // given at the frame on screen
-    int given_at = -1;      // ahead: the frame after which the render thread gives it (-1: before the run)
-  };
-  std::vector<Input> inputs;
-};
-
-Plan make_plan(const Scene& s) {
+std::vector<test::PlannedInput> make_plan(const Scene& s) {
   std::vector<BodyId> dynamic;
   for (const Body& b : s.bodies)
     if (!b.is_static) dynamic.push_back(b.id);
@@ -62,8 +53,7 @@ Plan make_plan(const Scene& s) {
     return in;
   };
   using K = UserInput::Kind;
-  Plan p;
-  p.inputs = {
+  return {
       {add(20, new_cube(a, Vec3(0.3, 9, 0.2))), true},
       {on(K::ApplyImpulse, 30, dynamic[3], Vec3(2, 3, 0)), true},
       {add(60, new_cube(b, Vec3(-0.4, 11, 0.1))), false, 35},  // ahead of the worlds, during the run
@@ -74,29 +64,14 @@ Plan make_plan(const Scene& s) {
       {on(K::RemoveBody, 100, dynamic[11]), false},
       {on(K::ApplyImpulse, 105, b, Vec3(0, 5, 0)), true},
   };
-  return p;
-}
-
-// The one-territory run with every input queued before it, frame by frame.
-std::vector<std::vector<ScenePose>> reference_frames(const Scene& s, const Plan& plan) {
-  Simulation one(s, SimulationConfig{.threads = 1});
-  for (const Plan::Input& i : plan.inputs) one.give(i.input);
-  SceneReader reader = one.add_reader();
-  std::vector<std::vector<ScenePose>> frames;
-  for (int k = 0; k <= kSteps; ++k) {
-    EXPECT_TRUE(one.advance_to(one.time_of(k)));
-    std::optional<SceneFrame> f = reader.read_at(one.time_of(k));
-    frames.push_back(f ? f->poses : std::vector<ScenePose>{});
-  }
-  return frames;
 }
 
 // The render thread's run for K territories, anticipation, threads (0: one
 // per world, 1: one for all, else a pool) and the fuzzer's seed (0: off).
 void expect_game_loop_equals_one_territory(int territories, int anticipation, int threads, std::uint64_t fuzz_seed) {
   const Scene s = test::scene("falling-cubes", 100);
-  const Plan plan = make_plan(s);
-  static const std::vector<std::vector<ScenePose>> ref = reference_frames(s, plan);
+  const std::vector<test::PlannedInput> plan = make_plan(s);
+  static const test::QueuedRun ref = test::queued_run(s, plan, kSteps);
 
   test::Progress progress;
   SimulationConfig config{.territories = territories, .threads = threads, .buffer_capacity = 16, .past_inputs = true};
@@ -105,50 +80,19 @@ void expect_game_loop_equals_one_territory(int territories, int anticipation, in
   if (fuzz_seed != 0) detail::edit_testing_hooks(config).fuzz_seed = fuzz_seed;
   Simulation sim(s, config);
   SceneReader reader = sim.add_reader();
-  std::size_t at_frame = 0;
-  for (const Plan::Input& i : plan.inputs) {
-    if (i.at_frame) ++at_frame;
-    if (!i.at_frame && i.given_at < 0) sim.give(i.input);
-  }
-  sim.start(sim.time_of(kSteps));
-
-  std::vector<std::string> bad;
-  std::vector<std::size_t> bodies;
-  std::thread render([&] {
-    try {
-      for (int k = 0; k <= kSteps; ++k) {
-        std::optional<SceneFrame> f = reader.read_at(sim.time_of(k));
-        if (!f) {
-          bad.push_back("frame " + std::to_string(k) + ": none");
-          continue;
-        }
-        const std::string diff = test::frame_difference(f->poses, ref[static_cast<std::size_t>(k)]);
-        if (f->step != k || !diff.empty()) bad.push_back("frame " + std::to_string(k) + ": " + diff);
-        bodies.push_back(f->poses.size());
-        for (const Plan::Input& i : plan.inputs) {
-          if (i.at_frame && i.input.step == k) {
-            progress.wait_past(k + 1);  // some world has passed the frame on screen
-            sim.give(i.input);
-            progress.rolled_back_to(k);
-          }
-          if (!i.at_frame && i.given_at == k) sim.give(i.input);
-        }
-      }
-    } catch (const std::exception& e) {
-      bad.push_back(std::string("render thread: ") + e.what());
-    }
-  });
-  render.join();
-  EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
+  const test::RenderedRun run = test::run_game_loop(sim, reader, progress, plan, ref.frames, kSteps);
+  const std::vector<std::size_t>& bodies = run.bodies;
   const std::uint64_t hash = sim.state_hash();
   sim.stop();
   std::printf("[ falling-cubes 100, K %d, anticipation %d, threads %d, fuzz %llu ] %zu rollbacks for %zu inputs at the "
               "frame on screen; bodies at frames 0/21/46/76/101: %zu/%zu/%zu/%zu/%zu; hash %s\n",
               territories, anticipation, threads, static_cast<unsigned long long>(fuzz_seed),
-              static_cast<std::size_t>(sim.rollbacks()), at_frame, bodies.at(0),
+              static_cast<std::size_t>(sim.rollbacks()), run.at_frame, bodies.at(0),
               bodies.at(21), bodies.at(46), bodies.at(76), bodies.at(101), hash_hex(hash).c_str());
-  EXPECT_TRUE(bad.empty()) << bad.size() << " bad frames, the first: " << (bad.empty() ? "" : bad.front());
-  EXPECT_EQ(sim.rollbacks(), at_frame);  // every input at the frame on screen was at a past step
+  EXPECT_TRUE(run.bad.empty()) << run.bad.size() << " bad frames, the first: "
+                               << (run.bad.empty() ? "" : run.bad.front());
+  EXPECT_EQ(sim.rollbacks(), run.at_frame);  // every input at the frame on screen was at a past step
+  EXPECT_EQ(hash_hex(hash), hash_hex(ref.hash));
   EXPECT_EQ(bodies.at(0), 100u);
   EXPECT_EQ(bodies.at(21), 101u);  // a added at 20
   EXPECT_EQ(bodies.at(101), 100u);  // +a +b +c -7 -a -11

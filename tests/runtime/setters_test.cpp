@@ -43,26 +43,22 @@ bool at_frame(const UserInput& in) {
          (in.kind == K::SetRestitution && in.step == 75);
 }
 
+// The setter plan, each input marked at the frame on screen or queued.
+std::vector<test::PlannedInput> planned(const Scene& s) {
+  std::vector<test::PlannedInput> out;
+  for (const UserInput& in : test::setter_plan(s)) out.push_back({in, at_frame(in)});
+  return out;
+}
+
 struct Reference {
-  std::vector<std::vector<ScenePose>> frames;
-  std::uint64_t hash = 0;
+  test::QueuedRun run;  // one territory on one thread, every input queued before the run
   std::uint64_t no_input_hash = 0;
 };
 
-// One territory on one thread, every input queued before the run.
 const Reference& reference() {
   static const Reference ref = [] {
     const Scene s = setter_scene();
-    Reference r;
-    Simulation one(s, SimulationConfig{.threads = 1});
-    for (const UserInput& in : test::setter_plan(s)) one.give(in);
-    SceneReader reader = one.add_reader();
-    for (int k = 0; k <= kSteps; ++k) {
-      EXPECT_TRUE(one.advance_to(one.time_of(k)));
-      std::optional<SceneFrame> f = reader.read_at(one.time_of(k));
-      r.frames.push_back(f ? f->poses : std::vector<ScenePose>{});
-    }
-    r.hash = one.state_hash();
+    Reference r{test::queued_run(s, planned(s), kSteps)};
     Simulation none(s, SimulationConfig{.threads = 1});
     EXPECT_TRUE(none.advance_to(none.time_of(kSteps)));
     r.no_input_hash = none.state_hash();
@@ -78,7 +74,7 @@ TEST_P(Setters, EveryFrameAndTheHashEqualOneTerritory) {
   const auto [territories, anticipation] = GetParam();
   const Scene s = setter_scene();
   const Reference& ref = reference();
-  const std::vector<UserInput> plan = test::setter_plan(s);
+  const std::vector<test::PlannedInput> plan = planned(s);
 
   test::Progress progress;
   SimulationConfig config{.territories = territories, .buffer_capacity = 16, .past_inputs = true};
@@ -86,36 +82,7 @@ TEST_P(Setters, EveryFrameAndTheHashEqualOneTerritory) {
   config.after_step = progress.hook();
   Simulation sim(s, config);
   SceneReader reader = sim.add_reader();
-  std::size_t given_at_frame = 0;
-  for (const UserInput& in : plan)
-    if (!at_frame(in)) sim.give(in);
-  sim.start(sim.time_of(kSteps));
-
-  std::vector<std::string> bad;
-  std::thread render([&] {
-    try {
-      for (int k = 0; k <= kSteps; ++k) {
-        std::optional<SceneFrame> f = reader.read_at(sim.time_of(k));
-        if (!f) {
-          bad.push_back("frame " + std::to_string(k) + ": none");
-          continue;
-        }
-        const std::string diff = test::frame_difference(f->poses, ref.frames[static_cast<std::size_t>(k)]);
-        if (f->step != k || !diff.empty()) bad.push_back("frame " + std::to_string(k) + ": " + diff);
-        for (const UserInput& in : plan)
-          if (at_frame(in) && in.step == k) {
-            progress.wait_past(k + 1);  // some world has passed the frame on screen
-            sim.give(in);
-            ++given_at_frame;
-            progress.rolled_back_to(k);
-          }
-      }
-    } catch (const std::exception& e) {
-      bad.push_back(std::string("render thread: ") + e.what());
-    }
-  });
-  render.join();
-  EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
+  const test::RenderedRun run = test::run_game_loop(sim, reader, progress, plan, ref.run.frames, kSteps);
   const std::uint64_t hash = sim.state_hash();
   // Readbacks at the last step: the plan's tags and masses, whatever K.
   const BodyId heavy = test::first_dynamic(s);
@@ -125,21 +92,22 @@ TEST_P(Setters, EveryFrameAndTheHashEqualOneTerritory) {
   EXPECT_EQ(b->user_data, test::plan_tag(heavy));
   EXPECT_EQ(b->mass, 6.0);
   EXPECT_EQ(b->friction, 1.2);
-  const std::vector<ScenePose>& last = ref.frames[kSteps];
+  const std::vector<ScenePose>& last = ref.run.frames[kSteps];
   auto in_ref = std::find_if(last.begin(), last.end(), [&](const ScenePose& p) { return p.id == heavy; });
   ASSERT_NE(in_ref, last.end());
   EXPECT_TRUE(test::same_bits(b->pose, *in_ref));
   std::printf("[ cube-pile 120, K %d, anticipation %d ] %zu inputs, %zu at the frame on screen, %llu rollbacks; "
               "hash %s (one territory %s, without the inputs %s)\n",
-              territories, anticipation, plan.size(), given_at_frame, (unsigned long long)sim.rollbacks(),
-              hash_hex(hash).c_str(), hash_hex(ref.hash).c_str(), hash_hex(ref.no_input_hash).c_str());
+              territories, anticipation, plan.size(), run.at_frame, (unsigned long long)sim.rollbacks(),
+              hash_hex(hash).c_str(), hash_hex(ref.run.hash).c_str(), hash_hex(ref.no_input_hash).c_str());
   sim.stop();
-  EXPECT_TRUE(bad.empty()) << bad.size() << " bad frames, the first: " << (bad.empty() ? "" : bad.front());
-  EXPECT_EQ(given_at_frame, 3u);
-  EXPECT_EQ(sim.rollbacks(), given_at_frame);  // each at a step a world had passed: rolled back, re-run
+  EXPECT_TRUE(run.bad.empty()) << run.bad.size() << " bad frames, the first: "
+                               << (run.bad.empty() ? "" : run.bad.front());
+  EXPECT_EQ(run.at_frame, 3u);
+  EXPECT_EQ(sim.rollbacks(), run.at_frame);  // each at a step a world had passed: rolled back, re-run
   EXPECT_GT(sim.rollbacks(), 0u);
-  EXPECT_EQ(hash_hex(hash), hash_hex(ref.hash));
-  EXPECT_NE(ref.hash, ref.no_input_hash);  // the inputs changed the run
+  EXPECT_EQ(hash_hex(hash), hash_hex(ref.run.hash));
+  EXPECT_NE(ref.run.hash, ref.no_input_hash);  // the inputs changed the run
 }
 
 INSTANTIATE_TEST_SUITE_P(Simulation, Setters,
@@ -229,7 +197,7 @@ TEST(SimulationSetters, InputLogReplaysToTheSameHash) {
   for (const UserInput& in : log) replay.give(in);
   EXPECT_TRUE(replay.advance_to(replay.time_of(kSteps)));
   EXPECT_EQ(hash_hex(replay.state_hash()), hash_hex(sim.state_hash()));
-  EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(reference().hash));
+  EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(reference().run.hash));
 }
 
 TEST(SimulationSetters, InputFileRefusesBadValuesNamingTheBodyAndTheField) {
@@ -288,7 +256,7 @@ TEST(SimulationSetters, CheckpointVersion4CarriesEverything) {
   Simulation resumed = Simulation::resume(path, SimulationConfig{.territories = 4});
   std::filesystem::remove(path);
   EXPECT_TRUE(resumed.advance_to(resumed.time_of(kSteps)));
-  EXPECT_EQ(hash_hex(resumed.state_hash()), hash_hex(reference().hash));
+  EXPECT_EQ(hash_hex(resumed.state_hash()), hash_hex(reference().run.hash));
   SceneReader reader = resumed.add_reader();
   const BodyId id = test::first_dynamic(s);
   std::optional<BodyAt> b = reader.body_at(resumed.time_of(kSteps), id);

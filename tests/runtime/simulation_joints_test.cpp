@@ -61,15 +61,6 @@ const Scene& scene_of(const JointScene& j) {
   return it->second;
 }
 
-struct Plan {
-  struct Input {
-    UserInput input;
-    bool at_frame = false;  // given by the render thread at the frame on screen (a rollback)
-    int given_at = -1;      // ahead: the frame after which the render thread gives it (-1: before the run)
-  };
-  std::vector<Input> inputs;
-};
-
 UserInput on(UserInput::Kind kind, std::int64_t step, BodyId id, Vec3 v = Vec3::Zero()) {
   UserInput in;
   in.kind = kind;
@@ -79,41 +70,24 @@ UserInput on(UserInput::Kind kind, std::int64_t step, BodyId id, Vec3 v = Vec3::
   return in;
 }
 
-Plan plan(const JointScene& j) {
+// Given by the render thread at the frame on screen (a rollback) or ahead.
+std::vector<test::PlannedInput> plan(const JointScene& j) {
   using K = UserInput::Kind;
-  Plan p;
-  p.inputs = {
+  return {
       {on(K::ApplyImpulse, 10, j.pushed_ahead, Vec3(0, 4, 3))},
       {on(K::SetVelocity, 25, j.set_at_frame, Vec3(1, 2, 0)), true},
       {on(K::RemoveBody, 40, j.removed_at_frame), true},
       {on(K::ApplyImpulse, 55, j.pushed_at_frame, Vec3(-2, 3, 1)), true},
       {on(K::RemoveBody, 70, j.removed_ahead), false, 50},
   };
-  return p;
 }
 
 // The one-territory run with every input queued before it.
-struct Reference {
-  std::vector<std::vector<ScenePose>> frames;
-  std::uint64_t hash = 0;
-};
-
-const Reference& reference(const JointScene& j) {
-  static std::map<std::string, Reference> made;
+const test::QueuedRun& reference(const JointScene& j) {
+  static std::map<std::string, test::QueuedRun> made;
   auto it = made.find(j.name);
-  if (it != made.end()) return it->second;
-  Reference r;
-  Simulation one(scene_of(j), SimulationConfig{.threads = 1});
-  for (const Plan::Input& i : plan(j).inputs) one.give(i.input);
-  SceneReader reader = one.add_reader();
-  for (int k = 0; k <= kSteps; ++k) {
-    EXPECT_TRUE(one.advance_to(one.time_of(k)));
-    std::optional<SceneFrame> f = reader.read_at(one.time_of(k));
-    r.frames.push_back(f ? f->poses : std::vector<ScenePose>{});
-  }
-  r.hash = one.state_hash();
-  one.stop();
-  return made.emplace(j.name, std::move(r)).first->second;
+  if (it == made.end()) it = made.emplace(j.name, test::queued_run(scene_of(j), plan(j), kSteps)).first;
+  return it->second;
 }
 
 // scene, territories, anticipation, threads (0: one per world, 2: a pool of two)
@@ -124,8 +98,7 @@ TEST_P(SimulationJoints, EveryFrameWithInputsOnJointedBodiesEqualsOneTerritory) 
   const JointScene& j = joint_scenes()[static_cast<std::size_t>(scene_index)];
   const Scene& s = scene_of(j);
   ASSERT_FALSE(s.joints.empty());
-  const Plan p = plan(j);
-  const Reference& ref = reference(j);
+  const test::QueuedRun& ref = reference(j);
 
   test::Progress progress;
   SimulationConfig config{.territories = territories, .threads = threads, .buffer_capacity = 16, .past_inputs = true};
@@ -133,51 +106,19 @@ TEST_P(SimulationJoints, EveryFrameWithInputsOnJointedBodiesEqualsOneTerritory) 
   config.after_step = progress.hook();
   Simulation sim(s, config);
   SceneReader reader = sim.add_reader();
-  std::size_t at_frame = 0;
-  for (const Plan::Input& i : p.inputs) {
-    if (i.at_frame) ++at_frame;
-    if (!i.at_frame && i.given_at < 0) sim.give(i.input);
-  }
-  sim.start(sim.time_of(kSteps));
-
-  std::vector<std::string> bad;
-  std::vector<std::size_t> bodies;
-  std::thread render([&] {
-    try {
-      for (int k = 0; k <= kSteps; ++k) {
-        std::optional<SceneFrame> f = reader.read_at(sim.time_of(k));
-        if (!f) {
-          bad.push_back("frame " + std::to_string(k) + ": none");
-          continue;
-        }
-        const std::string diff = test::frame_difference(f->poses, ref.frames[static_cast<std::size_t>(k)]);
-        if (f->step != k || !diff.empty()) bad.push_back("frame " + std::to_string(k) + ": " + diff);
-        bodies.push_back(f->poses.size());
-        for (const Plan::Input& i : p.inputs) {
-          if (i.at_frame && i.input.step == k) {
-            progress.wait_past(k + 1);  // some world has passed the frame on screen
-            sim.give(i.input);
-            progress.rolled_back_to(k);
-          }
-          if (!i.at_frame && i.given_at == k) sim.give(i.input);
-        }
-      }
-    } catch (const std::exception& e) {
-      bad.push_back(std::string("render thread: ") + e.what());
-    }
-  });
-  render.join();
-  EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
+  const test::RenderedRun run = test::run_game_loop(sim, reader, progress, plan(j), ref.frames, kSteps);
+  const std::vector<std::size_t>& bodies = run.bodies;
   const std::uint64_t hash = sim.state_hash();
   const std::size_t dynamic = s.dynamic_count();
   sim.stop();
   std::printf("[ %s %d %s, K %d, anticipation %d, threads %d ] %llu rollbacks for %zu inputs at the frame on "
               "screen; bodies at frames 0/41/71/%d: %zu/%zu/%zu/%zu; hash %s, one territory %s\n",
               j.name, j.n, kPrecisionName, territories, anticipation, threads,
-              static_cast<unsigned long long>(sim.rollbacks()), at_frame, kSteps, bodies.at(0), bodies.at(41),
+              static_cast<unsigned long long>(sim.rollbacks()), run.at_frame, kSteps, bodies.at(0), bodies.at(41),
               bodies.at(71), bodies.at(kSteps), hash_hex(hash).c_str(), hash_hex(ref.hash).c_str());
-  EXPECT_TRUE(bad.empty()) << bad.size() << " bad frames, the first: " << (bad.empty() ? "" : bad.front());
-  EXPECT_EQ(sim.rollbacks(), at_frame);
+  EXPECT_TRUE(run.bad.empty()) << run.bad.size() << " bad frames, the first: "
+                               << (run.bad.empty() ? "" : run.bad.front());
+  EXPECT_EQ(sim.rollbacks(), run.at_frame);
   EXPECT_EQ(bodies.at(0), dynamic);
   EXPECT_EQ(bodies.at(41), dynamic - 1);
   EXPECT_EQ(bodies.at(71), dynamic - 2);
@@ -225,7 +166,7 @@ TEST(SimulationJointScenes, WithoutInputsEqualTheOneWorld) {
 TEST(SimulationJointScenes, InputsUnderSyncTestAndValidationGiveTheSameHash) {
   for (const JointScene& j : joint_scenes()) {
     std::vector<UserInput> inputs;
-    for (const Plan::Input& i : plan(j).inputs) inputs.push_back(i.input);
+    for (const test::PlannedInput& i : plan(j)) inputs.push_back(i.input);
     for (std::size_t i = 0; i < inputs.size(); ++i) inputs[i].sequence = i;
     for (int anticipation : {0, 8}) {
       PartitionedOptions o;
@@ -358,7 +299,7 @@ Observed observe(int territories) {
   SimulationConfig config{.territories = territories, .threads = 1, .contact_events = true};
   config.runtime.anticipation = territories > 1 ? 8 : 0;
   Simulation sim(scene_of(j), config);
-  for (const Plan::Input& i : plan(j).inputs) sim.give(i.input);
+  for (const test::PlannedInput& i : plan(j)) sim.give(i.input);
   Observed out;
   std::thread reader([&, r = sim.add_contact_reader(), q = sim.add_query()]() mutable {
     for (int t = 0; t <= kSteps; ++t) {

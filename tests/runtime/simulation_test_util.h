@@ -17,6 +17,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "runtime/partitioned_test_util.h"
@@ -131,6 +132,87 @@ struct Progress {
     newest = step;
   }
 };
+
+/// An input of a game loop (run_game_loop): given by the render thread at
+/// the frame on screen (a rollback), or ahead of every world: before the
+/// run (given_at -1) or once the render thread has read frame given_at.
+struct PlannedInput {
+  UserInput input;
+  bool at_frame = false;
+  int given_at = -1;
+};
+
+/// One territory on one thread with every input queued before the run: its
+/// frames at steps 0 .. steps and its hash at the end.
+struct QueuedRun {
+  std::vector<std::vector<ScenePose>> frames;
+  std::uint64_t hash = 0;
+};
+inline QueuedRun queued_run(const Scene& s, const std::vector<PlannedInput>& inputs, int steps) {
+  QueuedRun r;
+  Simulation one(s, SimulationConfig{.threads = 1});
+  for (const PlannedInput& i : inputs) one.give(i.input);
+  SceneReader reader = one.add_reader();
+  for (int k = 0; k <= steps; ++k) {
+    EXPECT_TRUE(one.advance_to(one.time_of(k)));
+    std::optional<SceneFrame> f = reader.read_at(one.time_of(k));
+    r.frames.push_back(f ? f->poses : std::vector<ScenePose>{});
+  }
+  r.hash = one.state_hash();
+  one.stop();
+  return r;
+}
+
+/// What a game loop's render thread saw (run_game_loop).
+struct RenderedRun {
+  std::vector<std::string> bad;     // frames missing or not the reference's, and the render thread's error
+  std::vector<std::size_t> bodies;  // [k]: bodies in frame k
+  std::size_t at_frame = 0;         // inputs given at the frame on screen
+};
+
+/// The game loop: gives the inputs planned before the run, starts `sim`
+/// (made with past_inputs and progress.hook() as after_step) to `steps`,
+/// and on a render thread reads every frame 0 .. steps through `reader`,
+/// comparing frame k with ref[k]; an at-frame input of step k is given once
+/// some world has passed k (each one a rollback to k), an ahead input once
+/// frame given_at is read. Then advances to `steps`.
+inline RenderedRun run_game_loop(Simulation& sim, SceneReader& reader, Progress& progress,
+                                 const std::vector<PlannedInput>& inputs,
+                                 const std::vector<std::vector<ScenePose>>& ref, int steps) {
+  RenderedRun run;
+  for (const PlannedInput& i : inputs) {
+    if (i.at_frame) ++run.at_frame;
+    if (!i.at_frame && i.given_at < 0) sim.give(i.input);
+  }
+  sim.start(sim.time_of(steps));
+  std::thread render([&] {
+    try {
+      for (int k = 0; k <= steps; ++k) {
+        std::optional<SceneFrame> f = reader.read_at(sim.time_of(k));
+        if (!f) {
+          run.bad.push_back("frame " + std::to_string(k) + ": none");
+          continue;
+        }
+        const std::string diff = frame_difference(f->poses, ref[static_cast<std::size_t>(k)]);
+        if (f->step != k || !diff.empty()) run.bad.push_back("frame " + std::to_string(k) + ": " + diff);
+        run.bodies.push_back(f->poses.size());
+        for (const PlannedInput& i : inputs) {
+          if (i.at_frame && i.input.step == k) {
+            progress.wait_past(k + 1);  // some world has passed the frame on screen
+            sim.give(i.input);
+            progress.rolled_back_to(k);
+          }
+          if (!i.at_frame && i.given_at == k) sim.give(i.input);
+        }
+      }
+    } catch (const std::exception& e) {
+      run.bad.push_back(std::string("render thread: ") + e.what());
+    }
+  });
+  render.join();
+  EXPECT_TRUE(sim.advance_to(sim.time_of(steps)));
+  return run;
+}
 
 /// Late spawn: the step the body was added at (-1: never) and the lead over
 /// the commit horizon the far world had then.
