@@ -3,16 +3,21 @@
 // chain bridge with boxes dropped on it, ragdolls falling into a pile) and
 // pendulums whose joints break end with the one-world hash for K = 1, 2, 4,
 // 8 territories, speculating (anticipation 8), under SyncTest and with
-// parking on and off; hinge motors turning arms across a border do too. One territory world gives the canonical world's hash;
+// parking on and off, with cells ceded (churn) under the fuzzer on every
+// schedule; hinge motors turning arms across a border do too. One
+// territory world gives the canonical world's hash;
 // a joint group has one owner, its joints travel in the fragments of
 // border islands and with migrants, and break where their island is solved.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <string>
 #include <utility>
 
+#include "driver/testing_hooks.h"
 #include "runtime/partitioned_test_util.h"
+#include "soda/runtime/balance_log.h"
 #include "soda/worlds/canonical_world.h"
 
 namespace soda {
@@ -109,6 +114,39 @@ INSTANTIATE_TEST_SUITE_P(Partitioned, JointDecomposition, ::testing::ValuesIn(ca
 
 // The whole scene's snapshot of a partitioned run holds every joint once,
 // with the one world's broken flags.
+// Cells ceded every 10 steps (churn) while speculating, with the fuzzer's
+// random pauses in every stage and message, on each schedule: a joint group
+// changes owner whole when its anchor's cell does, joints breaking on the
+// way in one of the scenes.
+TEST(JointDecomposition, ChurnFuzzedOnEverySchedule) {
+  for (const char* label : {"chain-bridge", "ragdolls-breaking"}) {
+    const auto j = std::find_if(joint_scenes().begin(), joint_scenes().end(),
+                                [&](const JointScene& x) { return std::string(x.label) == label; });
+    ASSERT_NE(j, joint_scenes().end());
+    const Scene& s = scene_of(*j);
+    const std::string ref = hash_hex(reference(*j).hash);
+    std::uint64_t seed = 3;
+    for (Schedule schedule : {Schedule::Sequential, Schedule::Pool, Schedule::ThreadPerWorld}) {
+      PartitionedOptions o;
+      o.schedule = schedule;
+      o.threads = schedule == Schedule::Pool ? 2 : 0;
+      o.runtime.anticipation = 8;
+      o.runtime.balance.policy = "churn";
+      o.runtime.balance.period = 10;
+      o.runtime.balance.seed = seed;
+      detail::edit_testing_hooks(o).fuzz_seed = seed++;
+      PartitionedWorld w(s, make_partition("kmeans", s, 4, GridOptions{}), o);
+      w.step(j->steps);
+      const BalanceTotals t = balance_totals(w.balance_log());
+      std::printf("[ %s %s, K 4, churn, fuzz %llu, schedule %d, anticipation 8 ] %lld bodies moved; %s, one world %s\n",
+                  label, kPrecisionName, static_cast<unsigned long long>(seed - 1), static_cast<int>(schedule),
+                  static_cast<long long>(t.bodies_moved), hash_hex(w.state_hash()).c_str(), ref.c_str());
+      EXPECT_GT(t.bodies_moved, 0) << label;
+      EXPECT_EQ(hash_hex(w.state_hash()), ref) << label << " schedule " << static_cast<int>(schedule);
+    }
+  }
+}
+
 TEST(JointDecomposition, SnapshotsHoldEveryJointOnce) {
   const JointScene& j = joint_scenes()[1];  // pendulums-breaking
   const Scene& s = scene_of(j);
