@@ -77,12 +77,14 @@ void put_shape(ByteWriter& w, const Shape& s) {
   }
 }
 
-// `child`: a compound's child (convex only). Names `body` in errors.
-Shape get_shape(ByteReader& r, BodyId body, bool child) {
+// A shape of a file of `version`; `child`: a compound's child (convex only).
+// Version 1 and 2 files hold convex kinds only and end a shape after its
+// hull points. Names `body` in errors.
+Shape get_shape(ByteReader& r, BodyId body, bool child, std::uint32_t version) {
   const std::string who = "body " + std::to_string(body) + (child ? ": a compound child" : "");
   Shape s;
   const std::uint8_t kind = r.u8();
-  const auto last = child ? ShapeKind::ConvexHull : ShapeKind::Heightfield;
+  const auto last = child || version < 3 ? ShapeKind::ConvexHull : ShapeKind::Heightfield;
   if (kind > static_cast<std::uint8_t>(last)) r.fail(who + ": shape kind " + std::to_string(kind));
   s.kind = static_cast<ShapeKind>(kind);
   s.half_extents = get_vec(r);
@@ -92,12 +94,13 @@ Shape get_shape(ByteReader& r, BodyId body, bool child) {
   if (points > kMaxHullPoints) r.fail(who + ": " + std::to_string(points) + " hull points");
   s.points.resize(r.count(points, 24, "hull points"));
   for (Vec3& p : s.points) p = get_vec(r);
+  if (version < 3) return s;
   const std::size_t children = r.count(r.u32(), kMinChildBytes, "compound children");
   if (children > 0 && s.kind != ShapeKind::Compound) r.fail(who + ": children on a " + shape_kind_name(s.kind));
   if (children == 0 && s.kind == ShapeKind::Compound) r.fail(who + ": a compound without children");
   for (std::size_t i = 0; i < children; ++i) {
     CompoundChild c;
-    c.shape = get_shape(r, body, true);
+    c.shape = get_shape(r, body, true, version);
     c.position = get_vec(r);
     c.orientation = get_quat(r);
     s.children.push_back(std::move(c));
@@ -131,23 +134,6 @@ Shape get_shape(ByteReader& r, BodyId body, bool child) {
   return s;
 }
 
-// A version 1 or 2 file's shape: convex kinds only, no children.
-Shape get_convex_shape(ByteReader& r, BodyId body) {
-  Shape s;
-  const std::uint8_t kind = r.u8();
-  if (kind > static_cast<std::uint8_t>(ShapeKind::ConvexHull))
-    r.fail("body " + std::to_string(body) + ": shape kind " + std::to_string(kind));
-  s.kind = static_cast<ShapeKind>(kind);
-  s.half_extents = get_vec(r);
-  s.radius = r.f64();
-  s.height = r.f64();
-  const std::uint32_t points = r.u32();
-  if (points > kMaxHullPoints) r.fail("body " + std::to_string(body) + ": " + std::to_string(points) + " hull points");
-  s.points.resize(r.count(points, 24, "hull points"));
-  for (Vec3& p : s.points) p = get_vec(r);
-  return s;
-}
-
 // One body's record, the same in HEAD and BODS.
 void put_body(ByteWriter& w, const ViewBody& b) {
   w.u32(b.id);
@@ -161,7 +147,7 @@ ViewBody get_body(ByteReader& r, std::uint32_t version) {
   ViewBody b;
   b.id = r.u32();
   b.is_static = r.u8() != 0;
-  b.shape = version >= 3 ? get_shape(r, b.id, false) : get_convex_shape(r, b.id);
+  b.shape = get_shape(r, b.id, false, version);
   if (b.shape.is_concave() && !b.is_static)
     r.fail("body " + std::to_string(b.id) + ": a dynamic " + shape_kind_name(b.shape.kind));
   b.position = get_vec(r);

@@ -58,11 +58,7 @@ TEST_P(FilterDecomposition, EqualsTheOneWorldHash) {
 
 INSTANTIATE_TEST_SUITE_P(
     Partitioned, FilterDecomposition,
-    ::testing::Values(test::MatrixCase{1, 0, 0, true}, test::MatrixCase{1, 0, 0, false},
-                      test::MatrixCase{2, 0, 0, true}, test::MatrixCase{4, 0, 0, true},
-                      test::MatrixCase{8, 0, 0, true}, test::MatrixCase{4, 0, 0, false},
-                      test::MatrixCase{8, 0, 0, false}, test::MatrixCase{4, 8, 0, true},
-                      test::MatrixCase{8, 8, 0, false}, test::MatrixCase{4, 0, 2, true}),
+    test::decomposition_matrix(),
     [](const auto& info) { return test::matrix_case_name(info.param); });
 
 // The one world with parking on gives the same hash as with it off; the

@@ -45,11 +45,7 @@ TEST_P(CompoundDecomposition, EqualsTheOneWorldHash) {
 
 INSTANTIATE_TEST_SUITE_P(
     Partitioned, CompoundDecomposition,
-    ::testing::Values(test::MatrixCase{1, 0, 0, true}, test::MatrixCase{1, 0, 0, false},
-                      test::MatrixCase{2, 0, 0, true}, test::MatrixCase{4, 0, 0, true},
-                      test::MatrixCase{8, 0, 0, true}, test::MatrixCase{4, 0, 0, false},
-                      test::MatrixCase{8, 0, 0, false}, test::MatrixCase{4, 8, 0, true},
-                      test::MatrixCase{8, 8, 0, false}, test::MatrixCase{4, 0, 2, true}),
+    test::decomposition_matrix(),
     [](const auto& info) { return test::matrix_case_name(info.param); });
 
 // Parking does not change the one world's result; the pieces land and

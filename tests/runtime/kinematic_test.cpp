@@ -52,11 +52,7 @@ TEST_P(KinematicDecomposition, EqualsTheOneWorldHash) {
 
 INSTANTIATE_TEST_SUITE_P(
     Partitioned, KinematicDecomposition,
-    ::testing::Values(test::MatrixCase{1, 0, 0, true}, test::MatrixCase{1, 0, 0, false},
-                      test::MatrixCase{2, 0, 0, true}, test::MatrixCase{4, 0, 0, true},
-                      test::MatrixCase{8, 0, 0, true}, test::MatrixCase{4, 0, 0, false},
-                      test::MatrixCase{8, 0, 0, false}, test::MatrixCase{4, 8, 0, true},
-                      test::MatrixCase{8, 8, 0, false}, test::MatrixCase{4, 0, 2, true}),
+    test::decomposition_matrix(),
     [](const auto& info) { return test::matrix_case_name(info.param); });
 
 // Sequential and one thread per world (the matrix runs a pool of two).

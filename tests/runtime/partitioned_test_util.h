@@ -127,6 +127,15 @@ struct MatrixCase {
   bool parking;
 };
 
+/// The matrix the decomposition suites of scene features run: K 1 to 8,
+/// parking on and off, speculating, under SyncTest.
+inline auto decomposition_matrix() {
+  return ::testing::Values(MatrixCase{1, 0, 0, true}, MatrixCase{1, 0, 0, false}, MatrixCase{2, 0, 0, true},
+                           MatrixCase{4, 0, 0, true}, MatrixCase{8, 0, 0, true}, MatrixCase{4, 0, 0, false},
+                           MatrixCase{8, 0, 0, false}, MatrixCase{4, 8, 0, true}, MatrixCase{8, 8, 0, false},
+                           MatrixCase{4, 0, 2, true});
+}
+
 /// "K4_anticipation8_sync0_parking": the name of a MatrixCase in a suite.
 inline std::string matrix_case_name(const MatrixCase& c) {
   return "K" + std::to_string(c.territories) + "_anticipation" + std::to_string(c.anticipation) + "_sync" +

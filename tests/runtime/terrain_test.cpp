@@ -74,11 +74,7 @@ void expect_exercised(const test::MatrixCase& c, const test::MatrixRun& run) {
   if (c.sync_test > 0) EXPECT_GT(run.sync_rollbacks, 0u);
 }
 
-const auto kMatrix = ::testing::Values(
-    test::MatrixCase{1, 0, 0, true}, test::MatrixCase{1, 0, 0, false}, test::MatrixCase{2, 0, 0, true},
-    test::MatrixCase{4, 0, 0, true}, test::MatrixCase{8, 0, 0, true}, test::MatrixCase{4, 0, 0, false},
-    test::MatrixCase{8, 0, 0, false}, test::MatrixCase{4, 8, 0, true}, test::MatrixCase{8, 8, 0, false},
-    test::MatrixCase{4, 0, 2, true});
+const auto kMatrix = test::decomposition_matrix();
 
 class HeightfieldDecomposition : public ::testing::TestWithParam<test::MatrixCase> {};
 

@@ -11,6 +11,7 @@
 
 #include "soda/scene/obj_mesh.h"
 #include "soda/scene/registry.h"
+#include "scene_test_util.h"
 #include "soda/scene/scene_json.h"
 #include "soda/scene/validate.h"
 
@@ -23,15 +24,7 @@ std::string scene_with(const std::string& static_shape, const std::string& type 
       {"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5}, "position": [0, 2, 0]}]})";
 }
 
-std::string error_of(const std::string& text, const std::string& source = "bad.json") {
-  try {
-    parse_scene_json(text, source);
-  } catch (const SceneError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "accepted: " << text;
-  return "";
-}
+using test::scene_error_of;
 
 const char* kSquare = R"({"type": "triangle_mesh", "vertices": [[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]],
                           "indices": [[0, 2, 1], [0, 3, 2]]})";
@@ -144,7 +137,7 @@ TEST(ConcaveShapes, BadMeshesAndHeightfieldsAreRejected) {
        "static", "(id 4): field 'shape.children[0].shape': a compound's child cannot be concave"},
   };
   for (const Bad& c : cases) {
-    const std::string e = error_of(scene_with(c.shape, c.type));
+    const std::string e = scene_error_of(scene_with(c.shape, c.type));
     EXPECT_NE(e.find(c.expect), std::string::npos) << e;
     EXPECT_EQ(e.rfind("bad.json: body #0", 0), 0u) << e;
   }

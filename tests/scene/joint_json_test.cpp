@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "soda/scene/registry.h"
+#include "scene_test_util.h"
 #include "soda/scene/scene_json.h"
 #include "soda/scene/validate.h"
 
@@ -27,15 +28,7 @@ std::string scene_with_joint(const std::string& joint) {
     "joints": [)" + joint + "]}";
 }
 
-std::string error_of(const std::string& text) {
-  try {
-    parse_scene_json(text, "bad.json");
-  } catch (const SceneError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no error for:\n" << text;
-  return "";
-}
+using test::scene_error_of;
 
 const char* kHinge =
     R"({"id": 5, "type": "hinge", "body_a": 7, "body_b": 8, "frame_a": {"position": [0.5, 0, 0]},
@@ -129,7 +122,7 @@ TEST(JointJson, BadJointsAreRefusedByNameAndField) {
        "joint #1 (id 5): field 'id'", "duplicate joint id"},
   };
   for (const BadJoint& c : cases) {
-    const std::string message = error_of(scene_with_joint(c.joint));
+    const std::string message = scene_error_of(scene_with_joint(c.joint));
     EXPECT_NE(message.find("bad.json: joint #"), std::string::npos) << message;
     EXPECT_NE(message.find("(id 5)"), std::string::npos) << message;
     EXPECT_NE(message.find(c.field), std::string::npos) << message;

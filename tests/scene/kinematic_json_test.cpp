@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "soda/scene/registry.h"
+#include "scene_test_util.h"
 #include "soda/scene/scene_json.h"
 #include "soda/scene/validate.h"
 
@@ -23,15 +24,7 @@ std::string scene_with(const std::string& body) {
       )" + body + "]}";
 }
 
-std::string error_of(const std::string& text) {
-  try {
-    parse_scene_json(text, "bad.json");
-  } catch (const SceneError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no error for:\n" << text;
-  return "";
-}
+using test::scene_error_of;
 
 const char* kPallet =
     R"({"id": 3, "type": "kinematic", "shape": {"type": "box", "half_extents": [1, 0.1, 1]},
@@ -90,7 +83,7 @@ TEST(KinematicJson, PosesInterpolateBetweenKeysAndLoop) {
 TEST(KinematicJson, BadKinematicBodiesAreRefusedNamingTheField) {
   const std::string body = "body #2 (id 3)";
   const auto refused = [&](const std::string& b, const std::string& field, const std::string& what) {
-    const std::string e = error_of(scene_with(b));
+    const std::string e = scene_error_of(scene_with(b));
     EXPECT_NE(e.find(body), std::string::npos) << e;
     EXPECT_NE(e.find("field '" + field + "'"), std::string::npos) << e;
     EXPECT_NE(e.find(what), std::string::npos) << e;

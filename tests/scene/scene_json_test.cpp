@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "soda/scene/registry.h"
+#include "scene_test_util.h"
 #include "soda/scene/scene_json.h"
 #include "soda/scene/validate.h"
 
@@ -31,16 +32,7 @@ const std::string kGoodCube =
     R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0.5, 0.5]},
         "position": [0, 2, 0]})";
 
-// Parses `text` and returns the error message, or fails the test.
-std::string error_of(const std::string& text) {
-  try {
-    parse_scene_json(text, "bad.json");
-  } catch (const SceneError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no error for:\n" << text;
-  return "";
-}
+using test::scene_error_of;
 
 TEST(SceneJson, GoodSceneParses) {
   const Scene s = parse_scene_json(scene_text(kGoodCube), "good.json");
@@ -90,7 +82,7 @@ TEST(SceneJson, AllShapesRoundTrip) {
 }
 
 TEST(SceneErrors, NanIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0.5, 0.5]},
           "position": [NaN, 2, 0]})"));
   EXPECT_NE(e.find("bad.json: body #1 (id 7): field 'position[0]'"), std::string::npos) << e;
@@ -98,7 +90,7 @@ TEST(SceneErrors, NanIsRejected) {
 }
 
 TEST(SceneErrors, InfiniteNumberIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0.5, 0.5]},
           "position": [0, 1e999, 0]})"));
   EXPECT_NE(e.find("bad.json: body #1 (id 7): field 'position[1]'"), std::string::npos) << e;
@@ -108,7 +100,7 @@ TEST(SceneErrors, InfiniteNumberIsRejected) {
 TEST(SceneErrors, NanHintOnlyWhereTheTextHasNanOrInfinity) {
   const std::string hint = "JSON has no NaN or Infinity";
   for (const char* token : {"NaN", "-Infinity", "Infinity", "nan", "inf", "-inf"}) {
-    const std::string e = error_of(scene_text(
+    const std::string e = scene_error_of(scene_text(
         std::string(R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5},
           "position": [0, )") + token + "]}"));
     EXPECT_NE(e.find(hint), std::string::npos) << token << ": " << e;
@@ -116,7 +108,7 @@ TEST(SceneErrors, NanHintOnlyWhereTheTextHasNanOrInfinity) {
   for (const std::string& text : {std::string(""), std::string("   "), std::string(R"({"format": )"),
                                   std::string(R"({"format": "soda-scene",, "version": 1})"),
                                   std::string(R"({"format": nul})"), std::string(R"({"format": 'x'})")}) {
-    const std::string e = error_of(text);
+    const std::string e = scene_error_of(text);
     EXPECT_EQ(e.find(hint), std::string::npos) << "'" << text << "': " << e;
     EXPECT_NE(e.find("not valid JSON"), std::string::npos) << e;
   }
@@ -141,18 +133,18 @@ TEST(SceneErrors, BodiesAreStreamedWhereverTheyAreInTheFile) {
   ASSERT_EQ(a.bodies.size(), 1u);
   EXPECT_EQ(a.bodies[0].mass, 2.0);
   EXPECT_EQ(a.settings.dt, 0.01);
-  const std::string twice = error_of(R"({"format": "soda-scene", "version": 1, "bodies": [], "bodies": []})");
+  const std::string twice = scene_error_of(R"({"format": "soda-scene", "version": 1, "bodies": [], "bodies": []})");
   EXPECT_NE(twice.find("field 'bodies': given twice"), std::string::npos) << twice;
-  const std::string not_array = error_of(R"({"format": "soda-scene", "version": 1, "bodies": {}})");
+  const std::string not_array = scene_error_of(R"({"format": "soda-scene", "version": 1, "bodies": {}})");
   EXPECT_NE(not_array.find("field 'bodies': must be an array"), std::string::npos) << not_array;
-  const std::string top = error_of(R"([1, 2])");
+  const std::string top = scene_error_of(R"([1, 2])");
   EXPECT_NE(top.find("(top level)"), std::string::npos) << top;
-  const std::string body = error_of(R"({"format": "soda-scene", "version": 1, "bodies": [3]})");
+  const std::string body = scene_error_of(R"({"format": "soda-scene", "version": 1, "bodies": [3]})");
   EXPECT_NE(body.find("body #0: field '(body)': must be an object"), std::string::npos) << body;
 }
 
 TEST(SceneErrors, ZeroMassDynamicIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": 0, "shape": {"type": "sphere", "radius": 0.5},
           "position": [0, 2, 0]})"));
   EXPECT_NE(e.find("body #1 (id 7)"), std::string::npos) << e;
@@ -160,7 +152,7 @@ TEST(SceneErrors, ZeroMassDynamicIsRejected) {
 }
 
 TEST(SceneErrors, NegativeMassDynamicIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": -2, "shape": {"type": "sphere", "radius": 0.5},
           "position": [0, 2, 0]})"));
   EXPECT_NE(e.find("'mass'"), std::string::npos) << e;
@@ -168,7 +160,7 @@ TEST(SceneErrors, NegativeMassDynamicIsRejected) {
 }
 
 TEST(SceneErrors, ZeroExtentIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0, 0.5]},
           "position": [0, 2, 0]})"));
   EXPECT_NE(e.find("body #1 (id 7)"), std::string::npos) << e;
@@ -176,14 +168,14 @@ TEST(SceneErrors, ZeroExtentIsRejected) {
 }
 
 TEST(SceneErrors, NegativeRadiusIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "capsule", "radius": -0.1, "height": 1},
           "position": [0, 2, 0]})"));
   EXPECT_NE(e.find("'shape.radius'"), std::string::npos) << e;
 }
 
 TEST(SceneErrors, UnknownShapeIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "torus", "radius": 1},
           "position": [0, 2, 0]})"));
   EXPECT_NE(e.find("body #1 (id 7)"), std::string::npos) << e;
@@ -191,7 +183,7 @@ TEST(SceneErrors, UnknownShapeIsRejected) {
 }
 
 TEST(SceneErrors, DuplicateIdIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 0, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5},
           "position": [0, 2, 0]})"));
   EXPECT_NE(e.find("body #1 (id 0)"), std::string::npos) << e;
@@ -199,41 +191,41 @@ TEST(SceneErrors, DuplicateIdIsRejected) {
 }
 
 TEST(SceneErrors, IdOutOfRangeIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 2147483648, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5},
           "position": [0, 2, 0]})"));
   EXPECT_NE(e.find("'id'"), std::string::npos) << e;
 }
 
 TEST(SceneErrors, MissingFieldIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5}})"));
   EXPECT_NE(e.find("body #1 (id 7)"), std::string::npos) << e;
   EXPECT_NE(e.find("'position': missing"), std::string::npos) << e;
 }
 
 TEST(SceneErrors, MissingMassOnDynamicIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "shape": {"type": "sphere", "radius": 0.5}, "position": [0, 2, 0]})"));
   EXPECT_NE(e.find("'mass': missing"), std::string::npos) << e;
 }
 
 TEST(SceneErrors, MistypedFieldIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": "heavy", "shape": {"type": "sphere", "radius": 0.5},
           "position": [0, 2, 0]})"));
   EXPECT_NE(e.find("'mass': must be a number, got string"), std::string::npos) << e;
 }
 
 TEST(SceneErrors, WrongArrayLengthIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5},
           "position": [0, 2]})"));
   EXPECT_NE(e.find("'position': must be an array of 3 numbers"), std::string::npos) << e;
 }
 
 TEST(SceneErrors, UnknownFieldIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": 1, "fricton": 0.3, "shape": {"type": "sphere", "radius": 0.5},
           "position": [0, 2, 0]})"));
   EXPECT_NE(e.find("'fricton': unknown field"), std::string::npos) << e;
@@ -268,7 +260,7 @@ TEST(SceneErrors, BadCollisionFilterIsRejected) {
            {"collision_mask", "4294967296", "must be an integer in [0, 2^32)"},
            {"collision_mask", "1.5", "must be an integer in [0, 2^32), got number"},
            {"collision_group", "\"all\"", "must be an integer in [0, 2^32), got string"}}) {
-    const std::string e = error_of(scene_text(body + "\"" + field + "\": " + value + "}"));
+    const std::string e = scene_error_of(scene_text(body + "\"" + field + "\": " + value + "}"));
     EXPECT_NE(e.find("bad.json"), std::string::npos) << e;
     EXPECT_NE(e.find("(id 7)"), std::string::npos) << e;
     EXPECT_NE(e.find("'" + field + "': " + why), std::string::npos) << e;
@@ -287,7 +279,7 @@ TEST(SceneJson, SensorParsesAndRoundTrips) {
   const std::string text = scene_to_json(s);
   EXPECT_EQ(text.find("sensor"), text.rfind("sensor")) << "written once, for body 7 only";
   EXPECT_TRUE(parse_scene_json(text, "roundtrip").bodies[1].sensor);
-  const std::string e = error_of(scene_text(R"({"id": 7, "type": "dynamic", "mass": 1,
+  const std::string e = scene_error_of(scene_text(R"({"id": 7, "type": "dynamic", "mass": 1,
       "shape": {"type": "sphere", "radius": 0.5}, "position": [0, 2, 0], "sensor": 1})"));
   EXPECT_NE(e.find("(id 7)"), std::string::npos) << e;
   EXPECT_NE(e.find("'sensor': must be true or false"), std::string::npos) << e;
@@ -325,16 +317,16 @@ TEST(SceneErrors, BadCompoundsAreRejected) {
   auto body = [](const std::string& shape) {
     return R"({"id": 7, "type": "dynamic", "mass": 1, "position": [0, 2, 0], "shape": )" + shape + "}";
   };
-  std::string e = error_of(scene_text(body(R"({"type": "compound", "children": []})")));
+  std::string e = scene_error_of(scene_text(body(R"({"type": "compound", "children": []})")));
   EXPECT_NE(e.find("(id 7): field 'shape.children': a compound needs at least one child shape"), std::string::npos) << e;
-  e = error_of(scene_text(body(
+  e = scene_error_of(scene_text(body(
       R"({"type": "compound", "children": [{"shape": {"type": "compound", "children": [{"shape": {"type": "sphere", "radius": 1}}]}}]})")));
   EXPECT_NE(e.find("(id 7): field 'shape.children[0].shape.type': nested compounds are not supported"),
             std::string::npos) << e;
-  e = error_of(scene_text(body(
+  e = scene_error_of(scene_text(body(
       R"({"type": "compound", "children": [{"shape": {"type": "sphere", "radius": 1}}, {"shape": {"type": "box", "half_extents": [1, -1, 1]}}]})")));
   EXPECT_NE(e.find("(id 7): field 'shape.children[1].shape.half_extents': must be > 0"), std::string::npos) << e;
-  e = error_of(scene_text(body(
+  e = scene_error_of(scene_text(body(
       R"({"type": "compound", "children": [{"shape": {"type": "sphere", "radius": 1}, "pose": [0, 0, 0]}]})")));
   EXPECT_NE(e.find("'shape.children[0].pose': unknown field"), std::string::npos) << e;
   // NaN poses cannot be written in JSON; through the API they are refused.
@@ -356,7 +348,7 @@ TEST(SceneErrors, BadCompoundsAreRejected) {
 }
 
 TEST(SceneErrors, MalformedJsonIsRejected) {
-  const std::string e = error_of(R"({"format": "soda-scene", "version": 1, "bodies": [)");
+  const std::string e = scene_error_of(R"({"format": "soda-scene", "version": 1, "bodies": [)");
   EXPECT_NE(e.find("not valid JSON"), std::string::npos) << e;
 }
 
@@ -372,7 +364,7 @@ TEST(SceneErrors, UnreadableFileIsRejected) {
 
 TEST(SceneErrors, HugeBodyBulletWouldDisableIsRejected) {
   // 1e6 m box: AABB length^2 = 3e12 >= 1e12.
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [5e5, 5e5, 5e5]},
           "position": [0, 2, 0]})"));
   EXPECT_NE(e.find("body #1 (id 7)"), std::string::npos) << e;
@@ -383,7 +375,7 @@ TEST(SceneErrors, FarAwayCoordinatesBulletWouldDisableAreRejected) {
   // Beyond float range a float world's AABB is infinite: Bullet disables the
   // body. (Far below that, float merely loses precision; the far-origin
   // stress scenes measure it.)
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "box", "half_extents": [0.5, 0.5, 0.5]},
           "position": [1e39, 2, 0]})"));
   EXPECT_NE(e.find("body #1 (id 7)"), std::string::npos) << e;
@@ -391,7 +383,7 @@ TEST(SceneErrors, FarAwayCoordinatesBulletWouldDisableAreRejected) {
 }
 
 TEST(SceneErrors, TooFastBodyBulletWouldDisableIsRejected) {
-  const std::string e = error_of(scene_text(
+  const std::string e = scene_error_of(scene_text(
       R"({"id": 7, "type": "dynamic", "mass": 1, "shape": {"type": "sphere", "radius": 0.5},
           "position": [0, 2, 0], "linear_velocity": [1e9, 0, 0]})"));
   EXPECT_NE(e.find("'position/shape/linear_velocity'"), std::string::npos) << e;
@@ -405,7 +397,7 @@ TEST(SceneErrors, FarButReasonableCoordinatesAreAccepted) {
 }
 
 TEST(SceneErrors, BadSettingsAreRejected) {
-  const std::string e = error_of(R"({"format": "soda-scene", "version": 1, "settings": {"dt": -1},
+  const std::string e = scene_error_of(R"({"format": "soda-scene", "version": 1, "settings": {"dt": -1},
       "bodies": []})");
   EXPECT_NE(e.find("settings: field 'dt'"), std::string::npos) << e;
 }
