@@ -25,7 +25,7 @@ constexpr UserInput::Kind kAllKinds[] = {
     UserInput::Kind::AddBody,     UserInput::Kind::RemoveBody,     UserInput::Kind::SetVelocity,
     UserInput::Kind::ApplyImpulse, UserInput::Kind::SetGravity,    UserInput::Kind::SetMass,
     UserInput::Kind::SetFriction, UserInput::Kind::SetRestitution, UserInput::Kind::SetUserData,
-    UserInput::Kind::SetPose,     UserInput::Kind::SetKinematicTarget};
+    UserInput::Kind::SetPose,     UserInput::Kind::SetKinematicTarget, UserInput::Kind::RemoveJoint};
 
 // The file's field of a setter's value.
 const char* value_field(UserInput::Kind kind) {
@@ -46,13 +46,19 @@ UserInput::Kind parse_kind(const Context& ctx, const std::string& name) {
     if (name == input_kind_name(k)) return k;
   ctx.fail("type", "unknown input '" + name +
                        "' (known: add_body, remove_body, set_velocity, apply_impulse, set_gravity, set_mass, "
-                       "set_friction, set_restitution, set_user_data, set_pose, set_kinematic_target)");
+                       "set_friction, set_restitution, set_user_data, set_pose, set_kinematic_target, remove_joint)");
 }
 
 BodyId parse_id(const Context& ctx, const json& j) {
   const std::int64_t id = ctx.integer(j, "id", true, 0);
   if (id < 0 || id > static_cast<std::int64_t>(kMaxBodyId)) ctx.fail("id", "must be in [0, 2^31)");
   return static_cast<BodyId>(id);
+}
+
+JointId parse_joint(const Context& ctx, const json& j) {
+  const std::int64_t id = ctx.integer(j, "joint", true, 0);
+  if (id < 0 || id > static_cast<std::int64_t>(kMaxJointId)) ctx.fail("joint", "must be in [0, 2^31)");
+  return static_cast<JointId>(id);
 }
 
 Vec3 finite_vec3(const Context& ctx, const json& j, const char* field, bool required) {
@@ -127,6 +133,10 @@ UserInput parse_input(const std::string& source, std::size_t index, const json& 
       }
       break;
     }
+    case UserInput::Kind::RemoveJoint:
+      ctx.only_known(j, {"type", "step", "joint"});
+      in.joint = parse_joint(ctx, j);
+      break;
   }
   if (const std::string why = check_input_value(in); !why.empty()) ctx.fail(value_field(in.kind), why);
   return in;
@@ -147,11 +157,14 @@ const char* input_kind_name(UserInput::Kind kind) {
     case UserInput::Kind::SetUserData: return "set_user_data";
     case UserInput::Kind::SetPose: return "set_pose";
     case UserInput::Kind::SetKinematicTarget: return "set_kinematic_target";
+    case UserInput::Kind::RemoveJoint: return "remove_joint";
   }
   return "unknown";
 }
 
-bool names_body(UserInput::Kind kind) { return kind != UserInput::Kind::AddBody && kind != UserInput::Kind::SetGravity; }
+bool names_body(UserInput::Kind kind) {
+  return kind != UserInput::Kind::AddBody && kind != UserInput::Kind::SetGravity && kind != UserInput::Kind::RemoveJoint;
+}
 
 std::string check_input_value(const UserInput& in) {
   const auto got = [](double v) {
@@ -268,6 +281,7 @@ std::string inputs_to_json(const std::vector<UserInput>& inputs) {
         e["orientation"] =
             json::array({in.orientation.x(), in.orientation.y(), in.orientation.z(), in.orientation.w()});
         break;
+      case UserInput::Kind::RemoveJoint: e["joint"] = in.joint; break;
     }
     list.push_back(std::move(e));
   }

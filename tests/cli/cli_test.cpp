@@ -461,14 +461,16 @@ TEST_F(CliTest, JointScenesRunInEveryWorldAndAreRefusedElsewhere) {
     ASSERT_EQ(o.exit_code, 0) << args << "\n" << o.output;
     EXPECT_EQ(hash_of(o), hash_of(one)) << args;
   }
-  // Inputs (a kick and the removal of a jointed plank, through a Simulation
+  // Inputs (a kick, the removal of a jointed plank and, queued in the
+  // checkpoint, of joint 5 between planks 7 and 8; through a Simulation
   // and, with --sync-test, through the PartitionedWorld), --record and a checkpoint
   // resumed on other territory counts: the one-territory hash with the
   // same inputs.
   const std::string inputs = (dir_ / "bridge-inputs.json").string();
   std::ofstream(inputs) << R"({"format": "soda-inputs", "version": 1, "inputs": [
       {"type": "apply_impulse", "step": 20, "id": 3, "impulse": [0, 40, 0]},
-      {"type": "remove_body", "step": 35, "id": 5}]})";
+      {"type": "remove_body", "step": 35, "id": 5},
+      {"type": "remove_joint", "step": 40, "joint": 5}]})";
   const std::string with = "run --scene chain-bridge --n 8 --steps 60 --log-level warn --inputs " + inputs;
   const Outcome plain = run_cli(with);
   ASSERT_EQ(plain.exit_code, 0) << plain.output;

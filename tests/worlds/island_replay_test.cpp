@@ -95,7 +95,7 @@ TEST(IslandReplay, ReplaysCleanIslandsTheOldRunSolvedAlike) {
   IslandReplay replay;
   replay.set(StepReplay{&f.before, &f.after, &f.islands});
   ASSERT_TRUE(replay.armed());
-  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, f.before.settings.gravity);
+  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, {}, f.before.settings.gravity);
   IslandItems<btPersistentManifold*> held = f.held_of_first();
   btCollisionObject* pair[] = {f.owned[0], f.owned[1]};
   EXPECT_TRUE(replay.take(pair, 2, held, 0));
@@ -123,7 +123,7 @@ TEST(IslandReplay, ADifferenceMakesBodiesDirty) {
   write_dynamic_state(*f.owned[2], moved(f.before.bodies[2].state, btScalar(0.5)));
   ManifoldState other = f.contact_state;
   other.points[0].applied_impulse = 9;
-  replay.mark_clean(f.owned, f.descriptions(), {other}, f.before.settings.gravity);
+  replay.mark_clean(f.owned, f.descriptions(), {other}, {}, f.before.settings.gravity);
   IslandItems<btPersistentManifold*> held = f.held_of_first();
   IslandItems<btPersistentManifold*> none;
   none.finish(1);
@@ -134,8 +134,36 @@ TEST(IslandReplay, ADifferenceMakesBodiesDirty) {
   EXPECT_FALSE(replay.take(three, 1, none, 0));
   EXPECT_TRUE(replay.take(four, 1, none, 0));
   // A contact in one run only: both its bodies dirty.
-  replay.mark_clean(f.owned, f.descriptions(), {}, f.before.settings.gravity);
+  replay.mark_clean(f.owned, f.descriptions(), {}, {}, f.before.settings.gravity);
   EXPECT_FALSE(replay.take(pair, 2, held, 0));
+}
+
+// An input removed a joint at this boundary: the old run's islands were
+// solved with it. A joint in one run only, or broken in one only, makes its
+// bodies dirty; the same joints keep them clean.
+TEST(IslandReplay, AJointInOneRunOnlyMakesItsBodiesDirty) {
+  Fixture f;
+  Joint joint;
+  joint.id = 7;
+  joint.body_a = 1;
+  joint.body_b = 2;
+  f.before.joints.push_back(JointSnapshot{joint, false});
+  IslandItems<btPersistentManifold*> held = f.held_of_first();
+  btCollisionObject* pair[] = {f.owned[0], f.owned[1]};
+  IslandReplay replay;
+  replay.set(StepReplay{&f.before, &f.after, &f.islands});
+  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, {JointSnapshot{joint, false}},
+                    f.before.settings.gravity);
+  EXPECT_TRUE(replay.take(pair, 2, held, 0));
+  IslandReplay removed;
+  removed.set(StepReplay{&f.before, &f.after, &f.islands});
+  removed.mark_clean(f.owned, f.descriptions(), {f.contact_state}, {}, f.before.settings.gravity);
+  EXPECT_FALSE(removed.take(pair, 2, held, 0));
+  IslandReplay broken;
+  broken.set(StepReplay{&f.before, &f.after, &f.islands});
+  broken.mark_clean(f.owned, f.descriptions(), {f.contact_state}, {JointSnapshot{joint, true}},
+                    f.before.settings.gravity);
+  EXPECT_FALSE(broken.take(pair, 2, held, 0));
 }
 
 // An input changed a body's mass, friction or restitution (or the gravity)
@@ -148,7 +176,7 @@ TEST(IslandReplay, AChangedMaterialOrGravityMakesBodiesDirty) {
   f.descriptions();
   f.now[2].mass = 4;       // body 3
   f.now[3].friction = 0.1;  // body 4
-  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, f.before.settings.gravity);
+  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, {}, f.before.settings.gravity);
   IslandItems<btPersistentManifold*> held = f.held_of_first();
   IslandItems<btPersistentManifold*> none;
   none.finish(1);
@@ -163,7 +191,7 @@ TEST(IslandReplay, AChangedMaterialOrGravityMakesBodiesDirty) {
   Fixture g;
   IslandReplay again;
   again.set(StepReplay{&g.before, &g.after, &g.islands});
-  again.mark_clean(g.owned, g.descriptions(), {g.contact_state}, Vec3(0, -1, 0));
+  again.mark_clean(g.owned, g.descriptions(), {g.contact_state}, {}, Vec3(0, -1, 0));
   IslandItems<btPersistentManifold*> g_held = g.held_of_first();
   btCollisionObject* g_pair[] = {g.owned[0], g.owned[1]};
   EXPECT_FALSE(again.take(g_pair, 2, g_held, 0));
@@ -175,7 +203,7 @@ TEST(IslandReplay, ABodyThatLeftIsSolvedAndAManifoldEmptyThenIsEmptied) {
   f.after.manifolds.clear();                           // the 1-2 manifold ended empty
   IslandReplay replay;
   replay.set(StepReplay{&f.before, &f.after, &f.islands});
-  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, f.before.settings.gravity);
+  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, {}, f.before.settings.gravity);
   IslandItems<btPersistentManifold*> held = f.held_of_first();
   IslandItems<btPersistentManifold*> none;
   none.finish(1);
@@ -192,7 +220,7 @@ TEST(IslandReplay, VerifyComparesAndNeverWrites) {
   Fixture f;
   IslandReplay replay;
   replay.set(StepReplay{&f.before, &f.after, &f.islands, false, true});
-  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, f.before.settings.gravity);
+  replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, {}, f.before.settings.gravity);
   IslandItems<btPersistentManifold*> none;
   none.finish(1);
   btCollisionObject* four[] = {f.owned[3]};

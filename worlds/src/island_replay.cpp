@@ -25,7 +25,8 @@ void IslandReplay::set(const StepReplay& replay) {
 // A pair whose contact state differs from the old run's, or that has
 // contact state in one run only, makes both its bodies dirty.
 void IslandReplay::mark_clean(const std::vector<btRigidBody*>& owned, const std::vector<const Body*>& descriptions,
-                              const std::vector<ManifoldState>& contacts, const Vec3& gravity) {
+                              const std::vector<ManifoldState>& contacts, const std::vector<JointSnapshot>& joints,
+                              const Vec3& gravity) {
   const WorldSnapshot& before = *replay_.before;
   clean_.clear();
   const Vec3& old_gravity = before.settings.gravity;
@@ -46,6 +47,7 @@ void IslandReplay::mark_clean(const std::vector<btRigidBody*>& owned, const std:
       if (it != clean_.end() && it->first == id) it->second = false;
     }
   };
+  mark_joints_dirty(joints);
   auto key = [](const ManifoldState& m) { return std::make_pair(m.id0, m.id1); };
   auto x = contacts.begin();
   auto y = before.manifolds.begin();
@@ -56,6 +58,31 @@ void IslandReplay::mark_clean(const std::vector<btRigidBody*>& owned, const std:
       dirty(*y++);
     } else {
       if (!same_bits(*x, *y)) dirty(*x);
+      ++x, ++y;
+    }
+  }
+}
+
+// A joint held in one run only (removed by an input at this boundary), or
+// broken in one only, makes both its bodies dirty: an island's joints are
+// part of what its step is a function of.
+void IslandReplay::mark_joints_dirty(const std::vector<JointSnapshot>& joints) {
+  auto dirty = [&](const Joint& j) {
+    for (BodyId id : {j.body_a, j.body_b}) {
+      auto it = std::lower_bound(clean_.begin(), clean_.end(), std::make_pair(id, false));
+      if (it != clean_.end() && it->first == id) it->second = false;
+    }
+  };
+  const std::vector<JointSnapshot>& old = replay_.before->joints;
+  auto x = joints.begin();
+  auto y = old.begin();
+  while (x != joints.end() || y != old.end()) {
+    if (y == old.end() || (x != joints.end() && x->description.id < y->description.id)) {
+      dirty((x++)->description);
+    } else if (x == joints.end() || y->description.id < x->description.id) {
+      dirty((y++)->description);
+    } else {
+      if (x->broken != y->broken) dirty(x->description);
       ++x, ++y;
     }
   }

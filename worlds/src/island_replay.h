@@ -3,9 +3,9 @@
 // verbs, in the order of the step:
 //
 //   mark_clean   before anything moves (predict): which owned bodies are
-//                clean — raw state, mass, friction and restitution and
-//                every contact they are in, at the step's start, equal to
-//                the old run's bit for bit, under the same gravity
+//                clean — raw state, mass, friction and restitution, every
+//                contact and every joint they are in, at the step's start,
+//                equal to the old run's bit for bit, under the same gravity
 //   take         for each island about to be solved in place: if every body
 //                is clean and the old run solved an island of exactly these
 //                bodies, queue its bodies' and manifolds' old results
@@ -58,8 +58,11 @@ class IslandReplay {
   /// (id0, id1)) and the world's gravity now: an input may have changed a
   /// body's material or the gravity at this boundary, which its raw state
   /// does not show.
+  /// `joints`: those held here now, by id; one held in one run only, or
+  /// broken in one only, makes its bodies dirty (an input removed it).
   void mark_clean(const std::vector<btRigidBody*>& owned, const std::vector<const Body*>& descriptions,
-                  const std::vector<ManifoldState>& contacts, const Vec3& gravity);
+                  const std::vector<ManifoldState>& contacts, const std::vector<JointSnapshot>& joints,
+                  const Vec3& gravity);
   /// An island about to be solved in place: its bodies (ascending id) and
   /// the manifolds it holds (`held`'s island `island`, by key). True if it
   /// is replayed (invariant 1): queued for finish().
@@ -70,6 +73,7 @@ class IslandReplay {
 
  private:
   bool clean(BodyId id) const;
+  void mark_joints_dirty(const std::vector<JointSnapshot>& joints);
 
   StepReplay replay_;
   std::vector<std::pair<BodyId, std::uint32_t>> index_;  // the old run's islands by smallest id

@@ -237,7 +237,10 @@ void TerritoryWorld::mark_clean() {
     owned[i] = owned_[i]->body.get();
     descriptions[i] = &owned_[i]->description;
   }
-  parts_->replay.mark_clean(owned, descriptions, kept_contact_state(), settings_.gravity);
+  std::vector<JointSnapshot> joints;  // by id, as a snapshot has them
+  joints.reserve(joints_.size());
+  for (const auto& [id, j] : joints_) joints.push_back(JointSnapshot{j->description, !j->constraint->isEnabled()});
+  parts_->replay.mark_clean(owned, descriptions, kept_contact_state(), joints, settings_.gravity);
 }
 
 // --- border islands (border_island_solver.h) ---------------------------------

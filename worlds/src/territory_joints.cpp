@@ -120,21 +120,21 @@ void TerritoryWorld::hold_joint(const Joint& joint, bool broken) {
 }
 
 // A body removed by input takes its joints with it, broken or not, before
-// it leaves the Bullet world (a constraint must not outlive its bodies).
-// What is left of its joint group falls apart into the groups its remaining
-// joints connect, each anchored by its own smallest id; the group's owner
-// holds them all. A group whose new anchor's home cell belongs to another
-// world migrates there, whole, at the end of the next step (as a body moved
-// by set_pose does): one world alone holds each group throughout, so the
-// step is the one world's.
-void TerritoryWorld::drop_joints_of(BodyId id) {
-  auto own = anchor_.find(id);
+// it leaves the Bullet world (a constraint must not outlive its bodies); a
+// joint removed by input goes alone. What is left of the joint group of
+// `member` falls apart into the groups its remaining joints connect, each
+// anchored by its own smallest id; the group's owner holds them all. A group
+// whose new anchor's home cell belongs to another world migrates there,
+// whole, at the end of the next step (as a body moved by set_pose does): one
+// world alone holds each group throughout, so the step is the one world's.
+void TerritoryWorld::drop_joints(BodyId member, JointId joint, bool all_of_member) {
+  auto own = anchor_.find(member);
   if (own == anchor_.end()) return;
   const BodyId old_anchor = own->second;
   std::vector<const Joint*> kept;  // the group's other joints
   for (auto it = joints_.begin(); it != joints_.end();) {
     const Joint& j = it->second->description;
-    if (j.body_a != id && j.body_b != id) {
+    if (all_of_member ? j.body_a != member && j.body_b != member : j.id != joint) {
       const auto a = anchor_.find(j.body_a), b = anchor_.find(j.body_b);
       if ((a != anchor_.end() && a->second == old_anchor) || (b != anchor_.end() && b->second == old_anchor))
         kept.push_back(&j);
@@ -151,6 +151,24 @@ void TerritoryWorld::drop_joints_of(BodyId id) {
   for (const auto& [body, anchor] : joint_anchors(kept, [&](BodyId b) { return entries_.at(b)->role == Role::Static; }))
     anchor_.emplace(body, anchor);
   quiet_ = -1;
+}
+
+// Its dynamic ends wake (as an impulse wakes a body): a sleeping group
+// falls apart at the next step. They are owned here with the joint and,
+// jointed, never parked.
+bool TerritoryWorld::remove_joint(JointId id) {
+  auto it = joints_.find(id);
+  if (it == joints_.end()) return false;
+  const Joint j = it->second->description;
+  std::vector<Entry*> ends;
+  for (BodyId body : {j.body_a, j.body_b})
+    if (Entry& e = *entries_.at(body); e.role == Role::Owned) ends.push_back(&e);
+  drop_joints(ends.front()->id(), id, false);
+  for (Entry* e : ends) {
+    e->body->forceActivationState(ACTIVE_TAG);
+    e->body->setDeactivationTime(btScalar(0));
+  }
+  return true;
 }
 
 std::size_t TerritoryWorld::broken_joint_count() const {

@@ -258,7 +258,7 @@ bool TerritoryWorld::add_body(const Body& body) {
 bool TerritoryWorld::remove_body(BodyId id) {
   if (!owns(id)) return false;
   unpark_for_input(*entries_.at(id));
-  drop_joints_of(id);
+  drop_joints(id, 0, true);
   for (auto it = kept_.begin(); it != kept_.end();)
     it = (it->first.first == id || it->first.second == id) ? kept_.erase(it) : std::next(it);
   remove_entry(id);

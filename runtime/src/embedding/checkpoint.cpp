@@ -61,8 +61,13 @@ constexpr std::uint32_t kKinematicVersion = 7;
 // retired ids).
 constexpr std::uint32_t kJointsVersion = 8;
 
+// The first version with joint inputs (kind 11, a joint id in every input
+// record).
+constexpr std::uint32_t kJointInputsVersion = 9;
+
 // The newest input kind a version knows.
 UserInput::Kind last_kind(std::uint32_t version) {
+  if (version >= kJointInputsVersion) return UserInput::Kind::RemoveJoint;
   if (version >= kKinematicVersion) return UserInput::Kind::SetKinematicTarget;
   return version >= kSettersVersion ? UserInput::Kind::SetUserData : UserInput::Kind::ApplyImpulse;
 }
@@ -85,7 +90,8 @@ BodyFormat body_format(std::uint32_t version) {
 
 // Input records: u8 kind, i64 step, u32 id, linear and angular as 3 f64 each;
 // from version 4: f64 value, u64 user data; from version 7: the
-// orientation as 4 f64 (w, x, y, z); an added body's record
+// orientation as 4 f64 (w, x, y, z); from version 9: u32 joint; an added
+// body's record
 // (write_body, its raw state unused) follows.
 void write_input(ByteWriter& w, const UserInput& in, std::uint32_t version) {
   w.put(static_cast<std::uint8_t>(in.kind));
@@ -96,6 +102,7 @@ void write_input(ByteWriter& w, const UserInput& in, std::uint32_t version) {
   if (version >= kSettersVersion) w.put(in.value), w.put(in.user_data);
   if (version >= kKinematicVersion)
     w.put(in.orientation.w()), w.put(in.orientation.x()), w.put(in.orientation.y()), w.put(in.orientation.z());
+  if (version >= kJointInputsVersion) w.put(in.joint);
   if (in.kind == UserInput::Kind::AddBody)
     write_body(w, BodySnapshot{in.body, BodyDynamicState{}}, body_format(version));
 }
@@ -117,6 +124,10 @@ UserInput read_input(ByteReader& r, std::uint32_t version) {
     if (version >= kKinematicVersion) {
       const double qw = r.get<double>(), qx = r.get<double>(), qy = r.get<double>(), qz = r.get<double>();
       in.orientation = Quat(qw, qx, qy, qz);
+    }
+    if (version >= kJointInputsVersion) {
+      in.joint = r.get<JointId>();
+      if (in.joint > kMaxJointId) r.fail("input naming a joint id above kMaxJointId");
     }
     if (const std::string why = check_input_value(in); !why.empty())
       r.fail("an input to " + describe(in) + ": " + why);

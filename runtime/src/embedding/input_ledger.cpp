@@ -11,6 +11,27 @@ namespace soda {
 
 InputLedger::InputLedger(const Scene& scene) : settings_(scene.settings) {
   for (const Body& b : scene.bodies) lives_[b.id] = Life{b.is_static, b.kinematic};
+  for (const Joint& j : scene.joints) joints_[j.id] = JointLife{j.body_a, j.body_b};
+}
+
+// A joint is there from the start (the scene's or the snapshot's) until its
+// removal or that of one of its bodies, whichever comes first.
+void InputLedger::check_joint(const UserInput& in, const std::string& what) const {
+  auto it = joints_.find(in.joint);
+  if (it == joints_.end()) throw std::invalid_argument(what + ": joint: no joint has that id");
+  const JointLife& j = it->second;
+  if (j.removed != INT64_MAX)
+    throw std::invalid_argument(what + ": joint: joint " + std::to_string(in.joint) + " is removed at step " +
+                                std::to_string(j.removed) + " already");
+  for (BodyId b : {j.body_a, j.body_b}) {
+    const Life& life = lives_.at(b);
+    if (life.retired || in.step >= life.removed)
+      throw std::invalid_argument(what + ": joint: joint " + std::to_string(in.joint) + " is gone then, with body " +
+                                  std::to_string(b) + " (removed at step " +
+                                  (life.retired ? std::string("before the snapshot this run was restored from")
+                                                : std::to_string(life.removed)) +
+                                  ")");
+  }
 }
 
 void InputLedger::check(const UserInput& in) const {
@@ -29,6 +50,7 @@ void InputLedger::check(const UserInput& in) const {
     }
     return;
   }
+  if (in.kind == UserInput::Kind::RemoveJoint) return check_joint(in, what);
   if (in.kind == UserInput::Kind::SetGravity) {
     if (const std::string why = check_input_value(in); !why.empty()) throw std::invalid_argument(what + ": " + why);
     return;
@@ -62,6 +84,13 @@ void InputLedger::check(const UserInput& in) const {
 
 void InputLedger::record(const UserInput& in) {
   if (in.kind == UserInput::Kind::SetGravity) return;  // names no body
+  if (in.kind == UserInput::Kind::RemoveJoint) {
+    // Its bodies cannot be removed before it (an input at a later step).
+    JointLife& j = joints_.at(in.joint);
+    j.removed = in.step;
+    for (BodyId b : {j.body_a, j.body_b}) lives_[b].last_input = std::max(lives_[b].last_input, in.step);
+    return;
+  }
   const BodyId id = in.kind == UserInput::Kind::AddBody ? in.body.id : in.id;
   Life& life = lives_[id];
   if (in.kind == UserInput::Kind::AddBody) life.added = in.step;

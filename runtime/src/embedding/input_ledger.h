@@ -2,7 +2,8 @@
 // arrive (runtime/user_input.h): when it was added, when removed, the
 // newest input naming it. It checks an input against that (an unknown or
 // static body, an id in use, a body not in the scene at the input's step,
-// an input after a removal, a bad added body) before the input is queued.
+// an input after a removal, a bad added body; a joint that is not there at
+// the input's step) before the input is queued.
 // Used by a Simulation's engine (inputs as the API calls come) and by a
 // PartitionedWorld (PartitionedOptions::inputs, all before the run).
 // Not thread-safe: its owner serialises the calls.
@@ -10,6 +11,7 @@
 
 #include <cstdint>
 #include <map>
+#include <string>
 #include <vector>
 
 #include "soda/runtime/user_input.h"
@@ -42,7 +44,13 @@ class InputLedger {
     std::int64_t last_input = -1;          // newest step of an input naming it
     bool retired = false;                  // removed before the snapshot this run was restored from
   };
+  struct JointLife {
+    BodyId body_a = 0, body_b = 0;
+    std::int64_t removed = INT64_MAX;  // removed by input at this boundary
+  };
+  void check_joint(const UserInput& input, const std::string& what) const;
   std::map<BodyId, Life> lives_;
+  std::map<JointId, JointLife> joints_;
   SceneSettings settings_;
 };
 

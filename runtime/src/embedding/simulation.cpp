@@ -183,6 +183,14 @@ void Simulation::set_pose(double time, BodyId id, const Pose& pose) {
   engine_->input(pose_input(UserInput::Kind::SetPose, engine_->core->step_at(time), id, pose));
 }
 
+void Simulation::remove_joint(double time, JointId id) {
+  UserInput in;
+  in.kind = UserInput::Kind::RemoveJoint;
+  in.step = engine_->core->step_at(time);
+  in.joint = id;
+  engine_->input(in);
+}
+
 BodyId Simulation::give(const UserInput& input) {
   const double time = time_of(input.step);
   switch (input.kind) {
@@ -199,6 +207,7 @@ BodyId Simulation::give(const UserInput& input) {
     case UserInput::Kind::SetKinematicTarget:
       set_kinematic_target(time, input.id, Pose{input.linear, input.orientation});
       break;
+    case UserInput::Kind::RemoveJoint: remove_joint(time, input.joint); break;
   }
   return input.id;
 }

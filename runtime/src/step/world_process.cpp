@@ -66,6 +66,7 @@ void PartitionedWorld::Process::apply_inputs() {
       case UserInput::Kind::SetKinematicTarget:  // every world
         s_.world->command_kinematic(in.id, kinematic_command(in));
         break;
+      case UserInput::Kind::RemoveJoint: s_.world->remove_joint(in.joint); break;  // the world holding it
     }
   }
 }

@@ -305,6 +305,15 @@ class Simulation {
   /// Refused: a static body, a non-finite position, a zero or non-finite
   /// orientation.
   void set_pose(double time, BodyId id, const Pose& pose);
+  /// Removes a joint (Scene::joints, by Joint::id), broken or not, and wakes
+  /// the dynamic bodies it joined: what is left of its joint group falls
+  /// apart into the groups its other joints connect, as when a body is
+  /// removed (docs/partitioned-step.md, "Joints"). Refused, naming the
+  /// joint: an id no joint has at that step (never in the scene, removed
+  /// before, or gone with a body removed at or before the step); a joint
+  /// removed twice. A body of a joint with a removal queued cannot be
+  /// removed at an earlier step (remove the joint first).
+  void remove_joint(double time, JointId id);
   /// The call for `input`'s kind at time_of(input.step): an input record
   /// as an input file or input_log() holds it (user_input.h), given as the
   /// calls above give it, with their errors. Returns the body's id.

@@ -1,7 +1,7 @@
 // The input file format (`soda-inputs`, docs/inputs.md): a script of user
 // inputs — add a body, remove one, set a body's velocity, give it an
 // impulse, change the scene's gravity, a body's mass, friction, restitution
-// or user data — each at a scene step boundary, which `soda run --inputs FILE`
+// or user data, remove a joint — each at a scene step boundary, which `soda run --inputs FILE`
 // replays through the same calls as the embedding API
 // (soda::Simulation::add_body, ...), so the run ends on the same hash as the
 // API and as one territory.
@@ -31,6 +31,7 @@ struct UserInput {
     SetUserData,     // a body's user data (Body::user_data)
     SetPose,             // a dynamic or kinematic body put at a pose (teleport): linear, orientation
     SetKinematicTarget,  // a kinematic body moved to a pose over the next step: linear, orientation
+    RemoveJoint,         // a joint removed (no body): joint
   };
   Kind kind = Kind::SetVelocity;
   /// Applied at the boundary after scene step `step` (0: before the first
@@ -45,15 +46,17 @@ struct UserInput {
   Quat orientation = Quat::Identity();  // SetPose, SetKinematicTarget: the pose's orientation (linear: its position)
   double value = 0.0;          // SetMass: mass; SetFriction: friction; SetRestitution: restitution
   std::uint64_t user_data = 0; // SetUserData
+  JointId joint = 0;           // RemoveJoint: the joint's id (Joint::id)
 };
 
-/// True for the kinds that name a body by `id` (all but AddBody and SetGravity).
+/// True for the kinds that name a body by `id` (all but AddBody, SetGravity
+/// and RemoveJoint).
 bool names_body(UserInput::Kind kind);
 
 /// "add_body" | "remove_body" | "set_velocity" | "apply_impulse" |
 /// "set_gravity" | "set_mass" | "set_friction" | "set_restitution" |
-/// "set_user_data" | "set_pose" | "set_kinematic_target", the names the
-/// file uses.
+/// "set_user_data" | "set_pose" | "set_kinematic_target" | "remove_joint",
+/// the names the file uses.
 const char* input_kind_name(UserInput::Kind kind);
 
 /// Reads an input file. Returns its inputs sorted by step (stable: inputs of

@@ -33,10 +33,9 @@
 //  5. every island is solved as one solveGroup with its bodies by id, its
 //     manifolds by (id0, id1) and its joints by joint id: local islands in
 //     place, border islands on copies built from their fragments;
-//  6. a joint group (the dynamic bodies joints connect, broken or not) has
-//     its anchor's (smallest id's) home cell, so one owner holds its joints
-//     and they migrate together; a merged island gets them from that
-//     owner's fragment (docs/partitioned-step.md, "Joints").
+//  6. a joint group (the dynamic bodies joints connect, broken or not) has its anchor's (smallest
+//     id's) home cell, so one owner holds its joints and they migrate together; a merged island gets
+//     them from that owner's fragment (docs/partitioned-step.md, "Joints").
 //
 // The world keeps the territory's state and the stage entry points; three
 // rooms of its own do the island work (worlds/src): IslandBuilder
@@ -315,11 +314,11 @@ class TerritoryWorld {
   /// would) if the map gives its home cell to this world; true if it did.
   /// Throws PartitionError if the id is present here.
   bool add_body(const Body& body);
-  /// Input at a step boundary: removes an owned body with its joints (what
-  /// is left of its joint group regroups: territory_joints.cpp) and its
-  /// contact state (live manifolds and kept values of pairs it is the key
-  /// of). False if not owned here.
+  /// Input at a step boundary: removes an owned body with its joints and its contact state (live
+  /// manifolds, kept values of pairs it keys), or a joint held here, waking its dynamic bodies; what is
+  /// left of the joint group regroups (territory_joints.cpp). False if not owned / not held here.
   bool remove_body(BodyId id);
+  bool remove_joint(JointId id);
 
   struct Entry;  // internal types: worlds/src/territory_world_parts.h
   struct Parts;
@@ -359,7 +358,7 @@ class TerritoryWorld {
                                const std::vector<const BodyDynamicState*>& states,
                                const std::vector<JointSnapshot>& joints);
   void hold_joint(const Joint& joint, bool broken);
-  void drop_joints_of(BodyId id);  // remove_body: its joints go first
+  void drop_joints(BodyId member, JointId joint, bool all_of_member);  // remove_body (all), remove_joint
   /// Removes the joints of the leaving bodies from the Bullet world, into
   /// their destination's batch (before the bodies go).
   void export_joints(const std::map<BodyId, WorldId>& destination, std::map<WorldId, MigrantBatch>& out);
