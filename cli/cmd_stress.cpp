@@ -158,7 +158,7 @@ Command add_stress_command(CLI::App& app) {
               "settling is its criterion)");
   cmd->add_option("--dt", o->dt, "Override every scene's step (1/120 or seconds); steps scale to the same time");
   cmd->add_option("--iterations", o->iterations, "Override every scene's solver iterations");
-  cmd->add_option("--substeps", o->substeps, "Override every case's substeps per step (the joint chains run 4)");
+  cmd->add_option("--substeps", o->substeps, "Override every case's substeps per step (stock Bullet's joint chains run 4)");
   cmd->add_option("--variant", o->variant,
                   "Diagnosis: solver settings to change, e.g. ws=1,erp2=0.8,nosleep (bench/include/soda/bench/"
                   "solver_variant.h)");

@@ -248,10 +248,6 @@ void BorderIslandSolver::solve_awake(const Gathered& g, std::vector<btCollisionO
   });
   btPersistentManifold** manifold_ptrs = ptrs.empty() ? nullptr : ptrs.data();
   const int body_count = static_cast<int>(bodies.size());
-  int substeps = 1;
-  const btContactSolverInfo& info = island_solver_info(tools.info, tools.island_info, bodies.data(), body_count,
-                                                       manifold_ptrs, manifold_count, substeps);
-  if (substeps > 1) ++counters.substepped_islands;
   // Joints: this world's own in place, the others built on the island's
   // bodies (copies or originals) and statics.
   std::vector<btTypedConstraint*> joints(g.joints.size());
@@ -268,8 +264,15 @@ void BorderIslandSolver::solve_awake(const Gathered& g, std::vector<btCollisionO
     joint_copies.push_back(make_constraint(j, *a, *b));
     joints[i] = joint_copies.back().get();
   }
+  btTypedConstraint** joint_ptrs = joints.empty() ? nullptr : joints.data();
+  const int joint_count = static_cast<int>(joints.size());
+  int substeps = 1;
+  const btContactSolverInfo& info = island_solver_info(tools.info, tools.island_info, bodies.data(), body_count,
+                                                       manifold_ptrs, manifold_count, joint_ptrs, joint_count,
+                                                       substeps);
+  if (substeps > 1) ++counters.substepped_islands;
   solve_island(tools.solver, bodies.data(), body_count, manifold_ptrs, manifold_count, info, substeps,
-               tools.dispatcher, pool, joints.empty() ? nullptr : joints.data(), static_cast<int>(joints.size()));
+               tools.dispatcher, pool, joint_ptrs, joint_count);
   for (std::size_t i = 0; i < joints.size(); ++i)
     if (!joints[i]->isEnabled()) result.broken_joints.push_back(g.joints[i].description->id);
   counters.merged_island_joints += joints.size();

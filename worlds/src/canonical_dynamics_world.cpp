@@ -369,13 +369,13 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
     btCollisionObject** bodies = &island_bodies_[static_cast<std::size_t>(job.body_begin)];
     btPersistentManifold** manifolds =
         job.manifold_count ? island_manifolds_.data() + job.manifold_begin : nullptr;
+    btTypedConstraint** joints = job.joint_count ? island_joints_.data() + job.joint_begin : nullptr;
     int substeps = 1;
     const btContactSolverInfo& info =
         bullet_defaults_ ? solver_info
                          : island_solver_info(solver_info, scratch, bodies, job.body_count, manifolds,
-                                              job.manifold_count, substeps);
+                                              job.manifold_count, joints, job.joint_count, substeps);
     if (substeps > 1) substepped.fetch_add(1, std::memory_order_relaxed);
-    btTypedConstraint** joints = job.joint_count ? island_joints_.data() + job.joint_begin : nullptr;
     return solve_island(solver, bodies, job.body_count, manifolds, job.manifold_count, info, substeps, *dispatcher,
                         island_pool, joints, job.joint_count);
   };

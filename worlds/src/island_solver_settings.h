@@ -72,6 +72,17 @@ constexpr double kSubstepApproach = 0.05;
 /// with the 0.1 threshold (no better), and each one costs a solve.
 constexpr int kIslandSubsteps = 2;
 
+/// An island whose joints hang a chain of more than this many dynamic
+/// bodies from a static one (IslandProfile::joint_height), or join two
+/// bodies whose masses differ by more than kJointSubstepMassRatio, is
+/// solved in kJointSubsteps substeps (island_substeps.h). In whole steps
+/// of 1/60 s such a chain stretches whatever the iterations (the
+/// hanging-chain-100 stress case: 195 % of a link at 10 iterations, 242 %
+/// at 100; 11 % at 2 substeps, 2.8 % at 4; docs/stress.md, "Joint cases").
+constexpr int kJointSubstepHeight = kPlainHeight;
+constexpr double kJointSubstepMassRatio = 10.0;
+constexpr int kJointSubsteps = 4;
+
 /// Sets the canonical defaults on a world's solver info: scene iterations,
 /// two fixed, cached friction directions. Called once when a world is built.
 void configure_canonical_solver(btContactSolverInfo& info, const SceneSettings& settings);
@@ -94,15 +105,22 @@ struct IslandProfile {
   /// Every manifold with points is between two boxes (statics included):
   /// the pairs island_substeps.h can refresh between substeps.
   bool boxes_only = true;
+  /// Longest chain of enabled joints from a static or kinematic body, in
+  /// dynamic bodies (0: no joint reaches a static one).
+  int joint_height = 0;
+  /// Largest m_a / m_b over the enabled joints between dynamic bodies (>= 1).
+  double joint_mass_ratio = 1;
   /// Tall and heavy-on-light (see kMaxStiffFactor).
   bool stiff() const { return height > kPlainHeight && mass_ratio > kPlainMassRatio; }
 };
 
 /// Reads the island's profile. `bodies` are the island's dynamic bodies,
-/// `manifolds` its manifolds (any order; those without points are ignored).
+/// `manifolds` its manifolds (any order; those without points are ignored),
+/// `joints` its joints (any order; broken ones are ignored).
 /// Uses the bodies' companion ids as scratch and leaves them at -1.
 IslandProfile profile_island(btCollisionObject* const* bodies, int body_count,
-                             btPersistentManifold* const* manifolds, int manifold_count);
+                             btPersistentManifold* const* manifolds, int manifold_count,
+                             btTypedConstraint* const* joints = nullptr, int joint_count = 0);
 
 /// The iterations of an island of this profile, from the scene's `base`.
 int island_iterations(int base, const IslandProfile& profile);
@@ -122,6 +140,6 @@ int island_substeps(const IslandProfile& profile, double h);
 const btContactSolverInfo& island_solver_info(const btContactSolverInfo& base, btContactSolverInfo& scratch,
                                               btCollisionObject* const* bodies, int body_count,
                                               btPersistentManifold* const* manifolds, int manifold_count,
-                                              int& substeps);
+                                              btTypedConstraint* const* joints, int joint_count, int& substeps);
 
 }  // namespace soda

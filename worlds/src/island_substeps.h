@@ -1,6 +1,8 @@
 // Internal: substeps per island (docs/stress.md "The solver defaults"). An
 // island whose touching bodies move fast against their size in one step
-// (IslandProfile::approach_rate, island_substeps) is solved and integrated
+// (IslandProfile::approach_rate), or whose joints hang a tall or
+// heavy-loaded chain (IslandProfile::joint_height, joint_mass_ratio;
+// island_substeps) is solved and integrated
 // as `substeps` steps of h / substeps inside the solve stage, its own
 // manifolds' narrowphase run again between them; every other island is
 // solved once with h, as before. Shared by every world that solves an

@@ -201,8 +201,9 @@ void TerritoryWorld::solve_local(const std::vector<int>& components) {
     }
     btPersistentManifold** manifolds = parts_->held.values(k);
     int substeps = 1;
-    const btContactSolverInfo& island_info =
-        island_solver_info(info, parts_->island_info, bodies, body_count, manifolds, manifold_count, substeps);
+    const btContactSolverInfo& island_info = island_solver_info(
+        info, parts_->island_info, bodies, body_count, manifolds, manifold_count, parts_->joints.values(k),
+        joint_count, substeps);
     if (substeps > 1) ++counters_.substepped_islands;
     solve_island(solver, bodies, body_count, manifolds, manifold_count, island_info, substeps, parts_->dispatcher,
                  parts_->solver.pool().get(), parts_->joints.values(k), joint_count);
