@@ -12,6 +12,8 @@
 #include "soda/worlds/watchdog.h"
 #include "soda/worlds/world_snapshot.h"
 
+#include <vector>
+
 namespace soda {
 namespace {
 
@@ -217,6 +219,52 @@ TEST(Watchdog, HealsEveryBlowUpOfAStepTooLongForEveryPartition) {
       EXPECT_EQ(world.healed_steps(), healed);
       EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(hash));
     }
+  }
+}
+
+// Joint scenes healed. The heals rebuild the worlds from kept states that
+// carry the joints (and whether each has broken), and re-simulate the step
+// with every joint. chain-bridge stepped at 0.5 s, where boxes sink more
+// than 1 m into the planks again and again: the same heals and hash for 1
+// and 4 territories. A ragdoll's pelvis made NaN at kBadStep: one heal, and
+// the hash of one CanonicalWorld that takes that step in substeps.
+TEST(Watchdog, HealsJointScenesForEveryPartition) {
+  Scene bridge = test::scene("chain-bridge", 12);
+  bridge.settings.dt = 0.5;
+  std::vector<std::int64_t> healed;
+  std::uint64_t hash = 0;
+  for (int territories : {1, 4}) {
+    PartitionedOptions o;
+    o.runtime.watchdog.response = WatchdogResponse::Heal;
+    o.schedule = territories > 1 ? Schedule::ThreadPerWorld : Schedule::Sequential;
+    PartitionedWorld world(bridge, make_partition("kmeans", bridge, territories, GridOptions{}), o);
+    world.step(60);
+    std::printf("[ heal chain-bridge K=%d ] %d heals, %s\n", territories, world.heals(),
+                hash_hex(world.state_hash()).c_str());
+    EXPECT_GE(world.heals(), 1);
+    if (territories == 1) {
+      healed = world.healed_steps();
+      hash = world.state_hash();
+    } else {
+      EXPECT_EQ(world.healed_steps(), healed);
+      EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(hash));
+    }
+  }
+  const Scene ragdolls = test::scene("ragdolls", 8);
+  ASSERT_FALSE(ragdolls.joints.empty());
+  const std::uint64_t expected = healed_reference(ragdolls, PartitionedOptions{}.runtime.watchdog.heal_substeps);
+  for (int territories : {1, 4}) {
+    const BodyId pelvis = 1;
+    PartitionedWorld world(ragdolls, make_partition("kmeans", ragdolls, territories, GridOptions{}),
+                           options(WatchdogResponse::Heal, pelvis, territories > 1 ? Schedule::ThreadPerWorld
+                                                                                  : Schedule::Sequential));
+    world.step(kSteps);
+    std::printf("[ heal ragdolls K=%d ] %d heals, %s (one world %s)\n", territories, world.heals(),
+                hash_hex(world.state_hash()).c_str(), hash_hex(expected).c_str());
+    ASSERT_EQ(world.heals(), 1);
+    EXPECT_EQ(world.healed_steps().front(), kBadStep);
+    EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(expected));
+    EXPECT_NE(world.state_hash(), test::reference_hash(ragdolls, kSteps));
   }
 }
 

@@ -389,11 +389,6 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
     throw std::invalid_argument("--solver-defaults bullet runs one canonical world only (not with --world stock, "
                                 "--territories > 1, --sync-test, --watchdog heal, inputs, --record, checkpoints "
                                 "or ranks)");
-  if (!scene.joints.empty() && config.runtime.watchdog.response == WatchdogResponse::Heal)
-    throw std::invalid_argument(scene.name + ": the scene has " + std::to_string(scene.joints.size()) +
-                                " joints, which run in the canonical and stock worlds and in territory worlds "
-                                "(--territories, --sync-test, --anticipation, --lb, ranks, inputs, --record, "
-                                "checkpoints), not with --watchdog heal (docs/scene-format.md, \"Joints\")");
   const SleepingSwitch sleeping(config.sleeping);
   const Stamp start;
   const MemoryEstimate estimate = check_run_memory(scene, config);
