@@ -53,7 +53,7 @@ struct InboxEdit {
   WorldId from = kNoWorld;
   std::int64_t step = 0;
   std::uint32_t epoch = 0;
-  std::set<MessageKey> keep;
+  std::set<MessageKey> keep{};
 };
 
 /// What a speculation decided at one hook (invariant 1: how it is applied).
