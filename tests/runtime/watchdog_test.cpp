@@ -196,30 +196,38 @@ TEST(Watchdog, HealsARealBlowUpAndStaysWithinBounds) {
   }
 }
 
-// Blow-ups again and again: falling cubes stepped at
-// 0.15 s land 1 m deep in the ground, one after another. Every landing is
-// healed, the same steps for 1 and 4 territories, and the same hash.
-TEST(Watchdog, HealsEveryBlowUpOfAStepTooLongForEveryPartition) {
-  Scene s = test::scene("falling-cubes", 300);
-  s.settings.dt = 0.15;
+// A real blow-up healed again and again, the same for 1 and 4 territories:
+// `scene` run `steps` steps with Heal on each, at least `min_heals` heals,
+// the same healed steps and the same hash.
+void expect_same_heals_for_every_partition(const Scene& scene, int steps, int min_heals) {
   std::vector<std::int64_t> healed;
   std::uint64_t hash = 0;
   for (int territories : {1, 4}) {
     PartitionedOptions o;
     o.runtime.watchdog.response = WatchdogResponse::Heal;
     o.schedule = territories > 1 ? Schedule::ThreadPerWorld : Schedule::Sequential;
-    PartitionedWorld world(s, make_partition("kmeans", s, territories, GridOptions{}), o);
-    world.step(120);
-    std::printf("[ heal K=%d ] %d heals, %s\n", territories, world.heals(), hash_hex(world.state_hash()).c_str());
-    EXPECT_GE(world.heals(), 2);
+    PartitionedWorld world(scene, make_partition("kmeans", scene, territories, GridOptions{}), o);
+    world.step(steps);
+    std::printf("[ heal %s K=%d ] %d heals, %s\n", scene.name.c_str(), territories, world.heals(),
+                hash_hex(world.state_hash()).c_str());
+    EXPECT_GE(world.heals(), min_heals) << scene.name;
     if (territories == 1) {
       healed = world.healed_steps();
       hash = world.state_hash();
     } else {
-      EXPECT_EQ(world.healed_steps(), healed);
-      EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(hash));
+      EXPECT_EQ(world.healed_steps(), healed) << scene.name;
+      EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(hash)) << scene.name;
     }
   }
+}
+
+// Blow-ups again and again: falling cubes stepped at
+// 0.15 s land 1 m deep in the ground, one after another. Every landing is
+// healed, the same steps for 1 and 4 territories, and the same hash.
+TEST(Watchdog, HealsEveryBlowUpOfAStepTooLongForEveryPartition) {
+  Scene s = test::scene("falling-cubes", 300);
+  s.settings.dt = 0.15;
+  expect_same_heals_for_every_partition(s, 120, 2);
 }
 
 // Joint scenes healed. The heals rebuild the worlds from kept states that
@@ -231,25 +239,7 @@ TEST(Watchdog, HealsEveryBlowUpOfAStepTooLongForEveryPartition) {
 TEST(Watchdog, HealsJointScenesForEveryPartition) {
   Scene bridge = test::scene("chain-bridge", 12);
   bridge.settings.dt = 0.5;
-  std::vector<std::int64_t> healed;
-  std::uint64_t hash = 0;
-  for (int territories : {1, 4}) {
-    PartitionedOptions o;
-    o.runtime.watchdog.response = WatchdogResponse::Heal;
-    o.schedule = territories > 1 ? Schedule::ThreadPerWorld : Schedule::Sequential;
-    PartitionedWorld world(bridge, make_partition("kmeans", bridge, territories, GridOptions{}), o);
-    world.step(60);
-    std::printf("[ heal chain-bridge K=%d ] %d heals, %s\n", territories, world.heals(),
-                hash_hex(world.state_hash()).c_str());
-    EXPECT_GE(world.heals(), 1);
-    if (territories == 1) {
-      healed = world.healed_steps();
-      hash = world.state_hash();
-    } else {
-      EXPECT_EQ(world.healed_steps(), healed);
-      EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(hash));
-    }
-  }
+  expect_same_heals_for_every_partition(bridge, 60, 1);
   const Scene ragdolls = test::scene("ragdolls", 8);
   ASSERT_FALSE(ragdolls.joints.empty());
   const std::uint64_t expected = healed_reference(ragdolls, PartitionedOptions{}.runtime.watchdog.heal_substeps);
