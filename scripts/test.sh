@@ -50,6 +50,14 @@ build/consumer/snapshot_restore
 build/consumer/save_resume
 build/consumer/moving_platform
 build/consumer/ragdoll_pile
+# soda::mpi from the installed package (where MPI is found): 4 territories on
+# 2 ranks against one territory, run as the mpi tests run theirs (this
+# machine only, oversubscribed, root allowed).
+if [ -x build/consumer/ranked_cubes ]; then
+  OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl=self,vader \
+    OMPI_MCA_oob_tcp_if_include=lo OMPI_MCA_btl_tcp_if_include=lo OMPI_MCA_rmaps_base_oversubscribe=1 \
+    OMPI_MCA_hwloc_base_binding_policy=none timeout 300 mpirun --oversubscribe -np 2 build/consumer/ranked_cubes
+fi
 # ThreadSanitizer cannot see inside Debian's (uninstrumented) Bullet; see
 # docs/bullet-globals.md for how its shared state is handled.
 cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSODA_SANITIZE=thread -DSODA_BUILD_DOUBLE=OFF
