@@ -14,12 +14,11 @@ trap 'rm -f "$out"' EXIT
   --territories 2 --log-level warn >"$out" 2>&1 &
 launcher=$!
 
-# The rank processes: the launcher's descendants whose environment names
-# their rank (Open MPI's OMPI_COMM_WORLD_RANK).
+# The rank processes: the launcher's children whose environment names their
+# rank (Open MPI's OMPI_COMM_WORLD_RANK); never another test's ranks.
 rank_pid() {
   local pid
-  for pid in $(pgrep -f -- "--steps 1000000 --territories 2"); do
-    [ "$pid" = "$launcher" ] && continue
+  for pid in $(pgrep -P "$launcher"); do
     if tr '\0' '\n' <"/proc/$pid/environ" 2>/dev/null | grep -qx "OMPI_COMM_WORLD_RANK=$1"; then
       echo "$pid"
       return 0
