@@ -1,7 +1,8 @@
 # `mpirun -np 2 soda run ... --territories K` prints the hash of the
 # threaded 1-territory run, writes the JSON (with its per-rank traffic) from
 # rank 0 only, gives it with speculation and SyncTest too, also for a scene
-# with joints, and refuses a bad --ranks-worlds or --validate with exit 2.
+# with joints and with a solver pool, and refuses a bad --ranks-worlds or
+# --validate with exit 2.
 # Run by ctest: cmake -DSODA=... -DMPIEXEC=... -P mpi_cli_test.cmake
 set(scene --scene falling-cubes --n 120 --steps 60)
 
@@ -71,3 +72,15 @@ endif()
 hash_of(reference "${one}")
 ranked_run(ragdolls --anticipation 8)
 message(STATUS "ragdolls 6: one territory ${reference}; 3 territories on 2 ranks, speculating: the same")
+
+# A solver pool over ranks (--solver-threads 2): each rank's worlds share
+# theirs, as on threads; cube-pile's heap is one large island. The same hash.
+set(scene --scene cube-pile --n 600 --steps 60)
+execute_process(COMMAND ${SODA} run ${scene} --territories 1 OUTPUT_VARIABLE one RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "soda run ${scene} --territories 1 failed (${rc}):\n${one}")
+endif()
+hash_of(reference "${one}")
+ranked_run(pool --solver-threads 2)
+ranked_run(pool_spec --solver-threads 2 --anticipation 8)
+message(STATUS "cube-pile 600: one territory ${reference}; 3 territories on 2 ranks with --solver-threads 2: the same")

@@ -57,7 +57,6 @@ void PartitionedWorld::check_group_options() const {
   if (options_.runtime.validate) refuse("validation");
   if (options_.runtime.watchdog.response == WatchdogResponse::Heal) refuse("the watchdog's heal");
   if (options_.runtime.balance.policy != "none" || options_.balance_policy) refuse("load balancing");
-  if (options_.runtime.solver_threads > 1) refuse("a solver pool (solver_threads > 1)");
 }
 
 // The scheduler's threads step this rank's worlds; the caller's thread (the
@@ -71,6 +70,7 @@ void PartitionedWorld::run_on_ranks(std::int64_t internal_target) {
   o.schedule = options_.schedule == Schedule::Sequential ? Schedule::Pool : options_.schedule;
   o.threads = options_.schedule == Schedule::Sequential ? 1 : options_.threads;
   o.pin = options_.runtime.pin;
+  o.guest_pool = in_->solver_pool.get();  // this rank's worlds share their solver pool, as on threads
   for (WorldId w = 0; w < world_count(); ++w) o.local.push_back(steps_world(w));
   Scheduler scheduler(std::move(o), in_->task_list(), *in_->transport, nullptr,
                       [&group](WorldId w, std::exception_ptr error) {
