@@ -25,7 +25,8 @@ constexpr UserInput::Kind kAllKinds[] = {
     UserInput::Kind::AddBody,     UserInput::Kind::RemoveBody,     UserInput::Kind::SetVelocity,
     UserInput::Kind::ApplyImpulse, UserInput::Kind::SetGravity,    UserInput::Kind::SetMass,
     UserInput::Kind::SetFriction, UserInput::Kind::SetRestitution, UserInput::Kind::SetUserData,
-    UserInput::Kind::SetPose,     UserInput::Kind::SetKinematicTarget, UserInput::Kind::RemoveJoint};
+    UserInput::Kind::SetPose,     UserInput::Kind::SetKinematicTarget, UserInput::Kind::RemoveJoint,
+    UserInput::Kind::AddJoint};
 
 // The file's field of a setter's value.
 const char* value_field(UserInput::Kind kind) {
@@ -46,7 +47,8 @@ UserInput::Kind parse_kind(const Context& ctx, const std::string& name) {
     if (name == input_kind_name(k)) return k;
   ctx.fail("type", "unknown input '" + name +
                        "' (known: add_body, remove_body, set_velocity, apply_impulse, set_gravity, set_mass, "
-                       "set_friction, set_restitution, set_user_data, set_pose, set_kinematic_target, remove_joint)");
+                       "set_friction, set_restitution, set_user_data, set_pose, set_kinematic_target, remove_joint, "
+                       "add_joint)");
 }
 
 BodyId parse_id(const Context& ctx, const json& j) {
@@ -137,6 +139,20 @@ UserInput parse_input(const std::string& source, std::size_t index, const json& 
       ctx.only_known(j, {"type", "step", "joint"});
       in.joint = parse_joint(ctx, j);
       break;
+    case UserInput::Kind::AddJoint: {
+      // The scene file's joint object and its checks; whether its bodies
+      // are there (and not both static, not kinematic) the run decides.
+      ctx.only_known(j, {"type", "step", "joint"});
+      const std::string where = ctx.where + ": joint";
+      in.added_joint = detail::parse_joint(where, *ctx.find(j, "joint", true));
+      in.joint = in.added_joint.id;
+      Body any;  // a dynamic body for either end
+      validate_joint(in.added_joint, where + " (id " + std::to_string(in.joint) + ")", [&](BodyId id) {
+        any.id = id;
+        return &any;
+      });
+      break;
+    }
   }
   if (const std::string why = check_input_value(in); !why.empty()) ctx.fail(value_field(in.kind), why);
   return in;
@@ -158,12 +174,14 @@ const char* input_kind_name(UserInput::Kind kind) {
     case UserInput::Kind::SetPose: return "set_pose";
     case UserInput::Kind::SetKinematicTarget: return "set_kinematic_target";
     case UserInput::Kind::RemoveJoint: return "remove_joint";
+    case UserInput::Kind::AddJoint: return "add_joint";
   }
   return "unknown";
 }
 
 bool names_body(UserInput::Kind kind) {
-  return kind != UserInput::Kind::AddBody && kind != UserInput::Kind::SetGravity && kind != UserInput::Kind::RemoveJoint;
+  return kind != UserInput::Kind::AddBody && kind != UserInput::Kind::SetGravity &&
+         kind != UserInput::Kind::RemoveJoint && kind != UserInput::Kind::AddJoint;
 }
 
 std::string check_input_value(const UserInput& in) {
@@ -282,6 +300,7 @@ std::string inputs_to_json(const std::vector<UserInput>& inputs) {
             json::array({in.orientation.x(), in.orientation.y(), in.orientation.z(), in.orientation.w()});
         break;
       case UserInput::Kind::RemoveJoint: e["joint"] = in.joint; break;
+      case UserInput::Kind::AddJoint: e["joint"] = detail::joint_json(in.added_joint); break;
     }
     list.push_back(std::move(e));
   }

@@ -461,7 +461,8 @@ TEST_F(CliTest, JointScenesRunInEveryWorld) {
     ASSERT_EQ(o.exit_code, 0) << args << "\n" << o.output;
     EXPECT_EQ(hash_of(o), hash_of(one)) << args;
   }
-  // Inputs (a kick, the removal of a jointed plank and, queued in the
+  // Inputs (a kick, box 11 pinned to the ground, a hinge from plank 4 to
+  // plank 6, the removal of plank 5 between them and, queued in the
   // checkpoint, of joint 5 between planks 7 and 8; through a Simulation
   // and, with --sync-test, through the PartitionedWorld), --record and a checkpoint
   // resumed on other territory counts: the one-territory hash with the
@@ -470,6 +471,10 @@ TEST_F(CliTest, JointScenesRunInEveryWorld) {
   std::ofstream(inputs) << R"({"format": "soda-inputs", "version": 1, "inputs": [
       {"type": "apply_impulse", "step": 20, "id": 3, "impulse": [0, 40, 0]},
       {"type": "remove_body", "step": 35, "id": 5},
+      {"type": "add_joint", "step": 10, "joint": {"id": 20, "type": "point-to-point", "body_a": 11, "body_b": 0,
+          "frame_b": {"position": [0, 8, 0]}}},
+      {"type": "add_joint", "step": 25, "joint": {"id": 21, "type": "hinge", "body_a": 4, "body_b": 6,
+          "frame_a": {"position": [1, 0, 0]}, "frame_b": {"position": [-1, 0, 0]}}},
       {"type": "remove_joint", "step": 40, "joint": 5}]})";
   const std::string with = "run --scene chain-bridge --n 8 --steps 60 --log-level warn --inputs " + inputs;
   const Outcome plain = run_cli(with);
@@ -484,6 +489,18 @@ TEST_F(CliTest, JointScenesRunInEveryWorld) {
     const Outcome o = run_cli(args);
     ASSERT_EQ(o.exit_code, 0) << args << "\n" << o.output;
     EXPECT_EQ(hash_of(o), hash_of(plain)) << args;
+  }
+  // A joint between the bridge's group and a free box: exit 2, named.
+  const std::string joins = (dir_ / "bridge-joins.json").string();
+  std::ofstream(joins) << R"({"format": "soda-inputs", "version": 1, "inputs": [
+      {"type": "add_joint", "step": 10, "joint": {"id": 90, "type": "point-to-point", "body_a": 3, "body_b": 11}}]})";
+  for (const char* k : {"1", "4"}) {
+    const Outcome o = run_cli("run --scene chain-bridge --n 8 --steps 20 --territories " + std::string(k) + " --inputs " + joins);
+    EXPECT_EQ(o.exit_code, 2) << o.output;
+    EXPECT_NE(o.output.find("add joint 90 at step 10: body_b: body 3 is in the joint group of body 3, body 11 is in "
+                            "no joint group; a joint that joins two groups or free bodies cannot be added"),
+              std::string::npos)
+        << o.output;
   }
   // --watchdog heal: in steps of 0.5 s boxes sink more than 1 m into the planks; the heals are the same for 1
   // and 2 territories, and so is the hash.

@@ -1,5 +1,5 @@
 // Joint inputs (docs/embedding.md, "Joints"; docs/inputs.md): remove_joint
-// on the registry's pendulums, chain-bridge and ragdolls under the game
+// and add_joint on the registry's pendulums, chain-bridge and ragdolls under the game
 // loop — queued before the run, given at the frame on screen (a rollback)
 // and given ahead while the worlds run, mixed with a body removal in what a
 // joint removal split off. Every frame the render thread reads and the
@@ -7,7 +7,9 @@
 // for K = 1, 2, 4, lockstep and anticipation 8; the same under SyncTest and
 // validation, from the input file format, and across a checkpoint with a
 // removal queued. Refused removals name the joint and the field and leave
-// nothing applied. Label "concurrency" (ThreadSanitizer in CI).
+// nothing applied. Added joints (a body pinned to a static one, a loop
+// closed in one joint group) the same way. Label "concurrency"
+// (ThreadSanitizer in CI).
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -323,6 +325,359 @@ TEST(JointInputScenes, InputFileRefusesABadJointField) {
   ASSERT_EQ(ok.size(), 1u);
   EXPECT_EQ(ok[0].kind, UserInput::Kind::RemoveJoint);
   EXPECT_EQ(ok[0].joint, kMaxJointId);
+}
+
+// --- add_joint ---------------------------------------------------------------
+
+const Body& body_of(const Scene& s, BodyId id) {
+  for (const Body& b : s.bodies)
+    if (b.id == id) return b;
+  ADD_FAILURE() << s.name << ": no body " << id;
+  return s.bodies.front();
+}
+
+// A joint about `pivot`, given in the world at the bodies' start poses (as
+// the registry's joint scenes give theirs).
+Joint joint_at(const Scene& s, JointId id, JointKind kind, BodyId a, BodyId b, const Vec3& pivot) {
+  Joint j;
+  j.id = id;
+  j.kind = kind;
+  j.body_a = a, j.body_b = b;
+  for (auto [body, frame] : {std::pair{a, &j.frame_a}, std::pair{b, &j.frame_b}}) {
+    const Body& at = body_of(s, body);
+    const Quat inv = at.orientation.normalized().conjugate();
+    frame->position = inv * (pivot - at.position);
+    frame->orientation = inv.normalized();
+  }
+  return j;
+}
+
+// A body pinned where it starts to a static one (point-to-point).
+Joint pin(const Scene& s, JointId id, BodyId body, BodyId to) {
+  return joint_at(s, id, JointKind::PointToPoint, body, to, body_of(s, body).position);
+}
+
+// Two bodies of one joint group joined half-way between their start
+// positions: a loop closed.
+Joint loop(const Scene& s, JointId id, JointKind kind, BodyId a, BodyId b) {
+  return joint_at(s, id, kind, a, b, 0.5 * (body_of(s, a).position + body_of(s, b).position));
+}
+
+UserInput add_joint(std::int64_t step, const Joint& joint) {
+  UserInput in;
+  in.kind = UserInput::Kind::AddJoint;
+  in.step = step;
+  in.joint = joint.id;
+  in.added_joint = joint;
+  return in;
+}
+
+constexpr JointId kPin = 1000, kLoop = 1001, kLater = 1002;
+
+// pendulums 8: the end of chain 0 (link 9) pinned to the ground where it
+// starts; a loop in chain 1 (links 11 and 14); link 26 of chain 2 pinned to
+// its anchor 19. chain-bridge 12: box 15 pinned to the ground in the air;
+// a hinge from plank 4 to plank 6; plank 10 pinned to the right pillar.
+// ragdolls 4: ragdoll 0's head pinned to the ground; its left lower arm
+// joined to its left lower leg; ragdoll 2's pelvis pinned to the ground.
+// The loop is removed again at 90, at the frame on screen.
+std::vector<test::PlannedInput> add_plan(const JointScene& j) {
+  const Scene& s = scene_of(j);
+  const std::string name = j.name;
+  Joint first, second, third;
+  if (name == "pendulums") {
+    first = pin(s, kPin, 9, 0), second = loop(s, kLoop, JointKind::PointToPoint, 11, 14), third = pin(s, kLater, 26, 19);
+  } else if (name == "chain-bridge") {
+    first = pin(s, kPin, 15, 0), second = loop(s, kLoop, JointKind::Hinge, 4, 6), third = pin(s, kLater, 10, 2);
+  } else {
+    first = pin(s, kPin, 3, 0), second = loop(s, kLoop, JointKind::PointToPoint, 10, 6), third = pin(s, kLater, 23, 0);
+  }
+  return {
+      {add_joint(15, first)},
+      {add_joint(30, second), true},
+      {add_joint(70, third), false, 50},
+      {remove_joint(90, kLoop), true},
+  };
+}
+
+const test::QueuedRun& add_reference(const JointScene& j) {
+  static std::map<std::string, test::QueuedRun> made;
+  auto it = made.find(j.name);
+  if (it == made.end()) it = made.emplace(j.name, test::queued_run(scene_of(j), add_plan(j), kSteps)).first;
+  return it->second;
+}
+
+class JointAdds : public ::testing::TestWithParam<std::tuple<int, int, int>> {};
+
+TEST_P(JointAdds, EveryFrameWithJointsAddedEqualsOneTerritory) {
+  const auto [scene_index, territories, anticipation] = GetParam();
+  const JointScene& j = joint_scenes()[static_cast<std::size_t>(scene_index)];
+  const Scene& s = scene_of(j);
+  const test::QueuedRun& ref = add_reference(j);
+
+  test::Progress progress;
+  SimulationConfig config{.territories = territories, .buffer_capacity = 16, .past_inputs = true};
+  config.runtime.anticipation = anticipation;
+  config.after_step = progress.hook();
+  detail::edit_testing_hooks(config).verify_replay = true;
+  Simulation sim(s, config);
+  SceneReader reader = sim.add_reader();
+  const test::RenderedRun run = test::run_game_loop(sim, reader, progress, add_plan(j), ref.frames, kSteps);
+  const std::uint64_t hash = sim.state_hash();
+  const std::vector<JointSnapshot> joints = sim.snapshot().state.joints;
+  sim.stop();
+  std::printf("[ %s %d %s, K %d, anticipation %d ] %llu rollbacks; %zu joints at step %d (scene %zu); hash %s, one "
+              "territory %s\n",
+              j.name, j.n, kPrecisionName, territories, anticipation, static_cast<unsigned long long>(sim.rollbacks()),
+              joints.size(), kSteps, s.joints.size(), hash_hex(hash).c_str(), hash_hex(ref.hash).c_str());
+  EXPECT_TRUE(run.bad.empty()) << run.bad.size() << " bad frames, the first: "
+                               << (run.bad.empty() ? "" : run.bad.front());
+  EXPECT_EQ(sim.rollbacks(), run.at_frame);
+  // The two pins held, the loop removed again.
+  ASSERT_EQ(joints.size(), s.joints.size() + 2);
+  EXPECT_EQ(joints[joints.size() - 2].description.id, kPin);
+  EXPECT_EQ(joints.back().description.id, kLater);
+  EXPECT_EQ(run.bodies.at(kSteps), s.dynamic_count());
+  EXPECT_EQ(hash_hex(hash), hash_hex(ref.hash));
+}
+
+INSTANTIATE_TEST_SUITE_P(Simulation, JointAdds, ::testing::ValuesIn(cases()), [](const auto& info) {
+  std::string name = std::string(joint_scenes()[static_cast<std::size_t>(std::get<0>(info.param))].name) + "_K" +
+                     std::to_string(std::get<1>(info.param)) + "_anticipation" + std::to_string(std::get<2>(info.param));
+  for (char& ch : name)
+    if (ch == '-') ch = '_';
+  return name;
+});
+
+// Each added joint changes the run: without it the hash differs.
+TEST(JointAddScenes, AnAddedJointChangesTheRun) {
+  for (const JointScene& j : joint_scenes()) {
+    const std::vector<test::PlannedInput> all = add_plan(j);
+    for (std::size_t left_out = 0; left_out < 3; ++left_out) {
+      std::vector<test::PlannedInput> some;
+      for (std::size_t i = 0; i < all.size(); ++i)
+        if (i != left_out && !(left_out == 1 && i == 3)) some.push_back(all[i]);  // the loop's removal with it
+      EXPECT_NE(hash_hex(test::queued_run(scene_of(j), some, kSteps).hash), hash_hex(add_reference(j).hash))
+          << j.name << " without joint " << all[left_out].input.joint;
+    }
+  }
+}
+
+// The plan through the input file format (every field of the joints read
+// back bit for bit), given before the run to a PartitionedWorld under
+// SyncTest and validation: the Simulation's hash.
+TEST(JointAddScenes, FromTheInputFileUnderSyncTestAndValidation) {
+  for (const JointScene& j : joint_scenes()) {
+    std::vector<UserInput> planned;
+    for (const test::PlannedInput& i : add_plan(j)) planned.push_back(i.input);
+    const std::vector<UserInput> inputs = parse_inputs_json(inputs_to_json(planned), "log");
+    ASSERT_EQ(inputs.size(), planned.size());
+    for (std::size_t i = 0; i < inputs.size(); ++i) {
+      EXPECT_EQ(inputs[i].kind, planned[i].kind);
+      EXPECT_EQ(inputs[i].joint, planned[i].joint);
+      const Joint &a = inputs[i].added_joint, &b = planned[i].added_joint;
+      EXPECT_TRUE(a.kind == b.kind && a.body_a == b.body_a && a.body_b == b.body_b &&
+                  a.frame_a.position == b.frame_a.position && a.frame_b.position == b.frame_b.position &&
+                  a.frame_a.orientation.coeffs() == b.frame_a.orientation.coeffs() &&
+                  a.frame_b.orientation.coeffs() == b.frame_b.orientation.coeffs())
+          << j.name << " input " << i;
+    }
+    for (int anticipation : {0, 8}) {
+      PartitionedOptions o;
+      o.runtime.validate = true;
+      o.runtime.anticipation = anticipation;
+      o.sync_test = 1;
+      o.inputs = inputs;
+      PartitionedWorld w(scene_of(j), make_partition("kmeans", scene_of(j), 4, GridOptions{}), o);
+      w.step(kSteps);
+      std::printf("[ %s %d %s, K 4, sync-test 1, anticipation %d ] joints added: %s, Simulation %s\n", j.name, j.n,
+                  kPrecisionName, anticipation, hash_hex(w.state_hash()).c_str(),
+                  hash_hex(add_reference(j).hash).c_str());
+      EXPECT_GT(w.sync_rollbacks(), 0u);
+      EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(add_reference(j).hash)) << j.name << " anticipation " << anticipation;
+    }
+  }
+}
+
+// An addition queued in a checkpoint: the bridge saved at step 40 on 2
+// territories with box 15 pinned at 15 and the plank 4-6 hinge queued for
+// 70, resumed on 1 and on 4 speculating: the uninterrupted hash. Version 9
+// cannot hold an add_joint input.
+TEST(JointAddScenes, CheckpointsCarryAQueuedAddition) {
+  const JointScene& j = joint_scenes()[1];
+  const Scene& s = scene_of(j);
+  auto inputs = [&](Simulation& sim) {
+    sim.add_joint(sim.time_of(15), pin(s, kPin, 15, 0));
+    sim.add_joint(sim.time_of(70), loop(s, kLoop, JointKind::Hinge, 4, 6));
+  };
+  Simulation whole(s, SimulationConfig{.territories = 1});
+  inputs(whole);
+  EXPECT_TRUE(whole.advance_to(whole.time_of(kSteps)));
+  const std::string expected = hash_hex(whole.state_hash());
+  whole.stop();
+
+  Simulation sim(s, SimulationConfig{.territories = 2});
+  inputs(sim);
+  EXPECT_TRUE(sim.advance_to(sim.time_of(40)));
+  const std::string path = (std::filesystem::temp_directory_path() / "soda-joint-adds.ckpt").string();
+  EXPECT_EQ(sim.save(path), 40);
+  sim.stop();
+  const SimulationSnapshot back = read_checkpoint(path);
+  EXPECT_EQ(back.state.joints.size(), s.joints.size() + 1);
+  ASSERT_EQ(back.inputs.size(), 1u);
+  EXPECT_EQ(back.inputs[0].kind, UserInput::Kind::AddJoint);
+  EXPECT_EQ(back.inputs[0].added_joint.id, kLoop);
+  EXPECT_EQ(back.inputs[0].added_joint.kind, JointKind::Hinge);
+  EXPECT_EQ(back.inputs[0].added_joint.frame_b.position, loop(s, kLoop, JointKind::Hinge, 4, 6).frame_b.position);
+  try {
+    encode_checkpoint(back, 9);
+    ADD_FAILURE() << "version 9 took an add_joint input";
+  } catch (const CheckpointError& e) {
+    EXPECT_NE(std::string(e.what()).find("version 9 cannot hold the input to add joint 1001"), std::string::npos)
+        << e.what();
+  }
+  for (int k : {1, 4}) {
+    SimulationConfig config{.territories = k};
+    config.runtime.anticipation = k > 1 ? 8 : 0;
+    Simulation resumed = Simulation::resume(path, config);
+    // Joint 1000 is in the snapshot, 1001 queued: neither id is free.
+    expect_refused([&] { resumed.add_joint(resumed.time_of(50), pin(s, kPin, 16, 0)); }, {"id: joint 1000 is in use"});
+    expect_refused([&] { resumed.add_joint(resumed.time_of(50), pin(s, kLoop, 16, 0)); }, {"id: joint 1001 is in use"});
+    EXPECT_TRUE(resumed.advance_to(resumed.time_of(kSteps)));
+    std::printf("[ chain-bridge 12 %s ] joints added, resumed at step 40 on %d: %s, uninterrupted %s\n",
+                kPrecisionName, k, hash_hex(resumed.state_hash()).c_str(), expected.c_str());
+    EXPECT_EQ(hash_hex(resumed.state_hash()), expected) << "K=" << k;
+    resumed.stop();
+  }
+  std::filesystem::remove(path);
+}
+
+// Refusals name the joint and the field, and nothing of them is applied:
+// the run with them refused is the run of the input log (the accepted
+// inputs) on one territory.
+TEST(JointAddScenes, RefusalsNameTheJointAndApplyNothing) {
+  const JointScene& j = joint_scenes()[0];
+  const Scene& s = scene_of(j);
+  const JointId j56 = joint_between(s, 5, 6), j1213 = joint_between(s, 12, 13);
+  Simulation sim(s, SimulationConfig{.territories = 2});
+  sim.remove_joint(sim.time_of(20), j56);
+  sim.remove_body(sim.time_of(10), 22);
+  sim.add_joint(sim.time_of(40), loop(s, kLoop, JointKind::PointToPoint, 11, 14));  // chain 1: one group
+  Body extra = body_of(s, 9);  // a free body, pinned to the ground
+  extra.id = 500;
+  extra.position += Vec3(0.0, 0.0, -3.0);
+  sim.add_body(sim.time_of(5), extra);
+  sim.add_joint(sim.time_of(5), pin(s, kPin, 9, 0));
+  Joint to_extra = pin(s, kLater, 9, 0);
+  to_extra.body_a = 500;
+  sim.add_joint(sim.time_of(8), to_extra);
+
+  auto at = [&](JointId id) { return "add joint " + std::to_string(id) + " at step "; };
+  // Two groups (chains 0 and 1), a group and a free body, two free bodies.
+  expect_refused([&] { sim.add_joint(sim.time_of(40), loop(s, 90, JointKind::PointToPoint, 5, 14)); },
+                 {at(90) + "40: body_b: body 5 is in the joint group of body 2, body 14 is in the joint group of body "
+                           "11; a joint that joins two groups or free bodies cannot be added while the worlds run",
+                  "docs/embedding.md"});
+  expect_refused([&] { sim.add_joint(sim.time_of(40), loop(s, 90, JointKind::Hinge, 2, 11)); },
+                 {at(90) + "40: body_b: body 2 is in the joint group of body 2, body 11 is in the joint group of "
+                           "body 11"});
+  // Joint 5-6 is gone at 20: links 6..9 are a group of their own, anchored at 6.
+  expect_refused([&] { sim.add_joint(sim.time_of(25), loop(s, 91, JointKind::PointToPoint, 4, 7)); },
+                 {at(91) + "25: body_b: body 4 is in the joint group of body 2, body 7 is in the joint group of body 6"});
+  sim.add_joint(sim.time_of(19), loop(s, 92, JointKind::PointToPoint, 4, 7));  // before the removal: one group
+  Body other = extra;
+  other.id = 501;
+  other.position += Vec3(0.0, 0.0, -1.0);
+  sim.add_body(sim.time_of(6), other);
+  Joint free = pin(s, 93, 9, 0);
+  free.body_a = 500, free.body_b = 501;  // 500 is pinned to the ground: in no group
+  expect_refused([&] { sim.add_joint(sim.time_of(9), free); },
+                 {at(93) + "9: body_b: body 500 is in no joint group, body 501 is in no joint group"});
+  free.body_a = 501, free.body_b = 14;
+  expect_refused([&] { sim.add_joint(sim.time_of(7), free); },
+                 {at(93) + "7: body_b: body 501 is in no joint group, body 14 is in the joint group of body 11"});
+  // Ids: a scene joint's, a removed joint's, one added by input.
+  expect_refused([&] { sim.add_joint(sim.time_of(30), pin(s, 3, 12, 0)); }, {at(3) + "30: id: joint 3 is in use"});
+  expect_refused([&] { sim.add_joint(sim.time_of(30), pin(s, j56, 12, 0)); },
+                 {"id: joint " + std::to_string(j56) + " is in use (removed at step 20"});
+  expect_refused([&] { sim.add_joint(sim.time_of(50), pin(s, kLoop, 12, 0)); }, {"id: joint 1001 is in use"});
+  // Bodies: unknown, removed, not added yet, static-static, itself.
+  Joint bad = pin(s, 94, 12, 0);
+  bad.body_b = 9999;
+  expect_refused([&] { sim.add_joint(sim.time_of(30), bad); }, {at(94) + "30: body_b: no body has id 9999"});
+  bad = pin(s, 94, 22, 0);
+  expect_refused([&] { sim.add_joint(sim.time_of(12), bad); },
+                 {at(94) + "12: body_a: body 22 is not in the scene then", "removed at step 10"});
+  bad.body_a = 501;
+  expect_refused([&] { sim.add_joint(sim.time_of(3), bad); }, {"body_a: body 501 is not in the scene then (added at step 6"});
+  bad.body_a = 1, bad.body_b = 10;
+  expect_refused([&] { sim.add_joint(sim.time_of(30), bad); },
+                 {at(94) + "30: field 'body_b': both bodies (1, 10) are static"});
+  bad.body_a = 12, bad.body_b = 12;
+  expect_refused([&] { sim.add_joint(sim.time_of(30), bad); }, {"field 'body_b': joins body 12 to itself"});
+  // Values: a hinge's limit upside down, a frame not finite.
+  Joint hinge = loop(s, 95, JointKind::Hinge, 12, 14);
+  hinge.limited = true, hinge.lower = 1.0, hinge.upper = -1.0;
+  expect_refused([&] { sim.add_joint(sim.time_of(30), hinge); }, {at(95) + "30: field 'limit': lower"});
+  hinge = loop(s, 95, JointKind::Hinge, 12, 14);
+  hinge.frame_a.position.x() = std::nan("");
+  expect_refused([&] { sim.add_joint(sim.time_of(30), hinge); }, {"field 'frame_a.position'"});
+  // The loop added at 40 needs chain 1 whole until then.
+  expect_refused([&] { sim.remove_joint(sim.time_of(30), j1213); },
+                 {"remove joint " + std::to_string(j1213) + " at step 30: joint: it would split the joint group of "
+                  "bodies 11 and 14 before joint 1001, added at step 40, closes a loop in it"});
+  expect_refused([&] { sim.remove_body(sim.time_of(35), 13); }, {"remove body 13 at step 35: it would split"});
+  expect_refused([&] { sim.remove_body(sim.time_of(35), 14); }, {"remove body 14 at step 35", "later step 40"});
+  expect_refused([&] { sim.remove_joint(sim.time_of(35), kLoop); }, {"joint 1001 is added at step 40 only"});
+  // Link 7 keeps the loop 4-7 (added at 19) from step 19 on; a removal of 4-5 at 10 would split it.
+  expect_refused([&] { sim.remove_joint(sim.time_of(10), joint_between(s, 4, 5)); }, {"before joint 92"});
+  sim.remove_joint(sim.time_of(40), j1213);  // at the loop's step, after it: accepted
+  sim.remove_body(sim.time_of(45), 13);      // after it: accepted (the loop holds 11-12 and 14 together)
+  sim.remove_joint(sim.time_of(50), kLoop);  // an added joint removed
+
+  const std::vector<UserInput> log = sim.input_log();
+  ASSERT_EQ(log.size(), 11u);
+  EXPECT_TRUE(sim.advance_to(sim.time_of(60)));
+  Simulation clean(s, SimulationConfig{.territories = 1});
+  for (const UserInput& in : log) clean.give(in);
+  EXPECT_TRUE(clean.advance_to(clean.time_of(60)));
+  EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(clean.state_hash()));
+  // Scene joints less 5-6, 21-22 and 22-23 (body 22), 12-13, 13-14 (body 13); the pins 1000 and 1002 and loop 92.
+  EXPECT_EQ(sim.snapshot().state.joints.size(), s.joints.size() - 5 + 3);
+  sim.stop();
+  clean.stop();
+}
+
+TEST(JointAddScenes, InputFileRefusesABadJoint) {
+  auto refused = [](const std::string& entry, const std::vector<std::string>& needles) {
+    const std::string text = R"({"format": "soda-inputs", "version": 1, "inputs": [)" + entry + "]}";
+    try {
+      parse_inputs_json(text, "bad.json");
+      ADD_FAILURE() << "accepted: " << entry;
+    } catch (const SceneError& e) {
+      std::printf("refused: %s\n", e.what());
+      for (const std::string& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
+    }
+  };
+  refused(R"({"type": "add_joint", "step": 3})", {"add_joint at step 3", "'joint'", "missing"});
+  refused(R"({"type": "add_joint", "step": 3, "joint": 4})", {"add_joint at step 3): joint", "must be an object"});
+  refused(R"({"type": "add_joint", "step": 3, "joint": {"id": 7, "type": "hinge", "body_a": 1, "body_b": 2,
+          "limit": [1, -1]}})",
+          {"add_joint at step 3): joint (id 7)", "field 'limit'", "is above upper"});
+  refused(R"({"type": "add_joint", "step": 3, "joint": {"id": 7, "type": "rope", "body_a": 1, "body_b": 2}})",
+          {"joint (id 7)", "unknown joint type 'rope'"});
+  refused(R"({"type": "add_joint", "step": 3, "joint": {"id": 7, "type": "hinge", "body_a": 1, "body_b": 1}})",
+          {"field 'body_b'", "to itself"});
+  const std::vector<UserInput> ok = parse_inputs_json(
+      R"({"format": "soda-inputs", "version": 1, "inputs": [{"type": "add_joint", "step": 3, "joint": {"id": 7,
+          "type": "hinge", "body_a": 1, "body_b": 2, "frame_a": {"position": [0.5, 0, 0]}, "limit": [-1, 1]}}]})",
+      "ok.json");
+  ASSERT_EQ(ok.size(), 1u);
+  EXPECT_EQ(ok[0].kind, UserInput::Kind::AddJoint);
+  EXPECT_EQ(ok[0].joint, 7u);
+  EXPECT_EQ(ok[0].added_joint.kind, JointKind::Hinge);
+  EXPECT_TRUE(ok[0].added_joint.limited);
+  EXPECT_EQ(ok[0].added_joint.frame_a.position, Vec3(0.5, 0, 0));
 }
 
 }  // namespace

@@ -295,13 +295,13 @@ TEST(SimulationSetters, CheckpointVersion1StillResumes) {
   EXPECT_TRUE(resumed3.advance_to(resumed3.time_of(kSteps)));
   EXPECT_EQ(hash_hex(resumed3.state_hash()), hash_hex(sim.state_hash()));
   // A version this build does not know is refused by its number.
-  std::vector<std::uint8_t> v10 = v1;
-  v10[8] = 10;
+  std::vector<std::uint8_t> v11 = v1;
+  v11[8] = 11;
   try {
-    decode_checkpoint(v10, "v10");
-    ADD_FAILURE() << "version 10 accepted";
+    decode_checkpoint(v11, "v11");
+    ADD_FAILURE() << "version 11 accepted";
   } catch (const CheckpointError& e) {
-    EXPECT_NE(std::string(e.what()).find("format version 10"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("format version 11"), std::string::npos) << e.what();
   }
 }
 

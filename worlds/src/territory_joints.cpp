@@ -171,6 +171,42 @@ bool TerritoryWorld::remove_joint(JointId id) {
   return true;
 }
 
+// The input's validation (InputLedger) keeps a joint's dynamic ends in one
+// world: a body pinned to a static one, or two of one joint group (one
+// owner holds it). A group joined to another takes the smaller anchor; if
+// that moves its home cell, the group migrates whole at the end of the
+// next step, as after a body removal.
+bool TerritoryWorld::add_joint(const Joint& joint) {
+  std::vector<Entry*> ends;
+  bool elsewhere = false;
+  for (BodyId body : {joint.body_a, joint.body_b}) {
+    auto it = entries_.find(body);
+    if (it != entries_.end() && it->second->role == Role::Static) continue;
+    if (it != entries_.end() && it->second->role == Role::Owned)
+      ends.push_back(it->second.get());
+    else
+      elsewhere = true;
+  }
+  if (ends.empty()) return false;
+  if (elsewhere)
+    throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) + ": joint " +
+                         std::to_string(joint.id) + " added, but only one of its bodies is owned here");
+  for (Entry* e : ends) unpark_for_input(*e);
+  if (ends.size() == 2) {
+    const BodyId a = anchor_of(ends[0]->id()), b = anchor_of(ends[1]->id());
+    const BodyId kept = std::min(a, b), gone = std::max(a, b);
+    for (auto& [body, anchor] : anchor_)
+      if (anchor == gone) anchor = kept;
+    for (BodyId body : {ends[0]->id(), ends[1]->id(), a, b}) anchor_[body] = kept;
+  }
+  hold_joint(joint, false);
+  for (Entry* e : ends) {
+    e->body->forceActivationState(ACTIVE_TAG);
+    e->body->setDeactivationTime(btScalar(0));
+  }
+  return true;
+}
+
 std::size_t TerritoryWorld::broken_joint_count() const {
   std::size_t n = 0;
   for (const auto& [id, j] : joints_) n += j->constraint->isEnabled() ? 0 : 1;

@@ -65,8 +65,13 @@ constexpr std::uint32_t kJointsVersion = 8;
 // record).
 constexpr std::uint32_t kJointInputsVersion = 9;
 
+// The first version with added joints (kind 12, a joint record after the
+// input record).
+constexpr std::uint32_t kAddJointVersion = 10;
+
 // The newest input kind a version knows.
 UserInput::Kind last_kind(std::uint32_t version) {
+  if (version >= kAddJointVersion) return UserInput::Kind::AddJoint;
   if (version >= kJointInputsVersion) return UserInput::Kind::RemoveJoint;
   if (version >= kKinematicVersion) return UserInput::Kind::SetKinematicTarget;
   return version >= kSettersVersion ? UserInput::Kind::SetUserData : UserInput::Kind::ApplyImpulse;
@@ -91,8 +96,8 @@ BodyFormat body_format(std::uint32_t version) {
 // Input records: u8 kind, i64 step, u32 id, linear and angular as 3 f64 each;
 // from version 4: f64 value, u64 user data; from version 7: the
 // orientation as 4 f64 (w, x, y, z); from version 9: u32 joint; an added
-// body's record
-// (write_body, its raw state unused) follows.
+// body's record (write_body, its raw state unused) or, from version 10, an
+// added joint's (write_joint, not broken) follows.
 void write_input(ByteWriter& w, const UserInput& in, std::uint32_t version) {
   w.put(static_cast<std::uint8_t>(in.kind));
   w.put(in.step);
@@ -105,6 +110,7 @@ void write_input(ByteWriter& w, const UserInput& in, std::uint32_t version) {
   if (version >= kJointInputsVersion) w.put(in.joint);
   if (in.kind == UserInput::Kind::AddBody)
     write_body(w, BodySnapshot{in.body, BodyDynamicState{}}, body_format(version));
+  if (in.kind == UserInput::Kind::AddJoint) write_joint(w, JointSnapshot{in.added_joint, false});
 }
 
 UserInput read_input(ByteReader& r, std::uint32_t version) {
@@ -135,6 +141,12 @@ UserInput read_input(ByteReader& r, std::uint32_t version) {
   if (in.kind == UserInput::Kind::AddBody) {
     in.body = read_body(r, body_format(version)).description;
     if (in.body.is_static) r.fail("an input adding a static body");
+  }
+  if (in.kind == UserInput::Kind::AddJoint) {
+    const JointSnapshot j = read_joint(r);
+    if (j.broken || j.description.id != in.joint) r.fail("an input adding joint " + std::to_string(in.joint) +
+                                                         " with a broken joint record or another id");
+    in.added_joint = j.description;
   }
   return in;
 }

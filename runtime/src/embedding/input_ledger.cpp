@@ -14,15 +14,19 @@ InputLedger::InputLedger(const Scene& scene) : settings_(scene.settings) {
   for (const Joint& j : scene.joints) joints_[j.id] = JointLife{j.body_a, j.body_b};
 }
 
-// A joint is there from the start (the scene's or the snapshot's) until its
-// removal or that of one of its bodies, whichever comes first.
+// A joint is there from the start (the scene's or the snapshot's) or its
+// addition until its removal or that of one of its bodies, whichever comes
+// first.
 void InputLedger::check_joint(const UserInput& in, const std::string& what) const {
   auto it = joints_.find(in.joint);
   if (it == joints_.end()) throw std::invalid_argument(what + ": joint: no joint has that id");
   const JointLife& j = it->second;
-  if (j.removed != INT64_MAX)
+  if (j.removed.step != INT64_MAX)
     throw std::invalid_argument(what + ": joint: joint " + std::to_string(in.joint) + " is removed at step " +
-                                std::to_string(j.removed) + " already");
+                                std::to_string(j.removed.step) + " already");
+  if (in.step < j.added.step)
+    throw std::invalid_argument(what + ": joint: joint " + std::to_string(in.joint) + " is added at step " +
+                                std::to_string(j.added.step) + " only");
   for (BodyId b : {j.body_a, j.body_b}) {
     const Life& life = lives_.at(b);
     if (life.retired || in.step >= life.removed)
@@ -31,6 +35,109 @@ void InputLedger::check_joint(const UserInput& in, const std::string& what) cons
                                   (life.retired ? std::string("before the snapshot this run was restored from")
                                                 : std::to_string(life.removed)) +
                                   ")");
+  }
+  check_loops_kept(in, what + ": joint");
+}
+
+bool InputLedger::dynamic(BodyId id) const {
+  auto it = lives_.find(id);
+  return it != lives_.end() && !it->second.is_static;
+}
+
+std::pair<BodyId, BodyId> InputLedger::anchors(BodyId a, BodyId b, Place at, Without without) const {
+  std::map<BodyId, BodyId> parent;
+  auto find = [&](BodyId x) {
+    auto it = parent.find(x);
+    if (it == parent.end()) return kNoGroup;
+    while (it->second != x) {
+      x = it->second;
+      it = parent.find(x);
+    }
+    return x;
+  };
+  auto gone = [&](BodyId body) {
+    if (without.body && *without.body == body) return true;
+    const Life& life = lives_.at(body);
+    return life.retired || Place{life.removed, life.removed_order} < at;
+  };
+  for (const auto& [id, j] : joints_) {
+    if (!(j.added < at) || j.removed < at || (without.joint && *without.joint == id)) continue;
+    if (!dynamic(j.body_a) || !dynamic(j.body_b) || gone(j.body_a) || gone(j.body_b)) continue;
+    parent.emplace(j.body_a, j.body_a);
+    parent.emplace(j.body_b, j.body_b);
+    const BodyId x = find(j.body_a), y = find(j.body_b);
+    if (x != y) parent[std::max(x, y)] = std::min(x, y);  // the root is the group's smallest id
+  }
+  return {find(a), find(b)};
+}
+
+// A joint between two dynamic bodies is held by the one world that owns
+// them both: they must be one joint group at that step (its owner holds it
+// whole), as the scene and the inputs alone say.
+void InputLedger::check_added_joint(const UserInput& in, const std::string& what) const {
+  const Joint& joint = in.added_joint;
+  if (joint.id != in.joint)
+    throw std::invalid_argument(what + ": id: the input names joint " + std::to_string(in.joint) +
+                                " but carries joint " + std::to_string(joint.id));
+  if (auto it = joints_.find(joint.id); it != joints_.end())
+    throw std::invalid_argument(what + ": id: joint " + std::to_string(joint.id) + " is in use" +
+                                (it->second.removed.step != INT64_MAX
+                                     ? " (removed at step " + std::to_string(it->second.removed.step) +
+                                           "; a joint's id is never used again)"
+                                     : ""));
+  for (const char* field : {"body_a", "body_b"}) {
+    const BodyId b = field[5] == 'a' ? joint.body_a : joint.body_b;
+    auto it = lives_.find(b);
+    if (it == lives_.end())
+      throw std::invalid_argument(what + ": " + field + ": no body has id " + std::to_string(b));
+    const Life& life = it->second;
+    if (life.retired)
+      throw std::invalid_argument(what + ": " + field + ": body " + std::to_string(b) +
+                                  " was removed before the snapshot this run was restored from");
+    if (in.step < life.added || in.step >= life.removed)
+      throw std::invalid_argument(what + ": " + field + ": body " + std::to_string(b) +
+                                  " is not in the scene then (added at step " + std::to_string(life.added) +
+                                  (life.removed == INT64_MAX ? "" : ", removed at step " + std::to_string(life.removed)) +
+                                  ")");
+  }
+  // The scene file's rules for a joint (scene/validate.h), against what
+  // the ledger knows of each body.
+  Body ends[2];
+  try {
+    validate_joint(joint, what, [&](BodyId id) -> const Body* {
+      Body& e = ends[id == joint.body_a ? 0 : 1];
+      const Life& life = lives_.at(id);
+      e.id = id, e.is_static = life.is_static, e.kinematic = life.kinematic;
+      return &e;
+    });
+  } catch (const SceneError& e) {
+    throw std::invalid_argument(e.what());
+  }
+  if (!dynamic(joint.body_a) || !dynamic(joint.body_b)) return;  // pinned to a static body: no group
+  const auto [a, b] = anchors(joint.body_a, joint.body_b, Place{in.step, order_ + 1}, Without{});
+  if (a == b && a != kNoGroup) return;  // a loop closed in one group
+  auto group = [](BodyId body, BodyId anchor) {
+    return anchor == kNoGroup ? "body " + std::to_string(body) + " is in no joint group"
+                          : "body " + std::to_string(body) + " is in the joint group of body " + std::to_string(anchor);
+  };
+  throw std::invalid_argument(what + ": body_b: " + group(joint.body_a, a) + ", " + group(joint.body_b, b) +
+                              "; a joint that joins two groups or free bodies cannot be added while the worlds run "
+                              "(docs/embedding.md, \"Joints\")");
+}
+
+// A removal (of a joint or a body) at a step before a joint added between
+// two bodies of one group must leave them one group at that joint's step.
+void InputLedger::check_loops_kept(const UserInput& removal, const std::string& what) const {
+  const Without without{removal.kind == UserInput::Kind::RemoveJoint ? &removal.joint : nullptr,
+                        removal.kind == UserInput::Kind::RemoveBody ? &removal.id : nullptr};
+  for (const auto& [id, j] : joints_) {
+    if (!j.closes_loop || j.added.step <= removal.step) continue;
+    const auto [a, b] = anchors(j.body_a, j.body_b, j.added, without);
+    if (a != b || a == kNoGroup)
+      throw std::invalid_argument(what + ": it would split the joint group of bodies " + std::to_string(j.body_a) +
+                                  " and " + std::to_string(j.body_b) + " before joint " + std::to_string(id) +
+                                  ", added at step " + std::to_string(j.added.step) +
+                                  ", closes a loop in it (remove that joint first)");
   }
 }
 
@@ -51,6 +158,7 @@ void InputLedger::check(const UserInput& in) const {
     return;
   }
   if (in.kind == UserInput::Kind::RemoveJoint) return check_joint(in, what);
+  if (in.kind == UserInput::Kind::AddJoint) return check_added_joint(in, what);
   if (in.kind == UserInput::Kind::SetGravity) {
     if (const std::string why = check_input_value(in); !why.empty()) throw std::invalid_argument(what + ": " + why);
     return;
@@ -77,24 +185,32 @@ void InputLedger::check(const UserInput& in) const {
                                 ")");
   if (in.kind == UserInput::Kind::RemoveBody && life.last_input > in.step)
     throw std::invalid_argument(what + ": the body has an input at the later step " + std::to_string(life.last_input));
+  if (in.kind == UserInput::Kind::RemoveBody) check_loops_kept(in, what);
   if (!moves_kinematic && (!in.linear.allFinite() || !in.angular.allFinite()))
     throw std::invalid_argument(what + ": velocities and impulses must be finite");
   if (const std::string why = check_input_value(in); !why.empty()) throw std::invalid_argument(what + ": " + why);
 }
 
 void InputLedger::record(const UserInput& in) {
+  ++order_;
   if (in.kind == UserInput::Kind::SetGravity) return;  // names no body
-  if (in.kind == UserInput::Kind::RemoveJoint) {
+  if (in.kind == UserInput::Kind::RemoveJoint || in.kind == UserInput::Kind::AddJoint) {
     // Its bodies cannot be removed before it (an input at a later step).
-    JointLife& j = joints_.at(in.joint);
-    j.removed = in.step;
+    JointLife& j = joints_[in.joint];
+    if (in.kind == UserInput::Kind::AddJoint) {
+      j.body_a = in.added_joint.body_a, j.body_b = in.added_joint.body_b;
+      j.added = Place{in.step, order_};
+      j.closes_loop = dynamic(j.body_a) && dynamic(j.body_b);
+    } else {
+      j.removed = Place{in.step, order_};
+    }
     for (BodyId b : {j.body_a, j.body_b}) lives_[b].last_input = std::max(lives_[b].last_input, in.step);
     return;
   }
   const BodyId id = in.kind == UserInput::Kind::AddBody ? in.body.id : in.id;
   Life& life = lives_[id];
   if (in.kind == UserInput::Kind::AddBody) life.added = in.step;
-  if (in.kind == UserInput::Kind::RemoveBody) life.removed = in.step;
+  if (in.kind == UserInput::Kind::RemoveBody) life.removed = in.step, life.removed_order = order_;
   life.last_input = std::max(life.last_input, in.step);
 }
 

@@ -3,7 +3,10 @@
 // newest input naming it. It checks an input against that (an unknown or
 // static body, an id in use, a body not in the scene at the input's step,
 // an input after a removal, a bad added body; a joint that is not there at
-// the input's step) before the input is queued.
+// the input's step, an added joint that is bad or joins two joint groups, a
+// removal that splits a group an added joint closes a loop in) before the
+// input is queued. It knows the joint groups at every step from the scene
+// and the inputs alone, so what it takes does not depend on the worlds.
 // Used by a Simulation's engine (inputs as the API calls come) and by a
 // PartitionedWorld (PartitionedOptions::inputs, all before the run).
 // Not thread-safe: its owner serialises the calls.
@@ -12,6 +15,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "soda/runtime/user_input.h"
@@ -36,21 +40,45 @@ class InputLedger {
   std::vector<BodyId> removed_before(std::int64_t step) const;
 
  private:
+  // An input's place in the order the worlds apply them: its step, then the
+  // order the ledger recorded it (the sequence of the calls).
+  struct Place {
+    std::int64_t step = 0;
+    std::uint64_t order = 0;
+    bool operator<(const Place& o) const { return step != o.step ? step < o.step : order < o.order; }
+  };
   struct Life {
     bool is_static = false;
     bool kinematic = false;
     std::int64_t added = 0;                // present from this boundary on
     std::int64_t removed = INT64_MAX;      // gone from this boundary on
+    std::uint64_t removed_order = 0;       // ... applied in this place among that boundary's inputs
     std::int64_t last_input = -1;          // newest step of an input naming it
     bool retired = false;                  // removed before the snapshot this run was restored from
   };
   struct JointLife {
     BodyId body_a = 0, body_b = 0;
-    std::int64_t removed = INT64_MAX;  // removed by input at this boundary
+    Place added{-1, 0};                  // the scene's (or the snapshot's): before every input
+    Place removed{INT64_MAX, 0};         // removed by input
+    bool closes_loop = false;            // added by input between two dynamic bodies (of one group)
+  };
+  // A removal the joint groups are tested without: a joint's or a body's.
+  struct Without {
+    const JointId* joint = nullptr;
+    const BodyId* body = nullptr;
   };
   void check_joint(const UserInput& input, const std::string& what) const;
+  void check_added_joint(const UserInput& input, const std::string& what) const;
+  void check_loops_kept(const UserInput& removal, const std::string& what) const;
+  bool dynamic(BodyId id) const;
+  /// The joint groups' anchors (smallest id) of `a` and `b` just before
+  /// `at`: the joints there then (broken or not), less `without`'s;
+  /// kNoGroup for a body in none.
+  static constexpr BodyId kNoGroup = ~BodyId{0};
+  std::pair<BodyId, BodyId> anchors(BodyId a, BodyId b, Place at, Without without) const;
   std::map<BodyId, Life> lives_;
   std::map<JointId, JointLife> joints_;
+  std::uint64_t order_ = 0;  // inputs recorded so far
   SceneSettings settings_;
 };
 

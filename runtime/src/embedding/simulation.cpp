@@ -191,6 +191,15 @@ void Simulation::remove_joint(double time, JointId id) {
   engine_->input(in);
 }
 
+void Simulation::add_joint(double time, const Joint& joint) {
+  UserInput in;
+  in.kind = UserInput::Kind::AddJoint;
+  in.step = engine_->core->step_at(time);
+  in.joint = joint.id;
+  in.added_joint = joint;
+  engine_->input(in);
+}
+
 BodyId Simulation::give(const UserInput& input) {
   const double time = time_of(input.step);
   switch (input.kind) {
@@ -208,6 +217,7 @@ BodyId Simulation::give(const UserInput& input) {
       set_kinematic_target(time, input.id, Pose{input.linear, input.orientation});
       break;
     case UserInput::Kind::RemoveJoint: remove_joint(time, input.joint); break;
+    case UserInput::Kind::AddJoint: add_joint(time, input.added_joint); break;
   }
   return input.id;
 }

@@ -67,6 +67,7 @@ void PartitionedWorld::Process::apply_inputs() {
         s_.world->command_kinematic(in.id, kinematic_command(in));
         break;
       case UserInput::Kind::RemoveJoint: s_.world->remove_joint(in.joint); break;  // the world holding it
+      case UserInput::Kind::AddJoint: s_.world->add_joint(in.added_joint); break;  // the owner of its bodies
     }
   }
 }

@@ -38,7 +38,7 @@ class CheckpointError : public std::runtime_error {
 
 /// The checkpoint format version this build writes. It reads this one and
 /// every one from kOldestCheckpointVersion on (docs/checkpoints.md, "Versions").
-inline constexpr std::uint32_t kCheckpointVersion = 9;
+inline constexpr std::uint32_t kCheckpointVersion = 10;
 /// Version 1: body records without a collision filter (they read back with
 /// the default one); version 2: without compound children; version 3:
 /// without user data (it reads back as 0), and inputs without the value and
@@ -47,7 +47,7 @@ inline constexpr std::uint32_t kCheckpointVersion = 9;
 /// the sensor flag (bodies read back as not sensors); version 6: without
 /// kinematic bodies, and inputs without an orientation and kinds 9 and 10;
 /// version 7: without joints; version 8: inputs without a joint id and
-/// kind 11 (remove_joint).
+/// kind 11 (remove_joint); version 9: without kind 12 (add_joint).
 inline constexpr std::uint32_t kOldestCheckpointVersion = 1;
 
 /// What a checkpoint's fixed header says (docs/checkpoints.md, "Header").
@@ -66,7 +66,8 @@ std::vector<std::uint8_t> encode_checkpoint(const SimulationSnapshot& snapshot);
 /// The same in an older format `version` (kOldestCheckpointVersion ..
 /// kCheckpointVersion), for a tool that must hand a file to an older build.
 /// Throws CheckpointError, naming the body or the input, if the snapshot
-/// holds what that version cannot say (before 9: a remove_joint input;
+/// holds what that version cannot say (before 10: an add_joint input;
+/// before 9: a remove_joint input;
 /// before 8: a joint; before 7: a
 /// kinematic body; before 6: a sensor; before 5: a triangle mesh or heightfield; before 4: a body's user data other
 /// than 0, an input of a kind after apply_impulse; before 3: a compound

@@ -314,6 +314,18 @@ class Simulation {
   /// removed twice. A body of a joint with a removal queued cannot be
   /// removed at an earlier step (remove the joint first).
   void remove_joint(double time, JointId id);
+  /// Adds a joint (a scene file's joint: docs/scene-format.md, "Joints")
+  /// from that step on and wakes its dynamic bodies. It is held by the one
+  /// world that owns its dynamic bodies, so only a joint that joins no two
+  /// joint groups is taken (docs/embedding.md, "Joints"): a body pinned to
+  /// a static one, or two bodies of one joint group at that step (a loop
+  /// closed). Refused, naming the joint and the field: a joint joining two
+  /// groups or free bodies; an id a joint has or had (in the scene or by an
+  /// input); a body not in the scene at that step; two static bodies, a
+  /// kinematic body, bad frames or limits (the scene file's rules). A body
+  /// removal or a joint removal at an earlier step that would split the
+  /// group such an addition closes a loop in is refused in turn.
+  void add_joint(double time, const Joint& joint);
   /// The call for `input`'s kind at time_of(input.step): an input record
   /// as an input file or input_log() holds it (user_input.h), given as the
   /// calls above give it, with their errors. Returns the body's id.

@@ -1,7 +1,7 @@
 // The input file format (`soda-inputs`, docs/inputs.md): a script of user
 // inputs — add a body, remove one, set a body's velocity, give it an
 // impulse, change the scene's gravity, a body's mass, friction, restitution
-// or user data, remove a joint — each at a scene step boundary, which `soda run --inputs FILE`
+// or user data, add or remove a joint — each at a scene step boundary, which `soda run --inputs FILE`
 // replays through the same calls as the embedding API
 // (soda::Simulation::add_body, ...), so the run ends on the same hash as the
 // API and as one territory.
@@ -32,6 +32,7 @@ struct UserInput {
     SetPose,             // a dynamic or kinematic body put at a pose (teleport): linear, orientation
     SetKinematicTarget,  // a kinematic body moved to a pose over the next step: linear, orientation
     RemoveJoint,         // a joint removed (no body): joint
+    AddJoint,            // a joint added (no body): added_joint, its id in joint too
   };
   Kind kind = Kind::SetVelocity;
   /// Applied at the boundary after scene step `step` (0: before the first
@@ -46,16 +47,18 @@ struct UserInput {
   Quat orientation = Quat::Identity();  // SetPose, SetKinematicTarget: the pose's orientation (linear: its position)
   double value = 0.0;          // SetMass: mass; SetFriction: friction; SetRestitution: restitution
   std::uint64_t user_data = 0; // SetUserData
-  JointId joint = 0;           // RemoveJoint: the joint's id (Joint::id)
+  JointId joint = 0;           // RemoveJoint, AddJoint: the joint's id (Joint::id)
+  Joint added_joint;           // AddJoint: the new joint (its id must be unused)
 };
 
-/// True for the kinds that name a body by `id` (all but AddBody, SetGravity
-/// and RemoveJoint).
+/// True for the kinds that name a body by `id` (all but AddBody, SetGravity,
+/// RemoveJoint and AddJoint).
 bool names_body(UserInput::Kind kind);
 
 /// "add_body" | "remove_body" | "set_velocity" | "apply_impulse" |
 /// "set_gravity" | "set_mass" | "set_friction" | "set_restitution" |
-/// "set_user_data" | "set_pose" | "set_kinematic_target" | "remove_joint",
+/// "set_user_data" | "set_pose" | "set_kinematic_target" | "remove_joint" |
+/// "add_joint",
 /// the names the file uses.
 const char* input_kind_name(UserInput::Kind kind);
 
@@ -65,7 +68,9 @@ const char* input_kind_name(UserInput::Kind kind);
 /// Throws SceneError naming the file, the entry (index, kind and step) and
 /// the field for: unreadable file, malformed JSON, wrong format or version,
 /// missing, mistyped or unknown fields, a negative step, non-finite numbers,
-/// an added body that is not a valid dynamic body (scene-format rules), a
+/// an added body that is not a valid dynamic body (scene-format rules), an
+/// added joint whose fields break the scene-format rules (its bodies are
+/// checked by the run), a
 /// value out of range (check_input_value). Ids
 /// are checked against the scene by the run (Simulation's input calls).
 std::vector<UserInput> load_input_file(const std::string& path);

@@ -27,9 +27,8 @@
 //     again at the next step is removed;
 //  3. narrowphase runs here only for pairs this world holds (rule H); the
 //     manifold of any other pair present here is kept empty;
-//  4. contact state is never lost: every manifold with points whose key body
-//     is owned here is live in this world (this world held the pair at the
-//     last step) or a value in the kept store;
+//  4. contact state is never lost: every manifold with points whose key body is owned here is live
+//     in this world (this world held the pair at the last step) or a value in the kept store;
 //  5. every island is solved as one solveGroup with its bodies by id, its
 //     manifolds by (id0, id1) and its joints by joint id: local islands in
 //     place, border islands on copies built from their fragments;
@@ -317,8 +316,10 @@ class TerritoryWorld {
   /// Input at a step boundary: removes an owned body with its joints and its contact state (live
   /// manifolds, kept values of pairs it keys), or a joint held here, waking its dynamic bodies; what is
   /// left of the joint group regroups (territory_joints.cpp). False if not owned / not held here.
+  /// add_joint holds a new joint whose dynamic bodies are owned here (PartitionError if one only is).
   bool remove_body(BodyId id);
   bool remove_joint(JointId id);
+  bool add_joint(const Joint& joint);
 
   struct Entry;  // internal types: worlds/src/territory_world_parts.h
   struct Parts;
