@@ -16,6 +16,8 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <optional>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -596,6 +598,19 @@ TEST(JointAddScenes, RefusalsNameTheJointAndApplyNothing) {
   free.body_a = 501, free.body_b = 14;
   expect_refused([&] { sim.add_joint(sim.time_of(7), free); },
                  {at(93) + "7: body_b: body 501 is in no joint group, body 14 is in the joint group of body 11"});
+  // Two bodies added at step 6 and joined there: a group spawned whole. Body
+  // 500, added at 5, cannot join it at 6.
+  Body third = other;
+  third.id = 502;
+  third.position += Vec3(1.0, 0.0, 0.0);
+  sim.add_body(sim.time_of(6), third);
+  Joint spawned = loop(s, 96, JointKind::PointToPoint, 9, 9);
+  spawned.body_a = 501, spawned.body_b = 502;
+  sim.add_joint(sim.time_of(6), spawned);
+  free.body_a = 500, free.body_b = 502;
+  expect_refused([&] { sim.add_joint(sim.time_of(6), free); },
+                 {at(93) + "6: body_b: body 500 is in no joint group, body 502 is in the joint group of body 501",
+                  "unless all their bodies are added at its step"});
   // Ids: a scene joint's, a removed joint's, one added by input.
   expect_refused([&] { sim.add_joint(sim.time_of(30), pin(s, 3, 12, 0)); }, {at(3) + "30: id: joint 3 is in use"});
   expect_refused([&] { sim.add_joint(sim.time_of(30), pin(s, j56, 12, 0)); },
@@ -636,17 +651,111 @@ TEST(JointAddScenes, RefusalsNameTheJointAndApplyNothing) {
   sim.remove_joint(sim.time_of(50), kLoop);  // an added joint removed
 
   const std::vector<UserInput> log = sim.input_log();
-  ASSERT_EQ(log.size(), 11u);
+  ASSERT_EQ(log.size(), 13u);
   EXPECT_TRUE(sim.advance_to(sim.time_of(60)));
   Simulation clean(s, SimulationConfig{.territories = 1});
   for (const UserInput& in : log) clean.give(in);
   EXPECT_TRUE(clean.advance_to(clean.time_of(60)));
   EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(clean.state_hash()));
-  // Scene joints less 5-6, 21-22 and 22-23 (body 22), 12-13, 13-14 (body 13); the pins 1000 and 1002 and loop 92.
-  EXPECT_EQ(sim.snapshot().state.joints.size(), s.joints.size() - 5 + 3);
+  // Scene joints less 5-6, 21-22 and 22-23 (body 22), 12-13, 13-14 (body 13); the pins 1000 and 1002, loop 92
+  // and the spawned pair's 96.
+  EXPECT_EQ(sim.snapshot().state.joints.size(), s.joints.size() - 5 + 4);
   sim.stop();
   clean.stop();
 }
+
+// ragdolls 4 with ragdoll 3 (bodies 34..44, joints 30..39) spawned again
+// three times above the pile while the worlds run, each 11 add_body and 10
+// add_joint at one step: queued for step 20, at the frame on screen at 40,
+// given at frame 50 for step 70. Ids + 100, + 200, + 300.
+std::vector<test::PlannedInput> spawn_plan() {
+  const Scene& s = scene_of(joint_scenes()[2]);
+  struct Spawn {
+    std::int64_t step;
+    bool at_frame;
+    int given_at;
+    double up;
+  };
+  const Spawn spawns[] = {{20, false, -1, 2.5}, {40, true, -1, 5.0}, {70, false, 50, 7.5}};
+  std::vector<test::PlannedInput> out;
+  for (std::size_t k = 0; k < 3; ++k) {
+    const Spawn& at = spawns[k];
+    const BodyId offset = static_cast<BodyId>(100 * (k + 1));
+    for (BodyId id = 34; id <= 44; ++id) {
+      UserInput in;
+      in.kind = UserInput::Kind::AddBody;
+      in.step = at.step;
+      in.body = body_of(s, id);
+      in.body.id += offset;
+      in.body.position.y() += at.up;
+      out.push_back({in, at.at_frame, at.given_at});
+    }
+    for (const Joint& j : s.joints) {
+      if (j.body_a < 34 || j.body_a > 44) continue;
+      Joint copy = j;
+      copy.id += offset, copy.body_a += offset, copy.body_b += offset;
+      out.push_back({add_joint(at.step, copy), at.at_frame, at.given_at});
+    }
+  }
+  return out;
+}
+
+class JointSpawns : public ::testing::TestWithParam<std::tuple<int, int>> {};
+
+// Each spawned ragdoll is taken whole by the world owning its pelvis's
+// (anchor's) home cell, wherever its other bodies' cells are: the grid's
+// border x = 0 runs through the pile, between a ragdoll's arms.
+TEST_P(JointSpawns, EveryFrameWithRagdollsSpawnedEqualsOneTerritory) {
+  const auto [territories, anticipation] = GetParam();
+  const Scene& s = scene_of(joint_scenes()[2]);
+  static const test::QueuedRun ref = test::queued_run(s, spawn_plan(), kSteps);
+  test::Progress progress;
+  SimulationConfig config{.territories = territories, .buffer_capacity = 16, .past_inputs = true};
+  if (territories > 1) config.partition = territories == 2 ? "grid:2x1x1" : "grid:2x2x1";
+  config.runtime.anticipation = anticipation;
+  config.after_step = progress.hook();
+  detail::edit_testing_hooks(config).verify_replay = true;
+  Simulation sim(s, config);
+  SceneReader reader = sim.add_reader();
+  const test::RenderedRun run = test::run_game_loop(sim, reader, progress, spawn_plan(), ref.frames, kSteps);
+  const std::uint64_t hash = sim.state_hash();
+  const std::size_t joints = sim.snapshot().state.joints.size();
+  sim.stop();
+  // The ragdoll spawned at 20 in the frame of step 21 (the inputs queued):
+  // one owner, bodies on both sides of x = 0.
+  Simulation probe(s, SimulationConfig{.territories = territories, .partition = config.partition});
+  for (const test::PlannedInput& i : spawn_plan()) probe.give(i.input);
+  SceneReader probe_reader = probe.add_reader();
+  EXPECT_TRUE(probe.advance_to(probe.time_of(21)));
+  std::set<WorldId> owners;
+  bool left = false, right = false;
+  for (BodyId id = 134; id <= 144; ++id) {
+    const std::optional<BodyAt> at = probe_reader.body_at(probe.time_of(21), id);
+    ASSERT_TRUE(at.has_value()) << id;
+    owners.insert(at->owner);
+    (at->pose.position[0] < 0 ? left : right) = true;
+  }
+  probe.stop();
+  EXPECT_EQ(owners.size(), 1u);
+  EXPECT_TRUE(left && right);
+  std::printf("[ ragdolls 4 %s, K %d, anticipation %d, 3 ragdolls spawned ] %llu rollbacks; %zu joints; hash %s, one "
+              "territory %s\n",
+              kPrecisionName, territories, anticipation, static_cast<unsigned long long>(sim.rollbacks()), joints,
+              hash_hex(hash).c_str(), hash_hex(ref.hash).c_str());
+  EXPECT_TRUE(run.bad.empty()) << run.bad.size() << " bad frames, the first: "
+                               << (run.bad.empty() ? "" : run.bad.front());
+  EXPECT_GE(sim.rollbacks(), 1u);
+  EXPECT_EQ(joints, s.joints.size() + 30);
+  EXPECT_EQ(run.bodies.at(kSteps), s.dynamic_count() + 33);
+  EXPECT_EQ(hash_hex(hash), hash_hex(ref.hash));
+}
+
+INSTANTIATE_TEST_SUITE_P(Simulation, JointSpawns,
+                         ::testing::Combine(::testing::Values(1, 2, 4), ::testing::Values(0, 8)),
+                         [](const auto& info) {
+                           return "K" + std::to_string(std::get<0>(info.param)) + "_anticipation" +
+                                  std::to_string(std::get<1>(info.param));
+                         });
 
 TEST(JointAddScenes, InputFileRefusesABadJoint) {
   auto refused = [](const std::string& entry, const std::vector<std::string>& needles) {

@@ -243,10 +243,10 @@ bool TerritoryWorld::set_user_data(BodyId id, std::uint64_t user_data) {
   return true;
 }
 
-bool TerritoryWorld::add_body(const Body& body) {
+bool TerritoryWorld::add_body(const Body& body, const Vec3* home) {
   if (body.is_static) throw PartitionError("TerritoryWorld::add_body: static bodies cannot be added to a running scene");
   if (body.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
-  if (owner_of_origin(to_bt(body.position)) != id_) return false;
+  if (owner_of_origin(to_bt(home ? *home : body.position)) != id_) return false;
   if (entries_.count(body.id))
     throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) + ": body " +
                          std::to_string(body.id) + " added, but that id is present");

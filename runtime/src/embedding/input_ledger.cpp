@@ -44,11 +44,20 @@ bool InputLedger::dynamic(BodyId id) const {
   return it != lives_.end() && !it->second.is_static;
 }
 
-std::pair<BodyId, BodyId> InputLedger::anchors(BodyId a, BodyId b, Place at, Without without) const {
+bool InputLedger::newborn(BodyId id, std::int64_t step) const {
+  auto it = lives_.find(id);
+  return it != lives_.end() && it->second.by_input && it->second.added == step;
+}
+
+BodyId InputLedger::anchor_in(const std::map<BodyId, BodyId>& groups, BodyId id) {
+  auto it = groups.find(id);
+  return it == groups.end() ? kNoGroup : it->second;
+}
+
+std::map<BodyId, BodyId> InputLedger::groups(Place at, Without without) const {
   std::map<BodyId, BodyId> parent;
   auto find = [&](BodyId x) {
     auto it = parent.find(x);
-    if (it == parent.end()) return kNoGroup;
     while (it->second != x) {
       x = it->second;
       it = parent.find(x);
@@ -68,12 +77,16 @@ std::pair<BodyId, BodyId> InputLedger::anchors(BodyId a, BodyId b, Place at, Wit
     const BodyId x = find(j.body_a), y = find(j.body_b);
     if (x != y) parent[std::max(x, y)] = std::min(x, y);  // the root is the group's smallest id
   }
-  return {find(a), find(b)};
+  std::map<BodyId, BodyId> out;
+  for (const auto& [body, p] : parent) out.emplace(body, find(body));
+  return out;
 }
 
 // A joint between two dynamic bodies is held by the one world that owns
 // them both: they must be one joint group at that step (its owner holds it
-// whole), as the scene and the inputs alone say.
+// whole), or two groups (or free bodies) of bodies all added at that step,
+// which the world owning the anchor's home cell takes whole (a group
+// spawned: world_process.cpp), as the scene and the inputs alone say.
 void InputLedger::check_added_joint(const UserInput& in, const std::string& what) const {
   const Joint& joint = in.added_joint;
   if (joint.id != in.joint)
@@ -114,15 +127,23 @@ void InputLedger::check_added_joint(const UserInput& in, const std::string& what
     throw std::invalid_argument(e.what());
   }
   if (!dynamic(joint.body_a) || !dynamic(joint.body_b)) return;  // pinned to a static body: no group
-  const auto [a, b] = anchors(joint.body_a, joint.body_b, Place{in.step, order_ + 1}, Without{});
+  const std::map<BodyId, BodyId> now = groups(Place{in.step, order_ + 1}, Without{});
+  const BodyId a = anchor_in(now, joint.body_a), b = anchor_in(now, joint.body_b);
   if (a == b && a != kNoGroup) return;  // a loop closed in one group
+  auto spawned = [&](BodyId body, BodyId anchor) {
+    if (anchor == kNoGroup) return newborn(body, in.step);
+    for (const auto& [member, its] : now)
+      if (its == anchor && !newborn(member, in.step)) return false;
+    return true;
+  };
+  if (spawned(joint.body_a, a) && spawned(joint.body_b, b)) return;  // all added at this step
   auto group = [](BodyId body, BodyId anchor) {
     return anchor == kNoGroup ? "body " + std::to_string(body) + " is in no joint group"
                           : "body " + std::to_string(body) + " is in the joint group of body " + std::to_string(anchor);
   };
   throw std::invalid_argument(what + ": body_b: " + group(joint.body_a, a) + ", " + group(joint.body_b, b) +
-                              "; a joint that joins two groups or free bodies cannot be added while the worlds run "
-                              "(docs/embedding.md, \"Joints\")");
+                              "; a joint that joins two groups or free bodies cannot be added while the worlds run, "
+                              "unless all their bodies are added at its step (docs/embedding.md, \"Joints\")");
 }
 
 // A removal (of a joint or a body) at a step before a joint added between
@@ -132,7 +153,8 @@ void InputLedger::check_loops_kept(const UserInput& removal, const std::string& 
                         removal.kind == UserInput::Kind::RemoveBody ? &removal.id : nullptr};
   for (const auto& [id, j] : joints_) {
     if (!j.closes_loop || j.added.step <= removal.step) continue;
-    const auto [a, b] = anchors(j.body_a, j.body_b, j.added, without);
+    const std::map<BodyId, BodyId> then = groups(j.added, without);
+    const BodyId a = anchor_in(then, j.body_a), b = anchor_in(then, j.body_b);
     if (a != b || a == kNoGroup)
       throw std::invalid_argument(what + ": it would split the joint group of bodies " + std::to_string(j.body_a) +
                                   " and " + std::to_string(j.body_b) + " before joint " + std::to_string(id) +
@@ -200,7 +222,8 @@ void InputLedger::record(const UserInput& in) {
     if (in.kind == UserInput::Kind::AddJoint) {
       j.body_a = in.added_joint.body_a, j.body_b = in.added_joint.body_b;
       j.added = Place{in.step, order_};
-      j.closes_loop = dynamic(j.body_a) && dynamic(j.body_b);
+      // A joint of a group spawned at its step relies on no earlier group.
+      j.closes_loop = dynamic(j.body_a) && dynamic(j.body_b) && !newborn(j.body_a, in.step);
     } else {
       j.removed = Place{in.step, order_};
     }
@@ -209,7 +232,7 @@ void InputLedger::record(const UserInput& in) {
   }
   const BodyId id = in.kind == UserInput::Kind::AddBody ? in.body.id : in.id;
   Life& life = lives_[id];
-  if (in.kind == UserInput::Kind::AddBody) life.added = in.step;
+  if (in.kind == UserInput::Kind::AddBody) life.added = in.step, life.by_input = true;
   if (in.kind == UserInput::Kind::RemoveBody) life.removed = in.step, life.removed_order = order_;
   life.last_input = std::max(life.last_input, in.step);
 }

@@ -55,6 +55,7 @@ class InputLedger {
     std::uint64_t removed_order = 0;       // ... applied in this place among that boundary's inputs
     std::int64_t last_input = -1;          // newest step of an input naming it
     bool retired = false;                  // removed before the snapshot this run was restored from
+    bool by_input = false;                 // added by an input (at `added`)
   };
   struct JointLife {
     BodyId body_a = 0, body_b = 0;
@@ -71,11 +72,13 @@ class InputLedger {
   void check_added_joint(const UserInput& input, const std::string& what) const;
   void check_loops_kept(const UserInput& removal, const std::string& what) const;
   bool dynamic(BodyId id) const;
-  /// The joint groups' anchors (smallest id) of `a` and `b` just before
-  /// `at`: the joints there then (broken or not), less `without`'s;
-  /// kNoGroup for a body in none.
+  bool newborn(BodyId id, std::int64_t step) const;  // added by an input at `step`
+  /// Each body of a joint group just before `at` (the joints there then,
+  /// broken or not, less `without`'s) with its group's anchor (smallest id).
+  std::map<BodyId, BodyId> groups(Place at, Without without) const;
+  /// The anchor of `id`'s group in `groups`, kNoGroup for a body in none.
   static constexpr BodyId kNoGroup = ~BodyId{0};
-  std::pair<BodyId, BodyId> anchors(BodyId a, BodyId b, Place at, Without without) const;
+  static BodyId anchor_in(const std::map<BodyId, BodyId>& groups, BodyId id);
   std::map<BodyId, Life> lives_;
   std::map<JointId, JointLife> joints_;
   std::uint64_t order_ = 0;  // inputs recorded so far

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -15,6 +16,7 @@
 #include "soda/runtime/scene_reader.h"
 #include "soda/scene/kinematic_command.h"
 #include "execution/transport_bytes.h"
+#include "step/spawned_groups.h"
 
 namespace soda {
 
@@ -44,13 +46,19 @@ PartitionedWorld::Process::Process(TerritoryWorld& world, Transport& transport, 
 
 // Inputs at this boundary, in sequence order; each world applies those that
 // concern its territory (the owner of a body, the owner of a new body's home
-// cell), so that exactly one world applies each; a gravity change and a
-// kinematic body's command concern every world, and each applies it at the
-// same boundary.
+// cell: a spawned group's anchor's), so that exactly one world applies each;
+// a gravity change and a kinematic body's command concern every world, and
+// each applies it at the same boundary.
 void PartitionedWorld::Process::apply_inputs() {
-  for (const UserInput& in : output_.inputs->at(s_.step / substeps_)) {
+  const std::vector<UserInput>& inputs = output_.inputs->at(s_.step / substeps_);
+  const std::map<BodyId, Vec3> homes = spawned_group_homes(inputs);
+  for (const UserInput& in : inputs) {
     switch (in.kind) {
-      case UserInput::Kind::AddBody: s_.world->add_body(in.body); break;
+      case UserInput::Kind::AddBody: {
+        auto home = homes.find(in.body.id);
+        s_.world->add_body(in.body, home == homes.end() ? nullptr : &home->second);
+        break;
+      }
       case UserInput::Kind::RemoveBody: s_.world->remove_body(in.id); break;
       case UserInput::Kind::SetVelocity: s_.world->set_velocity(in.id, in.linear, in.angular); break;
       case UserInput::Kind::ApplyImpulse: s_.world->apply_impulse(in.id, in.linear); break;

@@ -318,9 +318,11 @@ class Simulation {
   /// from that step on and wakes its dynamic bodies. It is held by the one
   /// world that owns its dynamic bodies, so only a joint that joins no two
   /// joint groups is taken (docs/embedding.md, "Joints"): a body pinned to
-  /// a static one, or two bodies of one joint group at that step (a loop
-  /// closed). Refused, naming the joint and the field: a joint joining two
-  /// groups or free bodies; an id a joint has or had (in the scene or by an
+  /// a static one, two bodies of one joint group at that step (a loop
+  /// closed), or bodies all added at that step (a group spawned: the world
+  /// of its anchor's home cell takes it whole). Refused, naming the joint
+  /// and the field: a joint joining two groups or free bodies otherwise;
+  /// an id a joint has or had (in the scene or by an
   /// input); a body not in the scene at that step; two static bodies, a
   /// kinematic body, bad frames or limits (the scene file's rules). A body
   /// removal or a joint removal at an earlier step that would split the

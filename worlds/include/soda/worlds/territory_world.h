@@ -309,10 +309,10 @@ class TerritoryWorld {
   /// keeps its velocities and wakes it; the next steps ghost and migrate it
   /// from there (within the run's reach). False if not owned here.
   bool set_pose(BodyId id, const Pose& pose);
-  /// Input at a step boundary: adds a dynamic body (as the scene constructor
-  /// would) if the map gives its home cell to this world; true if it did.
-  /// Throws PartitionError if the id is present here.
-  bool add_body(const Body& body);
+  /// Input at a step boundary: adds a dynamic body (as the scene constructor would) if the map gives
+  /// its home cell (at `home`: a spawned group's anchor's; else its position) to this world; true if
+  /// it did. Throws PartitionError if the id is present here.
+  bool add_body(const Body& body, const Vec3* home = nullptr);
   /// Input at a step boundary: removes an owned body with its joints and its contact state (live
   /// manifolds, kept values of pairs it keys), or a joint held here, waking its dynamic bodies; what is
   /// left of the joint group regroups (territory_joints.cpp). False if not owned / not held here.
