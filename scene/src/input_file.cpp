@@ -26,7 +26,7 @@ constexpr UserInput::Kind kAllKinds[] = {
     UserInput::Kind::ApplyImpulse, UserInput::Kind::SetGravity,    UserInput::Kind::SetMass,
     UserInput::Kind::SetFriction, UserInput::Kind::SetRestitution, UserInput::Kind::SetUserData,
     UserInput::Kind::SetPose,     UserInput::Kind::SetKinematicTarget, UserInput::Kind::RemoveJoint,
-    UserInput::Kind::AddJoint};
+    UserInput::Kind::AddJoint, UserInput::Kind::SetJointMotor};
 
 // The file's field of a setter's value.
 const char* value_field(UserInput::Kind kind) {
@@ -38,6 +38,7 @@ const char* value_field(UserInput::Kind kind) {
     case UserInput::Kind::SetUserData: return "user_data";
     case UserInput::Kind::SetPose:
     case UserInput::Kind::SetKinematicTarget: return "position/orientation";
+    case UserInput::Kind::SetJointMotor: return "velocity/max_impulse/axis";
     default: return "";
   }
 }
@@ -48,7 +49,7 @@ UserInput::Kind parse_kind(const Context& ctx, const std::string& name) {
   ctx.fail("type", "unknown input '" + name +
                        "' (known: add_body, remove_body, set_velocity, apply_impulse, set_gravity, set_mass, "
                        "set_friction, set_restitution, set_user_data, set_pose, set_kinematic_target, remove_joint, "
-                       "add_joint)");
+                       "add_joint, set_joint_motor)");
 }
 
 BodyId parse_id(const Context& ctx, const json& j) {
@@ -67,6 +68,28 @@ Vec3 finite_vec3(const Context& ctx, const json& j, const char* field, bool requ
   const Vec3 v = ctx.vec3(j, field, required, Vec3::Zero());
   if (!v.allFinite()) ctx.fail(field, "must be finite numbers");
   return v;
+}
+
+// "on" (default true); "velocity" and "max_impulse", required when on;
+// "axis" for a spring-6dof joint.
+void parse_motor(Context& ctx, const json& j, UserInput& in) {
+  ctx.only_known(j, {"type", "step", "joint", "on", "velocity", "max_impulse", "axis"});
+  in.joint = parse_joint(ctx, j);
+  ctx.where += ": joint " + std::to_string(in.joint);
+  JointMotor& m = in.motor;
+  if (const json* on = ctx.find(j, "on", false)) {
+    if (!on->is_boolean()) ctx.fail("on", std::string("must be true or false, got ") + on->type_name());
+    m.on = on->get<bool>();
+  } else {
+    m.on = true;
+  }
+  m.velocity = ctx.number(j, "velocity", m.on, 0.0);
+  m.max_impulse = ctx.number(j, "max_impulse", m.on, 0.0);
+  if (!(m.max_impulse >= 0)) ctx.fail("max_impulse", "must be >= 0");
+  const std::int64_t axis = ctx.integer(j, "axis", false, -1);
+  if (ctx.find(j, "axis", false) && (axis < 0 || axis > 5))
+    ctx.fail("axis", "must be in 0..5 (x, y, z linear, then angular)");
+  m.axis = static_cast<int>(axis);
 }
 
 UserInput parse_input(const std::string& source, std::size_t index, const json& j) {
@@ -153,6 +176,7 @@ UserInput parse_input(const std::string& source, std::size_t index, const json& 
       });
       break;
     }
+    case UserInput::Kind::SetJointMotor: parse_motor(ctx, j, in); break;
   }
   if (const std::string why = check_input_value(in); !why.empty()) ctx.fail(value_field(in.kind), why);
   return in;
@@ -175,13 +199,15 @@ const char* input_kind_name(UserInput::Kind kind) {
     case UserInput::Kind::SetKinematicTarget: return "set_kinematic_target";
     case UserInput::Kind::RemoveJoint: return "remove_joint";
     case UserInput::Kind::AddJoint: return "add_joint";
+    case UserInput::Kind::SetJointMotor: return "set_joint_motor";
   }
   return "unknown";
 }
 
 bool names_body(UserInput::Kind kind) {
   return kind != UserInput::Kind::AddBody && kind != UserInput::Kind::SetGravity &&
-         kind != UserInput::Kind::RemoveJoint && kind != UserInput::Kind::AddJoint;
+         kind != UserInput::Kind::RemoveJoint && kind != UserInput::Kind::AddJoint &&
+         kind != UserInput::Kind::SetJointMotor;
 }
 
 std::string check_input_value(const UserInput& in) {
@@ -216,6 +242,13 @@ std::string check_input_value(const UserInput& in) {
       if (!(q.norm() > 1e-6)) return "orientation must be a non-zero quaternion";
       break;
     }
+    case UserInput::Kind::SetJointMotor:
+      if (!std::isfinite(in.motor.velocity)) return "velocity must be finite" + got(in.motor.velocity);
+      if (!(in.motor.max_impulse >= 0) || !std::isfinite(in.motor.max_impulse))
+        return "max_impulse must be >= 0 and finite" + got(in.motor.max_impulse);
+      if (in.motor.axis < -1 || in.motor.axis > 5)
+        return "axis must be 0..5 (a spring-6dof joint) or -1 (none)" + got(in.motor.axis);
+      break;
     default: break;
   }
   return {};
@@ -301,6 +334,13 @@ std::string inputs_to_json(const std::vector<UserInput>& inputs) {
         break;
       case UserInput::Kind::RemoveJoint: e["joint"] = in.joint; break;
       case UserInput::Kind::AddJoint: e["joint"] = detail::joint_json(in.added_joint); break;
+      case UserInput::Kind::SetJointMotor:
+        e["joint"] = in.joint;
+        e["on"] = in.motor.on;
+        e["velocity"] = in.motor.velocity;
+        e["max_impulse"] = in.motor.max_impulse;
+        if (in.motor.axis >= 0) e["axis"] = in.motor.axis;
+        break;
     }
     list.push_back(std::move(e));
   }

@@ -513,6 +513,41 @@ TEST_F(CliTest, JointScenesRunInEveryWorld) {
   EXPECT_EQ(hash_of(healed_two), hash_of(healed_one));
 }
 
+// Motor inputs from an input file (docs/inputs.md, "set_joint_motor"): the
+// motor-hinge's free arm sped up and reversed, the limited one's motor off,
+// on 1, 2 and 4 territories and across a checkpoint with one queued: one
+// hash, not the run without them. A motor the joint does not have: exit 2,
+// the joint and the field named.
+TEST_F(CliTest, JointMotorInputsRunFromAFileAndBadOnesAreBadInput) {
+  const std::string inputs = (dir_ / "motor-inputs.json").string();
+  std::ofstream(inputs) << R"({"format": "soda-inputs", "version": 1, "inputs": [
+      {"type": "set_joint_motor", "step": 10, "joint": 0, "velocity": 5, "max_impulse": 1},
+      {"type": "set_joint_motor", "step": 20, "joint": 1, "on": false},
+      {"type": "set_joint_motor", "step": 40, "joint": 0, "velocity": -3, "max_impulse": 2}]})";
+  const Outcome none = run_cli("run --scene motor-hinge --steps 60");
+  ASSERT_EQ(none.exit_code, 0) << none.output;
+  const std::string with = "run --scene motor-hinge --steps 60 --log-level warn --inputs " + inputs;
+  const Outcome one = run_cli(with);
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  EXPECT_NE(hash_of(one), hash_of(none));
+  const std::string ckpt = (dir_ / "motor.ckpt").string();
+  for (const std::string& args : {with + " --territories 2", with + " --territories 4 --anticipation 8",
+                                  with + " --territories 2 --checkpoint-at 30 --checkpoint " + ckpt,
+                                  "run --resume " + ckpt + " --steps 60 --log-level warn --territories 4"}) {
+    const Outcome o = run_cli(args);
+    ASSERT_EQ(o.exit_code, 0) << args << "\n" << o.output;
+    EXPECT_EQ(hash_of(o), hash_of(one)) << args;
+  }
+  const std::string bad = (dir_ / "bad-motor.json").string();
+  std::ofstream(bad) << R"({"format": "soda-inputs", "version": 1, "inputs": [
+      {"type": "set_joint_motor", "step": 10, "joint": 1, "velocity": 1, "max_impulse": 1, "axis": 5}]})";
+  const Outcome refused = run_cli("run --scene motor-hinge --steps 20 --inputs " + bad);
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("set the motor of joint 1 at step 10: axis: a hinge joint has one motor (no axis)"),
+            std::string::npos)
+      << refused.output;
+}
+
 // A bad joint in a scene file: exit 2, the joint and the field named.
 TEST_F(CliTest, ABadJointIsBadInput) {
   const std::filesystem::path file = dir_ / "bad-joint.json";

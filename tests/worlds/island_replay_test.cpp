@@ -2,6 +2,7 @@
 // bodies: which bodies are clean, which islands are replayed (invariant 1),
 // manifolds empty at the old run's end are emptied (invariant 2), and
 // verify compares without writing (invariant 3).
+#include <cmath>
 #include <memory>
 #include <stdexcept>
 #include <vector>
@@ -164,6 +165,42 @@ TEST(IslandReplay, AJointInOneRunOnlyMakesItsBodiesDirty) {
   broken.mark_clean(f.owned, f.descriptions(), {f.contact_state}, {JointSnapshot{joint, true}},
                     f.before.settings.gravity);
   EXPECT_FALSE(broken.take(pair, 2, held, 0));
+}
+
+// An input set a joint's motor at this boundary: the same joint, unbroken,
+// but its description is not the old run's (the motor's velocity, or a
+// 6-DoF axis's max force, differs by one bit): its bodies are dirty.
+TEST(IslandReplay, AJointsChangedMotorMakesItsBodiesDirty) {
+  Fixture f;
+  Joint joint;
+  joint.id = 7;
+  joint.kind = JointKind::Hinge;
+  joint.body_a = 1;
+  joint.body_b = 2;
+  joint.motor = true;
+  joint.motor_velocity = 2.0;
+  joint.motor_max_impulse = 1.0;
+  f.before.joints.push_back(JointSnapshot{joint, false});
+  IslandItems<btPersistentManifold*> held = f.held_of_first();
+  btCollisionObject* pair[] = {f.owned[0], f.owned[1]};
+  IslandReplay same;
+  same.set(StepReplay{&f.before, &f.after, &f.islands});
+  same.mark_clean(f.owned, f.descriptions(), {f.contact_state}, {JointSnapshot{joint, false}},
+                  f.before.settings.gravity);
+  EXPECT_TRUE(same.take(pair, 2, held, 0));
+  Joint faster = joint;
+  faster.motor_velocity = std::nextafter(2.0, 3.0);
+  Joint off = joint;
+  off.motor = false;
+  Joint axis = joint;
+  axis.motor_max_forces[5] = 1.0;
+  for (const Joint& changed : {faster, off, axis}) {
+    IslandReplay replay;
+    replay.set(StepReplay{&f.before, &f.after, &f.islands});
+    replay.mark_clean(f.owned, f.descriptions(), {f.contact_state}, {JointSnapshot{changed, false}},
+                      f.before.settings.gravity);
+    EXPECT_FALSE(replay.take(pair, 2, held, 0));
+  }
 }
 
 // An input changed a body's mass, friction or restitution (or the gravity)

@@ -63,9 +63,23 @@ void IslandReplay::mark_clean(const std::vector<btRigidBody*>& owned, const std:
   }
 }
 
+namespace {
+
+// A joint's whole description and broken flag as joint_codec.cpp writes
+// them: every field bit for bit, the motor's included.
+bool same_joint(const JointSnapshot& a, const JointSnapshot& b) {
+  ByteWriter x, y;
+  write_joint(x, a);
+  write_joint(y, b);
+  return x.bytes == y.bytes;
+}
+
+}  // namespace
+
 // A joint held in one run only (removed by an input at this boundary), or
-// broken in one only, makes both its bodies dirty: an island's joints are
-// part of what its step is a function of.
+// whose description or broken flag differs between the runs (a motor set
+// by an input), makes both its bodies dirty: an island's joints are part of
+// what its step is a function of.
 void IslandReplay::mark_joints_dirty(const std::vector<JointSnapshot>& joints) {
   auto dirty = [&](const Joint& j) {
     for (BodyId id : {j.body_a, j.body_b}) {
@@ -82,7 +96,7 @@ void IslandReplay::mark_joints_dirty(const std::vector<JointSnapshot>& joints) {
     } else if (x == joints.end() || y->description.id < x->description.id) {
       dirty((y++)->description);
     } else {
-      if (x->broken != y->broken) dirty(x->description);
+      if (!same_joint(*x, *y)) dirty(x->description);
       ++x, ++y;
     }
   }

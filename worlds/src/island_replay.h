@@ -59,7 +59,8 @@ class IslandReplay {
   /// body's material or the gravity at this boundary, which its raw state
   /// does not show.
   /// `joints`: those held here now, by id; one held in one run only, or
-  /// broken in one only, makes its bodies dirty (an input removed it).
+  /// whose description or broken flag differs from the old run's (an input
+  /// removed it or set its motor), makes its bodies dirty.
   void mark_clean(const std::vector<btRigidBody*>& owned, const std::vector<const Body*>& descriptions,
                   const std::vector<ManifoldState>& contacts, const std::vector<JointSnapshot>& joints,
                   const Vec3& gravity);

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "joint_factory.h"
+#include "soda/scene/joint_motor.h"
 #include "soda/worlds/bullet_bodies.h"
 #include "territory_world_parts.h"
 
@@ -204,6 +205,33 @@ bool TerritoryWorld::add_joint(const Joint& joint) {
     e->body->forceActivationState(ACTIVE_TAG);
     e->body->setDeactivationTime(btScalar(0));
   }
+  return true;
+}
+
+// The description takes the motor (joint_motor.h) and the constraint is
+// made anew from it, broken or not as before: a joint carries nothing else
+// from step to step (joint_factory.h), so it is the constraint a migration or
+// a restore would make of the changed description, bit for bit. Its dynamic
+// ends wake, as for a removal.
+bool TerritoryWorld::set_joint_motor(JointId id, const JointMotor& motor) {
+  auto it = joints_.find(id);
+  if (it == joints_.end()) return false;
+  HeldJoint& held = *it->second;
+  const Joint changed = with_motor(held.description, motor);
+  Entry& a = *entries_.at(changed.body_a);
+  Entry& b = *entries_.at(changed.body_b);
+  std::unique_ptr<btTypedConstraint> made = make_constraint(changed, *a.body, *b.body);
+  made->setEnabled(held.constraint->isEnabled());
+  parts_->world.removeConstraint(held.constraint.get());
+  held.constraint = std::move(made);
+  held.description = changed;
+  parts_->world.addConstraint(held.constraint.get(), !changed.collide_connected);
+  for (Entry* e : {&a, &b}) {
+    if (e->role != Role::Owned) continue;
+    e->body->forceActivationState(ACTIVE_TAG);
+    e->body->setDeactivationTime(btScalar(0));
+  }
+  quiet_ = -1;
   return true;
 }
 

@@ -66,12 +66,13 @@ constexpr std::uint32_t kJointsVersion = 8;
 constexpr std::uint32_t kJointInputsVersion = 9;
 
 // The first version with added joints (kind 12, a joint record after the
-// input record).
+// input record) and joint motor inputs (kind 13, a motor in every input
+// record).
 constexpr std::uint32_t kAddJointVersion = 10;
 
 // The newest input kind a version knows.
 UserInput::Kind last_kind(std::uint32_t version) {
-  if (version >= kAddJointVersion) return UserInput::Kind::AddJoint;
+  if (version >= kAddJointVersion) return UserInput::Kind::SetJointMotor;
   if (version >= kJointInputsVersion) return UserInput::Kind::RemoveJoint;
   if (version >= kKinematicVersion) return UserInput::Kind::SetKinematicTarget;
   return version >= kSettersVersion ? UserInput::Kind::SetUserData : UserInput::Kind::ApplyImpulse;
@@ -95,9 +96,10 @@ BodyFormat body_format(std::uint32_t version) {
 
 // Input records: u8 kind, i64 step, u32 id, linear and angular as 3 f64 each;
 // from version 4: f64 value, u64 user data; from version 7: the
-// orientation as 4 f64 (w, x, y, z); from version 9: u32 joint; an added
-// body's record (write_body, its raw state unused) or, from version 10, an
-// added joint's (write_joint, not broken) follows.
+// orientation as 4 f64 (w, x, y, z); from version 9: u32 joint; from
+// version 10: the motor as u8 on, f64 velocity, f64 max impulse, i32 axis;
+// an added body's record (write_body, its raw state unused) or, from
+// version 10, an added joint's (write_joint, not broken) follows.
 void write_input(ByteWriter& w, const UserInput& in, std::uint32_t version) {
   w.put(static_cast<std::uint8_t>(in.kind));
   w.put(in.step);
@@ -108,6 +110,11 @@ void write_input(ByteWriter& w, const UserInput& in, std::uint32_t version) {
   if (version >= kKinematicVersion)
     w.put(in.orientation.w()), w.put(in.orientation.x()), w.put(in.orientation.y()), w.put(in.orientation.z());
   if (version >= kJointInputsVersion) w.put(in.joint);
+  if (version >= kAddJointVersion) {
+    w.put(static_cast<std::uint8_t>(in.motor.on));
+    w.put(in.motor.velocity), w.put(in.motor.max_impulse);
+    w.put(static_cast<std::int32_t>(in.motor.axis));
+  }
   if (in.kind == UserInput::Kind::AddBody)
     write_body(w, BodySnapshot{in.body, BodyDynamicState{}}, body_format(version));
   if (in.kind == UserInput::Kind::AddJoint) write_joint(w, JointSnapshot{in.added_joint, false});
@@ -116,7 +123,8 @@ void write_input(ByteWriter& w, const UserInput& in, std::uint32_t version) {
 UserInput read_input(ByteReader& r, std::uint32_t version) {
   UserInput in;
   const auto kind = r.get<std::uint8_t>();
-  if (kind > static_cast<std::uint8_t>(last_kind(version)))
+  if (kind > static_cast<std::uint8_t>(last_kind(version)) ||
+      std::string(input_kind_name(static_cast<UserInput::Kind>(kind))) == "unknown")
     r.fail("unknown input kind " + std::to_string(kind) + " for version " + std::to_string(version));
   in.kind = static_cast<UserInput::Kind>(kind);
   in.step = r.get<std::int64_t>();
@@ -134,6 +142,13 @@ UserInput read_input(ByteReader& r, std::uint32_t version) {
     if (version >= kJointInputsVersion) {
       in.joint = r.get<JointId>();
       if (in.joint > kMaxJointId) r.fail("input naming a joint id above kMaxJointId");
+    }
+    if (version >= kAddJointVersion) {
+      const auto on = r.get<std::uint8_t>();
+      if (on > 1) r.fail("bad motor flag");
+      in.motor.on = on == 1;
+      in.motor.velocity = r.get<double>(), in.motor.max_impulse = r.get<double>();
+      in.motor.axis = r.get<std::int32_t>();
     }
     if (const std::string why = check_input_value(in); !why.empty())
       r.fail("an input to " + describe(in) + ": " + why);

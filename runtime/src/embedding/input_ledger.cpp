@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "soda/scene/joint_motor.h"
 #include "soda/scene/validate.h"
 #include "soda/worlds/body_state.h"
 
@@ -11,22 +12,28 @@ namespace soda {
 
 InputLedger::InputLedger(const Scene& scene) : settings_(scene.settings) {
   for (const Body& b : scene.bodies) lives_[b.id] = Life{b.is_static, b.kinematic};
-  for (const Joint& j : scene.joints) joints_[j.id] = JointLife{j.body_a, j.body_b};
+  for (const Joint& j : scene.joints) joints_[j.id] = JointLife{j.body_a, j.body_b, j.kind};
 }
 
 // A joint is there from the start (the scene's or the snapshot's) or its
 // addition until its removal or that of one of its bodies, whichever comes
-// first.
+// first. A joint is removed once, and not before a motor input queued for
+// it; its motor is set while it is there, with values that fit its kind
+// (joint_motor.h).
 void InputLedger::check_joint(const UserInput& in, const std::string& what) const {
   auto it = joints_.find(in.joint);
   if (it == joints_.end()) throw std::invalid_argument(what + ": joint: no joint has that id");
   const JointLife& j = it->second;
-  if (j.removed.step != INT64_MAX)
+  const bool removal = in.kind == UserInput::Kind::RemoveJoint;
+  if (j.removed.step != INT64_MAX && (removal || in.step >= j.removed.step))
     throw std::invalid_argument(what + ": joint: joint " + std::to_string(in.joint) + " is removed at step " +
                                 std::to_string(j.removed.step) + " already");
   if (in.step < j.added.step)
     throw std::invalid_argument(what + ": joint: joint " + std::to_string(in.joint) + " is added at step " +
                                 std::to_string(j.added.step) + " only");
+  if (removal && j.last_motor > in.step)
+    throw std::invalid_argument(what + ": joint: joint " + std::to_string(in.joint) +
+                                " has a motor input at the later step " + std::to_string(j.last_motor));
   for (BodyId b : {j.body_a, j.body_b}) {
     const Life& life = lives_.at(b);
     if (life.retired || in.step >= life.removed)
@@ -35,6 +42,15 @@ void InputLedger::check_joint(const UserInput& in, const std::string& what) cons
                                   (life.retired ? std::string("before the snapshot this run was restored from")
                                                 : std::to_string(life.removed)) +
                                   ")");
+  }
+  if (!removal) {
+    if (const std::string why = check_input_value(in); !why.empty()) throw std::invalid_argument(what + ": " + why);
+    Joint kind_only;
+    kind_only.id = in.joint;
+    kind_only.kind = j.kind;
+    if (const std::string why = check_joint_motor(kind_only, in.motor); !why.empty())
+      throw std::invalid_argument(what + ": " + why);
+    return;
   }
   check_loops_kept(in, what + ": joint");
 }
@@ -179,7 +195,8 @@ void InputLedger::check(const UserInput& in) const {
     }
     return;
   }
-  if (in.kind == UserInput::Kind::RemoveJoint) return check_joint(in, what);
+  if (in.kind == UserInput::Kind::RemoveJoint || in.kind == UserInput::Kind::SetJointMotor)
+    return check_joint(in, what);
   if (in.kind == UserInput::Kind::AddJoint) return check_added_joint(in, what);
   if (in.kind == UserInput::Kind::SetGravity) {
     if (const std::string why = check_input_value(in); !why.empty()) throw std::invalid_argument(what + ": " + why);
@@ -216,16 +233,20 @@ void InputLedger::check(const UserInput& in) const {
 void InputLedger::record(const UserInput& in) {
   ++order_;
   if (in.kind == UserInput::Kind::SetGravity) return;  // names no body
-  if (in.kind == UserInput::Kind::RemoveJoint || in.kind == UserInput::Kind::AddJoint) {
+  if (in.kind == UserInput::Kind::RemoveJoint || in.kind == UserInput::Kind::AddJoint ||
+      in.kind == UserInput::Kind::SetJointMotor) {
     // Its bodies cannot be removed before it (an input at a later step).
     JointLife& j = joints_[in.joint];
     if (in.kind == UserInput::Kind::AddJoint) {
       j.body_a = in.added_joint.body_a, j.body_b = in.added_joint.body_b;
+      j.kind = in.added_joint.kind;
       j.added = Place{in.step, order_};
       // A joint of a group spawned at its step relies on no earlier group.
       j.closes_loop = dynamic(j.body_a) && dynamic(j.body_b) && !newborn(j.body_a, in.step);
-    } else {
+    } else if (in.kind == UserInput::Kind::RemoveJoint) {
       j.removed = Place{in.step, order_};
+    } else {
+      j.last_motor = std::max(j.last_motor, in.step);
     }
     for (BodyId b : {j.body_a, j.body_b}) lives_[b].last_input = std::max(lives_[b].last_input, in.step);
     return;

@@ -4,9 +4,10 @@
 // static body, an id in use, a body not in the scene at the input's step,
 // an input after a removal, a bad added body; a joint that is not there at
 // the input's step, an added joint that is bad or joins two joint groups, a
-// removal that splits a group an added joint closes a loop in) before the
-// input is queued. It knows the joint groups at every step from the scene
-// and the inputs alone, so what it takes does not depend on the worlds.
+// removal that splits a group an added joint closes a loop in, a motor that
+// does not fit its joint) before the input is queued. It knows the joint
+// groups at every step from the scene and the inputs alone, so what it takes
+// does not depend on the worlds.
 // Used by a Simulation's engine (inputs as the API calls come) and by a
 // PartitionedWorld (PartitionedOptions::inputs, all before the run).
 // Not thread-safe: its owner serialises the calls.
@@ -59,9 +60,11 @@ class InputLedger {
   };
   struct JointLife {
     BodyId body_a = 0, body_b = 0;
+    JointKind kind = JointKind::PointToPoint;
     Place added{-1, 0};                  // the scene's (or the snapshot's): before every input
     Place removed{INT64_MAX, 0};         // removed by input
     bool closes_loop = false;            // added by input between two dynamic bodies (of one group)
+    std::int64_t last_motor = -1;        // newest step of a motor input naming it
   };
   // A removal the joint groups are tested without: a joint's or a body's.
   struct Without {

@@ -200,6 +200,15 @@ void Simulation::add_joint(double time, const Joint& joint) {
   engine_->input(in);
 }
 
+void Simulation::set_joint_motor(double time, JointId id, bool on, double velocity, double max_impulse, int axis) {
+  UserInput in;
+  in.kind = UserInput::Kind::SetJointMotor;
+  in.step = engine_->core->step_at(time);
+  in.joint = id;
+  in.motor = JointMotor{on, velocity, max_impulse, axis};
+  engine_->input(in);
+}
+
 BodyId Simulation::give(const UserInput& input) {
   const double time = time_of(input.step);
   switch (input.kind) {
@@ -218,6 +227,10 @@ BodyId Simulation::give(const UserInput& input) {
       break;
     case UserInput::Kind::RemoveJoint: remove_joint(time, input.joint); break;
     case UserInput::Kind::AddJoint: add_joint(time, input.added_joint); break;
+    case UserInput::Kind::SetJointMotor:
+      set_joint_motor(time, input.joint, input.motor.on, input.motor.velocity, input.motor.max_impulse,
+                      input.motor.axis);
+      break;
   }
   return input.id;
 }

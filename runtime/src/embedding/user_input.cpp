@@ -19,6 +19,7 @@ std::string describe(const UserInput& input) {
       return "set the kinematic target of body " + std::to_string(input.id) + at;
     case UserInput::Kind::RemoveJoint: return "remove joint " + std::to_string(input.joint) + at;
     case UserInput::Kind::AddJoint: return "add joint " + std::to_string(input.joint) + at;
+    case UserInput::Kind::SetJointMotor: return "set the motor of joint " + std::to_string(input.joint) + at;
   }
   return "input" + at;
 }

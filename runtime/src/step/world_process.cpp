@@ -76,6 +76,7 @@ void PartitionedWorld::Process::apply_inputs() {
         break;
       case UserInput::Kind::RemoveJoint: s_.world->remove_joint(in.joint); break;  // the world holding it
       case UserInput::Kind::AddJoint: s_.world->add_joint(in.added_joint); break;  // the owner of its bodies
+      case UserInput::Kind::SetJointMotor: s_.world->set_joint_motor(in.joint, in.motor); break;  // the same
     }
   }
 }

@@ -47,7 +47,8 @@ inline constexpr std::uint32_t kCheckpointVersion = 10;
 /// the sensor flag (bodies read back as not sensors); version 6: without
 /// kinematic bodies, and inputs without an orientation and kinds 9 and 10;
 /// version 7: without joints; version 8: inputs without a joint id and
-/// kind 11 (remove_joint); version 9: without kind 12 (add_joint).
+/// kind 11 (remove_joint); version 9: without kinds 12 (add_joint) and 13
+/// (set_joint_motor), and inputs without a motor.
 inline constexpr std::uint32_t kOldestCheckpointVersion = 1;
 
 /// What a checkpoint's fixed header says (docs/checkpoints.md, "Header").
@@ -66,7 +67,8 @@ std::vector<std::uint8_t> encode_checkpoint(const SimulationSnapshot& snapshot);
 /// The same in an older format `version` (kOldestCheckpointVersion ..
 /// kCheckpointVersion), for a tool that must hand a file to an older build.
 /// Throws CheckpointError, naming the body or the input, if the snapshot
-/// holds what that version cannot say (before 10: an add_joint input;
+/// holds what that version cannot say (before 10: an add_joint or
+/// set_joint_motor input;
 /// before 9: a remove_joint input;
 /// before 8: a joint; before 7: a
 /// kinematic body; before 6: a sensor; before 5: a triangle mesh or heightfield; before 4: a body's user data other

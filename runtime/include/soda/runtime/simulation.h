@@ -328,6 +328,22 @@ class Simulation {
   /// removal or a joint removal at an earlier step that would split the
   /// group such an addition closes a loop in is refused in turn.
   void add_joint(double time, const Joint& joint);
+  /// Sets a joint's motor from the next step on and wakes the dynamic bodies
+  /// it joins: on or off, its target velocity (rad/s about a hinge's or an
+  /// angular axis, m/s along a slider's or a linear axis) and its max
+  /// impulse (a hinge: N m s a step; a slider: Bullet's max linear motor
+  /// force) or, for a 6-DoF spring joint, the max force of `axis` (0..5: x,
+  /// y, z linear, then x, y, z angular; off stores max force 0). The joint's
+  /// description changes (Joint::motor, motor_velocity, motor_max_impulse;
+  /// motor_velocities, motor_max_forces) and its constraint is the one the
+  /// new description makes; snapshots and checkpoints carry it. Refused,
+  /// naming the joint and the field: an id no joint has at that step (as
+  /// remove_joint), a point-to-point, cone-twist or fixed joint (no motor),
+  /// an axis given for a hinge or slider or none (-1) or out of 0..5 for a
+  /// 6-DoF spring joint, a non-finite velocity, a negative or non-finite
+  /// max impulse. A joint with a motor input queued cannot be removed at an
+  /// earlier step, nor its bodies.
+  void set_joint_motor(double time, JointId id, bool on, double velocity, double max_impulse, int axis = -1);
   /// The call for `input`'s kind at time_of(input.step): an input record
   /// as an input file or input_log() holds it (user_input.h), given as the
   /// calls above give it, with their errors. Returns the body's id.

@@ -1,7 +1,7 @@
 // The input file format (`soda-inputs`, docs/inputs.md): a script of user
 // inputs — add a body, remove one, set a body's velocity, give it an
 // impulse, change the scene's gravity, a body's mass, friction, restitution
-// or user data, add or remove a joint — each at a scene step boundary, which `soda run --inputs FILE`
+// or user data, add or remove a joint or set its motor — each at a scene step boundary, which `soda run --inputs FILE`
 // replays through the same calls as the embedding API
 // (soda::Simulation::add_body, ...), so the run ends on the same hash as the
 // API and as one territory.
@@ -33,6 +33,7 @@ struct UserInput {
     SetKinematicTarget,  // a kinematic body moved to a pose over the next step: linear, orientation
     RemoveJoint,         // a joint removed (no body): joint
     AddJoint,            // a joint added (no body): added_joint, its id in joint too
+    SetJointMotor,       // a joint's motor (no body): joint, motor
   };
   Kind kind = Kind::SetVelocity;
   /// Applied at the boundary after scene step `step` (0: before the first
@@ -47,19 +48,20 @@ struct UserInput {
   Quat orientation = Quat::Identity();  // SetPose, SetKinematicTarget: the pose's orientation (linear: its position)
   double value = 0.0;          // SetMass: mass; SetFriction: friction; SetRestitution: restitution
   std::uint64_t user_data = 0; // SetUserData
-  JointId joint = 0;           // RemoveJoint, AddJoint: the joint's id (Joint::id)
+  JointId joint = 0;           // RemoveJoint, AddJoint, SetJointMotor: the joint's id (Joint::id)
   Joint added_joint;           // AddJoint: the new joint (its id must be unused)
+  JointMotor motor;            // SetJointMotor: on/off, target velocity, max impulse, axis
 };
 
-/// True for the kinds that name a body by `id` (all but AddBody, SetGravity,
-/// RemoveJoint and AddJoint).
+/// True for the kinds that name a body by `id` (all but AddBody, SetGravity
+/// and the joint inputs).
 bool names_body(UserInput::Kind kind);
 
 /// "add_body" | "remove_body" | "set_velocity" | "apply_impulse" |
 /// "set_gravity" | "set_mass" | "set_friction" | "set_restitution" |
 /// "set_user_data" | "set_pose" | "set_kinematic_target" | "remove_joint" |
-/// "add_joint",
-/// the names the file uses.
+/// "add_joint" | "set_joint_motor", the names the file uses ("unknown" for a
+/// value no kind has).
 const char* input_kind_name(UserInput::Kind kind);
 
 /// Reads an input file. Returns its inputs sorted by step (stable: inputs of
@@ -76,9 +78,11 @@ const char* input_kind_name(UserInput::Kind kind);
 std::vector<UserInput> load_input_file(const std::string& path);
 
 /// The range check of a set_mass, set_friction, set_restitution,
-/// set_gravity, set_pose or set_kinematic_target input's value (mass > 0 and
-/// finite, friction >= 0 and finite, restitution in [0, 1], gravity finite,
-/// a pose's position finite and orientation a finite non-zero quaternion):
+/// set_gravity, set_pose, set_kinematic_target or set_joint_motor input's
+/// value (mass > 0 and finite, friction >= 0 and finite, restitution in
+/// [0, 1], gravity finite, a pose's position finite and orientation a finite
+/// non-zero quaternion, a motor's velocity finite, max impulse >= 0 and
+/// finite, axis -1 or 0..5):
 /// empty when it holds, else the
 /// reason, naming the field ("mass must be > 0 and finite, got -1"). Other
 /// kinds: empty. Shared by the input file reader and the Simulation's calls.

@@ -281,6 +281,16 @@ struct Joint {
   std::array<double, 6> axis_lower{}, axis_upper{}, stiffness{}, damping{}, motor_velocities{}, motor_max_forces{};
 };
 
+/// A setting of a joint's motor (a set_joint_motor input,
+/// soda/scene/joint_motor.h): a hinge's or slider's one motor, or that of
+/// one axis of a 6-DoF spring joint.
+struct JointMotor {
+  bool on = false;
+  double velocity = 0.0;     // target: rad/s (hinge, angular axis), m/s (slider, linear axis)
+  double max_impulse = 0.0;  // >= 0: hinge, slider (Joint::motor_max_impulse); 6-DoF: the axis's max force
+  int axis = -1;             // 6-DoF spring: 0..5 (x, y, z linear, then angular); other kinds: -1
+};
+
 /// Stepping settings of a scene. Units: seconds, m/s^2.
 struct SceneSettings {
   double dt = 1.0 / 60.0;     // fixed step

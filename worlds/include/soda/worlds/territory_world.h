@@ -313,13 +313,13 @@ class TerritoryWorld {
   /// its home cell (at `home`: a spawned group's anchor's; else its position) to this world; true if
   /// it did. Throws PartitionError if the id is present here.
   bool add_body(const Body& body, const Vec3* home = nullptr);
-  /// Input at a step boundary: removes an owned body with its joints and its contact state (live
-  /// manifolds, kept values of pairs it keys), or a joint held here, waking its dynamic bodies; what is
-  /// left of the joint group regroups (territory_joints.cpp). False if not owned / not held here.
-  /// add_joint holds a new joint whose dynamic bodies are owned here (PartitionError if one only is).
+  /// Input at a step boundary, waking the dynamic bodies (territory_joints.cpp); false if not here: removes an
+  /// owned body with its joints and contact state, or a held joint (its group regroups); sets a held joint's
+  /// motor (constraint made anew); holds an added joint whose dynamic ends are owned (one only: PartitionError).
   bool remove_body(BodyId id);
   bool remove_joint(JointId id);
   bool add_joint(const Joint& joint);
+  bool set_joint_motor(JointId id, const JointMotor& motor);
 
   struct Entry;  // internal types: worlds/src/territory_world_parts.h
   struct Parts;
