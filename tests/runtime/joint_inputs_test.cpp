@@ -789,5 +789,55 @@ TEST(JointAddScenes, InputFileRefusesABadJoint) {
   EXPECT_EQ(ok[0].added_joint.frame_a.position, Vec3(0.5, 0, 0));
 }
 
+
+// A joint added between bodies in contact, at the frame on screen: its
+// bodies stop colliding from that step on, so their contact ends there —
+// in the run that re-runs the step from the state kept at its boundary
+// (which holds the contact) as in the one that never left it. Boxes resting
+// on the ground on both sides of a 2x1x1 cut, two of them pinned to it at
+// their bottom centre (one at the frame on screen, one queued), one hinged.
+TEST(JointAddScenes, AJointBetweenTouchingBodiesEndsTheirContact) {
+  Scene s;
+  s.name = "resting-boxes";
+  Body ground;
+  ground.id = 1, ground.is_static = true, ground.shape = Shape::box(Vec3(8, 0.5, 4)), ground.position = Vec3(0, -0.5, 0);
+  s.bodies.push_back(ground);
+  for (int i = 0; i < 4; ++i) {
+    Body b;
+    b.id = static_cast<BodyId>(2 + i);
+    b.shape = Shape::box(Vec3::Constant(0.5));
+    b.position = Vec3(-3.0 + 2.0 * i, 0.5, 0.3 * i);
+    s.bodies.push_back(b);
+  }
+  auto bottom = [&](BodyId id) -> Vec3 { return body_of(s, id).position - Vec3(0, 0.5, 0); };
+  Joint hinge = joint_at(s, 11, JointKind::Hinge, 1, 4, bottom(4) + Vec3(0.5, 0, 0));
+  const std::vector<test::PlannedInput> plan = {
+      {add_joint(30, joint_at(s, 10, JointKind::PointToPoint, 2, 1, bottom(2))), true},
+      {add_joint(30, hinge), true},
+      {add_joint(40, joint_at(s, 12, JointKind::PointToPoint, 5, 1, bottom(5)))},
+      {UserInput{.kind = UserInput::Kind::ApplyImpulse, .step = 45, .id = 4, .linear = Vec3(0, 3, 0)}, true},
+  };
+  const test::QueuedRun ref = test::queued_run(s, plan, kSteps);
+  for (const auto& [territories, anticipation] : {std::pair{1, 0}, {2, 0}, {2, 8}}) {
+    test::Progress progress;
+    SimulationConfig config{.territories = territories, .partition = territories > 1 ? "grid:2x1x1" : "kmeans",
+                            .buffer_capacity = 16, .past_inputs = true};
+    config.runtime.anticipation = anticipation;
+    config.after_step = progress.hook();
+    Simulation sim(s, config);
+    SceneReader reader = sim.add_reader();
+    const test::RenderedRun run = test::run_game_loop(sim, reader, progress, plan, ref.frames, kSteps);
+    const std::uint64_t hash = sim.state_hash();
+    sim.stop();
+    std::printf("[ resting boxes, K %d, anticipation %d ] %llu rollbacks; %s, one territory %s\n", territories,
+                anticipation, static_cast<unsigned long long>(sim.rollbacks()), hash_hex(hash).c_str(),
+                hash_hex(ref.hash).c_str());
+    EXPECT_TRUE(run.bad.empty()) << run.bad.size() << " bad frames, the first: "
+                                 << (run.bad.empty() ? "" : run.bad.front());
+    EXPECT_GT(sim.rollbacks(), 0u);
+    EXPECT_EQ(hash_hex(hash), hash_hex(ref.hash)) << "K " << territories << ", anticipation " << anticipation;
+  }
+}
+
 }  // namespace
 }  // namespace soda

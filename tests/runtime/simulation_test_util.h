@@ -122,9 +122,13 @@ struct Progress {
       cv.notify_all();
     };
   }
-  void wait_past(std::int64_t step) {
+  /// A failed run calls the hook no more: with `sim`, its error is looked at
+  /// now and then while waiting (a wake-up, never a deadline) and thrown.
+  void wait_past(std::int64_t step, const Simulation* sim = nullptr) {
     std::unique_lock lock(mutex);
-    cv.wait(lock, [&] { return newest > step; });
+    while (!cv.wait_for(lock, std::chrono::milliseconds(100), [&] { return newest > step; }))
+      if (sim)
+        if (std::optional<SimulationError> e = sim->error()) throw *e;
   }
   /// After an input at `step` every world goes back to it: count from there.
   void rolled_back_to(std::int64_t step) {
@@ -198,7 +202,7 @@ inline RenderedRun run_game_loop(Simulation& sim, SceneReader& reader, Progress&
         run.bodies.push_back(f->poses.size());
         for (const PlannedInput& i : inputs) {
           if (i.at_frame && i.input.step == k) {
-            progress.wait_past(k + 1);  // some world has passed the frame on screen
+            progress.wait_past(k + 1, &sim);  // some world has passed the frame on screen
             sim.give(i.input);
             progress.rolled_back_to(k);
           }

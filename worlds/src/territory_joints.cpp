@@ -201,6 +201,19 @@ bool TerritoryWorld::add_joint(const Joint& joint) {
     for (BodyId body : {ends[0]->id(), ends[1]->id(), a, b}) anchor_[body] = kept;
   }
   hold_joint(joint, false);
+  if (!joint.collide_connected) {
+    // Its bodies stop colliding now, so their contact ends at this boundary:
+    // in a world restored here (whose kept value of the pair would seed it)
+    // as in one that never left it (whose manifold would keep stale points).
+    // The kept value and the pair's algorithm and manifold go; the pair
+    // stays in the broadphase, filtered by the joint from now on.
+    kept_.erase({joint.body_a, joint.body_b});
+    kept_.erase({joint.body_b, joint.body_a});
+    btBroadphaseProxy* a = entries_.at(joint.body_a)->body->getBroadphaseHandle();
+    btBroadphaseProxy* b = entries_.at(joint.body_b)->body->getBroadphaseHandle();
+    if (btBroadphasePair* pair = a && b ? parts_->pairs.findPair(a, b) : nullptr)
+      parts_->pairs.cleanOverlappingPair(*pair, &parts_->dispatcher);
+  }
   for (Entry* e : ends) {
     e->body->forceActivationState(ACTIVE_TAG);
     e->body->setDeactivationTime(btScalar(0));
