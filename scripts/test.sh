@@ -50,6 +50,7 @@ build/consumer/snapshot_restore
 build/consumer/save_resume
 build/consumer/moving_platform
 build/consumer/ragdoll_pile
+build/consumer/drawbridge
 # soda::mpi from the installed package (where MPI is found): 4 territories on
 # 2 ranks against one territory, run as the mpi tests run theirs (this
 # machine only, oversubscribed, root allowed).
