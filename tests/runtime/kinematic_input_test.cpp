@@ -97,7 +97,7 @@ TEST(KinematicInputs, TheInputsMoveThePlatforms) {
   Simulation sim(conveyor(), SimulationConfig{.territories = 2});
   for (const UserInput& in : plan()) sim.give(in);
   EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
-  const UserInput& last = plan()[200 - 30];
+  const UserInput last = plan()[200 - 30];  // a copy: plan() returns a new vector
   ASSERT_EQ(last.step, 200);
   for (const BodyState& b : sim.body_states()) {
     if (b.id != kElevator) continue;
