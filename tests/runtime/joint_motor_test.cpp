@@ -413,15 +413,7 @@ TEST(JointMotorScenes, CheckpointsCarryAQueuedMotorInput) {
   std::filesystem::remove(path);
 }
 
-void expect_refused(const std::function<void()>& call, const std::vector<std::string>& needles) {
-  try {
-    call();
-    ADD_FAILURE() << "accepted";
-  } catch (const std::invalid_argument& e) {
-    std::printf("refused: %s\n", e.what());
-    for (const std::string& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
-  }
-}
+using test::expect_refused;
 
 // Refusals name the joint and the field, and nothing of them is applied:
 // the run with them refused is the run with only the accepted inputs.

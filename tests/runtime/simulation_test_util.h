@@ -174,6 +174,18 @@ struct RenderedRun {
   std::size_t at_frame = 0;         // inputs given at the frame on screen
 };
 
+/// `call` must throw std::invalid_argument whose message holds every one of
+/// `needles` (an input refused, naming the joint or body and the field).
+inline void expect_refused(const std::function<void()>& call, const std::vector<std::string>& needles) {
+  try {
+    call();
+    ADD_FAILURE() << "accepted";
+  } catch (const std::invalid_argument& e) {
+    std::printf("refused: %s\n", e.what());
+    for (const std::string& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
+  }
+}
+
 /// The game loop: gives the inputs planned before the run, starts `sim`
 /// (made with past_inputs and progress.hook() as after_step) to `steps`,
 /// and on a render thread reads every frame 0 .. steps through `reader`,
