@@ -166,6 +166,73 @@ TEST(SpeculationVerdict, ANoticeDropsTheNeighboursLaterMessages) {
   EXPECT_EQ(b.step.inbox.count(message_key(MessageKind::Ghosts, 0, 1)), 1u);
 }
 
+Message glue_from(WorldId from, std::int64_t step, bool empty) {
+  Message m;
+  m.from = from;
+  m.to = 0;
+  m.step = step;
+  GlueBatch b;
+  if (!empty) b.entries.push_back(GlueEntry{12345, 12345});
+  m.payload = b;
+  return m;
+}
+
+// The neighbour's first run of step 0 found no island across the border
+// (its Glue empty, used here), then it rolled back on its own (a bet lost)
+// and its re-run found one: the Glue it sends again holds entries. This
+// world, past its glue, must compare it with the empty one it used and
+// re-run step 0 with it. Dropped as "glue no longer waited for", the
+// neighbour's fragment links to a body of this world that never takes part
+// in the merge, and the neighbours wait for each other for good.
+TEST(SpeculationVerdict, AGlueWithEntriesSentAgainForAnEmptyOneRestarts) {
+  Bench b(8);
+  auto spec = b.anticipation();
+  const MessageKey key = message_key(MessageKind::Glue, 0, 1);
+  b.step.inbox.emplace(key, glue_from(1, 0, true));
+  spec->used(key, b.step.inbox.at(key));
+  b.step.inbox.erase(key);
+  b.step.phase = StepPhase::Merging;  // past its glue, merging the islands of step 0
+  ASSERT_TRUE(b.horizon.try_pin(0));
+  Message notice;
+  notice.from = 1;
+  notice.to = 0;
+  notice.payload = Control{Control::Type::Notice, 1, 0, 0};
+  Verdict n = spec->screen(notice);
+  EXPECT_TRUE(n.drop);
+  EXPECT_FALSE(n.restart);
+  b.apply_inbox(n);
+  Message again = glue_from(1, 0, false);
+  Verdict v = spec->screen(again);
+  EXPECT_FALSE(v.drop);  // the re-run of step 0 uses it
+  ASSERT_TRUE(v.restart);
+  EXPECT_EQ(v.restart->step, 0);
+  WorldMetrics m;
+  spec->metrics(m);
+  EXPECT_EQ(m.rollbacks, 1u);
+}
+
+// The same Glue sent again, empty: confirmed, no restart.
+TEST(SpeculationVerdict, AnEmptyGlueSentAgainUnchangedIsConfirmed) {
+  Bench b(8);
+  auto spec = b.anticipation();
+  const MessageKey key = message_key(MessageKind::Glue, 0, 1);
+  b.step.inbox.emplace(key, glue_from(1, 0, true));
+  spec->used(key, b.step.inbox.at(key));
+  b.step.inbox.erase(key);
+  b.step.phase = StepPhase::Merging;
+  ASSERT_TRUE(b.horizon.try_pin(0));
+  Message notice;
+  notice.from = 1;
+  notice.to = 0;
+  notice.payload = Control{Control::Type::Notice, 1, 0, 0};
+  Verdict n = spec->screen(notice);
+  b.apply_inbox(n);
+  Message again = glue_from(1, 0, true);
+  Verdict v = spec->screen(again);
+  EXPECT_TRUE(v.drop);
+  EXPECT_FALSE(v.restart);
+}
+
 TEST(SpeculationVerdict, NoBetPastTheAnticipation) {
   Bench b(2);
   auto spec = b.anticipation();

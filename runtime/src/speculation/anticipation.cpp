@@ -12,11 +12,13 @@
 // arrives it is compared, as bytes, with the one used; a difference restores
 // the world's own kept state of that step and re-runs from there with the new
 // message; Glue without entries (no island crosses the border) is kept and
-// compared the same way. Merge messages (Glue with entries, Fragments, Gather,
-// Results) are not compared: a merged island is re-merged by all its worlds,
-// so a rollback over a step with merge messages is one of every world
-// (rollback_board.h), after which no message of the old run of those steps
-// is used. When no message can change any more (GVT at the clock) every
+// compared the same way, with whatever its sender sends again in its place:
+// a sender's re-run may find an island across the border that its first run
+// had not, and its Glue, empty before, holds entries now. Merge messages
+// (Glue with entries, Fragments, Gather, Results) are not kept: a merged
+// island is re-merged by all its worlds, so a rollback over a step with
+// merge messages is one of every world (rollback_board.h), after which no
+// message of the old run of those steps is used. When no message can change any more (GVT at the clock) every
 // world has run every step on the final messages, which is the lockstep run.
 //
 // Why it ends: every rollback starts from a lost bet (a message that turned
@@ -96,7 +98,10 @@ bool Anticipation::screen_into(Message& m) {
     auto [it, fresh] = newest_ghosts_.try_emplace(m.from, m.step, false);
     if (fresh || m.step >= it->second.first) it->second = {m.step, !std::get<GhostBatch>(m.payload).ghosts.empty()};
   }
-  if (!is_merge_message(m) && compare_with_used(m)) return true;
+  // Every message with a use on record is compared, a merge message too: a
+  // Glue with entries sent again for an empty one used here (its sender's
+  // re-run found an island across the border its first run had not).
+  if (compare_with_used(m)) return true;
   // Glue of a step whose glue this world no longer waits for: not needed
   // (a neighbour re-sent it after rolling back).
   const std::int64_t step = at_step();

@@ -81,8 +81,9 @@ void Anticipation::used(const MessageKey& key, const Message& m) {
   used_.insert_or_assign(UsedKey{step, kind, from}, std::move(u));
 }
 
-// A Ghosts, Migrants or empty Glue message for a step this run used one
-// of: confirm it or roll back. True if the message has been taken care of
+// A Ghosts, Migrants or Glue message for a step this run used one of (a
+// Glue used is an empty one; the one sent again may hold entries): confirm
+// it or roll back. True if the message has been taken care of
 // (else it goes to the inbox).
 bool Anticipation::compare_with_used(Message& m) {
   auto it = used_.find(UsedKey{m.step, static_cast<int>(m.kind()), m.from});

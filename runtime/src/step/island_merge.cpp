@@ -182,4 +182,23 @@ std::vector<Fragment> IslandMerger::take_mine(const std::vector<const Fragment*>
   return out;
 }
 
+std::string IslandMerger::describe_open() const {
+  std::string out = std::to_string(open_) + " fragments of its own open";
+  for (const auto& [root, c] : components_) {
+    if (!c.has_mine || c.closed) continue;
+    out += "; {";
+    for (int m : c.members) {
+      const Fragment& f = nodes_[static_cast<std::size_t>(m)].fragment;
+      out += " " + std::to_string(f.world) + ":" + std::to_string(f.root) + "(out";
+      for (const LinkOut& l : f.links_out) out += " " + std::to_string(l.owner) + "/" + std::to_string(l.body);
+      out += "; in";
+      for (const LinkIn& l : f.links_in)
+        out += " " + std::to_string(l.world) + ":" + std::to_string(l.fragment_root) + "/" + std::to_string(l.body);
+      out += ")";
+    }
+    out += " } " + std::to_string(c.unresolved) + " links unresolved";
+  }
+  return out;
+}
+
 }  // namespace soda

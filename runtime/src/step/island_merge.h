@@ -21,6 +21,7 @@
 #include <deque>
 #include <map>
 #include <set>
+#include <string>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -54,6 +55,9 @@ class IslandMerger {
   std::vector<Fragment> take_mine(const std::vector<const Fragment*>& island);
   /// True when every fragment of this world belongs to a completed island.
   bool done() const { return open_ == 0; }
+  /// For a deadlock's report: the open components holding a fragment of
+  /// this world, each as its fragments and its unresolved link count.
+  std::string describe_open() const;
 
   std::size_t fragments_received() const { return received_; }
   std::size_t fragments_relayed() const { return relayed_; }  // sent fragments of other worlds

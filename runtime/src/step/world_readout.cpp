@@ -70,13 +70,23 @@ std::string PartitionedWorld::Process::waiting_for() const {
       missing(MessageKind::Glue, from);
       break;
     }
-    case StepPhase::Merging: s << "waits for island fragments"; break;
+    case StepPhase::Merging: {
+      s << "waits for island fragments: " << s_.merger.describe_open();
+      for (const auto& [island, is] : s_.islands)
+        s << "; island " << island << " (root " << is.root << ", parent " << is.parent << ") "
+          << is.gathers_missing << " gathers missing";
+      break;
+    }
     case StepPhase::AwaitMigrants: missing(MessageKind::Migrants, neighbours_); break;
     case StepPhase::Publish: s << "waits for room in its transform buffer"; break;
   }
   if (spec_->runs_ahead()) {
     s << "; horizon " << safety_.horizon->gvt();
   }
+  s << "; rewinds " << rewinds_ << "; inbox";
+  for (const auto& [key, m] : s_.inbox) s << " " << describe(m);
+  for (const auto& [step, ms] : s_.fragments)
+    for (const Message& m : ms) s << " " << describe(m);
   return s.str();
 }
 
