@@ -4,8 +4,10 @@
 // every frame at 60 Hz of simulated time while the worlds run ahead of it,
 // and the "player" acts on the frame on screen: spawns crates (tagged with
 // user data) and a 2 m box, pushes a crate, removes one, turns the gravity
-// low for a second, makes a crate heavy, one icy and the plank bouncy, and
-// reads a crate back by id (body_at). Each input lands at the step the
+// low for a second, makes a crate heavy, one icy and the plank bouncy,
+// throws a crate as a ghost through the next stack (its collision filter:
+// it touches only the ground until it is a crate again), and reads a crate
+// back by id (body_at). Each input lands at the step the
 // player saw (the worlds that had passed it roll back), frames follow the
 // bodies that come and go, and the run ends on the hash of one world given
 // the same inputs.
@@ -39,6 +41,10 @@ soda::Body crate(soda::BodyId id, const soda::Vec3& at) {
   return b;
 }
 
+// Collision groups: the level's geometry, everything else. A crate's mask
+// takes both; a ghost's only the level.
+constexpr std::uint32_t kLevelGroup = 2u, kThingGroup = 1u, kGhostGroup = 4u;
+
 // The level: a 60 x 60 m ground, 16 stacks of 5 crates, a plank across two
 // of them.
 soda::Scene level() {
@@ -49,6 +55,7 @@ soda::Scene level() {
   ground.is_static = true;
   ground.shape = soda::Shape::box(soda::Vec3(30, 0.5, 30));
   ground.position = soda::Vec3(0, -0.5, 0);
+  ground.collision_group = kLevelGroup;
   s.bodies.push_back(ground);
   soda::BodyId id = 1;
   for (int i = 0; i < 4; ++i)
@@ -66,13 +73,14 @@ soda::Scene level() {
 
 // What the player did, in the order the calls were made.
 struct Action {
-  enum class Kind { Spawn, Push, Remove, Gravity, Mass, Friction, Restitution, Tag } kind;
+  enum class Kind { Spawn, Push, Remove, Gravity, Mass, Friction, Restitution, Tag, Filter } kind;
   double time;
   soda::Body body;  // Spawn
   soda::BodyId id = 0;
   soda::Vec3 vector = soda::Vec3::Zero();  // Push: the impulse; Gravity: the gravity
   double value = 0;                        // Mass, Friction, Restitution
   std::uint64_t tag = 0;                   // Tag
+  std::uint32_t group = 0, mask = 0;       // Filter
 };
 
 void give(soda::Simulation& sim, const Action& a) {
@@ -85,8 +93,12 @@ void give(soda::Simulation& sim, const Action& a) {
     case Action::Kind::Friction: sim.set_friction(a.time, a.id, a.value); break;
     case Action::Kind::Restitution: sim.set_restitution(a.time, a.id, a.value); break;
     case Action::Kind::Tag: sim.set_user_data(a.time, a.id, a.tag); break;
+    case Action::Kind::Filter: sim.set_collision_filter(a.time, a.id, a.group, a.mask); break;
   }
 }
+
+// The crate thrown as a ghost: the top one of the stack at (-9, -3).
+constexpr soda::BodyId kGhost = 10;
 
 // The tag the player gives the crates it spawns: an entity handle of its own.
 constexpr std::uint64_t kSpawnedTag = 0x5350000000000000ull;
@@ -132,6 +144,9 @@ int main(int argc, char** argv) {
             for (const soda::ScenePose& p : frame->poses) top = std::max(top, double(p.position[1]));
             std::printf("t = %.2f s (step %lld): %zu bodies, the highest at %.2f m\n", frame->time,
                         static_cast<long long>(frame->step), frame->poses.size(), top);
+            if (const soda::ScenePose* ghost = frame->find(kGhost))
+              std::printf("  crate %u (thrown as a ghost from 1 s to 2.5 s) at (%.2f, %.2f, %.2f) m\n", kGhost,
+                          double(ghost->position[0]), double(ghost->position[1]), double(ghost->position[2]));
             // Crate 3 read back by id at this frame: pose, owner, properties.
             if (const std::optional<soda::BodyAt> b = reader.body_at(frame->time, 3))
               std::printf("  crate 3 at (%.2f, %.2f, %.2f) m in world %d: %.0f kg, friction %.2f, tag %llx\n",
@@ -153,6 +168,14 @@ int main(int argc, char** argv) {
           if (k == 150) now.push_back({Action::Kind::Gravity, frame->time, {}, 0, soda::Vec3(0, -2.0, 0)});
           if (k == 210 + 30) now.push_back({Action::Kind::Gravity, frame->time, {}, 0, soda::Vec3(0, -9.81, 0)});
           if (k == 180) now.push_back({Action::Kind::Remove, frame->time, {}, 42});
+          // A ghost touches only the level: thrown, it flies through the next
+          // stack and lands on the ground beyond it; then it is a crate again.
+          Action filter{Action::Kind::Filter, frame->time, {}, kGhost};
+          if (k == 60) {
+            filter.group = kGhostGroup, filter.mask = kLevelGroup, now.push_back(filter);
+            now.push_back({Action::Kind::Push, frame->time, {}, kGhost, soda::Vec3(100, 100, 0)});
+          }
+          if (k == 150) filter.group = kThingGroup, filter.mask = kLevelGroup | kThingGroup, now.push_back(filter);
           if (k == 210) {
             soda::Body box = crate(next_id++, {3, 10, 3});
             box.shape = soda::Shape::box(soda::Vec3(1, 1, 1));  // 2 m across

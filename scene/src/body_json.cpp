@@ -180,16 +180,6 @@ Shape parse_shape(const Context& body_ctx, const json& j, const std::string& at 
   return s;
 }
 
-// A 32-bit collision group or mask: an integer in [0, 2^32).
-std::uint32_t filter_bits(const Context& ctx, const json& j, const char* field, std::uint32_t fallback) {
-  const json* v = ctx.find(j, field, false);
-  if (!v) return fallback;
-  if (!v->is_number_integer()) ctx.fail(field, std::string("must be an integer in [0, 2^32), got ") + v->type_name());
-  if (v->is_number_unsigned() ? v->get<std::uint64_t>() > 0xffffffffull : v->get<std::int64_t>() < 0)
-    ctx.fail(field, "must be an integer in [0, 2^32) (32 group bits)");
-  return static_cast<std::uint32_t>(v->get<std::uint64_t>());
-}
-
 // "path": {"keys": [{"time", "position", "orientation"}, ...], "loop"}.
 KinematicPath parse_path(const Context& ctx, const json& j) {
   if (!j.is_object()) ctx.fail("path", "must be an object {keys, loop}");
@@ -228,6 +218,17 @@ KinematicPath parse_path(const Context& ctx, const json& j) {
 }
 
 }  // namespace
+
+// A 32-bit collision group or mask: an integer in [0, 2^32).
+std::uint32_t filter_bits(const Context& ctx, const json& j, const char* field, std::uint32_t fallback) {
+  const json* v = ctx.find(j, field, false);
+  if (!v) return fallback;
+  if (!v->is_number_integer()) ctx.fail(field, std::string("must be an integer in [0, 2^32), got ") + v->type_name());
+  if (v->is_number_unsigned() ? v->get<std::uint64_t>() > 0xffffffffull : v->get<std::int64_t>() < 0)
+    ctx.fail(field, "must be an integer in [0, 2^32) (32 group bits)");
+  return static_cast<std::uint32_t>(v->get<std::uint64_t>());
+}
+
 
 Body parse_body(std::string where, const json& j, const std::string& base_dir) {
   Context ctx{std::move(where)};

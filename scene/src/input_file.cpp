@@ -26,7 +26,7 @@ constexpr UserInput::Kind kAllKinds[] = {
     UserInput::Kind::ApplyImpulse, UserInput::Kind::SetGravity,    UserInput::Kind::SetMass,
     UserInput::Kind::SetFriction, UserInput::Kind::SetRestitution, UserInput::Kind::SetUserData,
     UserInput::Kind::SetPose,     UserInput::Kind::SetKinematicTarget, UserInput::Kind::RemoveJoint,
-    UserInput::Kind::AddJoint, UserInput::Kind::SetJointMotor};
+    UserInput::Kind::AddJoint, UserInput::Kind::SetJointMotor, UserInput::Kind::SetCollisionFilter};
 
 // The file's field of a setter's value.
 const char* value_field(UserInput::Kind kind) {
@@ -49,7 +49,7 @@ UserInput::Kind parse_kind(const Context& ctx, const std::string& name) {
   ctx.fail("type", "unknown input '" + name +
                        "' (known: add_body, remove_body, set_velocity, apply_impulse, set_gravity, set_mass, "
                        "set_friction, set_restitution, set_user_data, set_pose, set_kinematic_target, remove_joint, "
-                       "add_joint, set_joint_motor)");
+                       "add_joint, set_joint_motor, set_collision_filter)");
 }
 
 BodyId parse_id(const Context& ctx, const json& j) {
@@ -177,6 +177,17 @@ UserInput parse_input(const std::string& source, std::size_t index, const json& 
       break;
     }
     case UserInput::Kind::SetJointMotor: parse_motor(ctx, j, in); break;
+    case UserInput::Kind::SetCollisionFilter:
+      // The body's fields: "group" and "mask", both required (a filter
+      // given whole, as the scene file's collision_group/collision_mask).
+      ctx.only_known(j, {"type", "step", "id", "group", "mask"});
+      in.id = parse_id(ctx, j);
+      ctx.where += ": body " + std::to_string(in.id);
+      ctx.find(j, "group", true);  // "missing" if absent
+      ctx.find(j, "mask", true);
+      in.collision_group = detail::filter_bits(ctx, j, "group", kDefaultCollisionGroup);
+      in.collision_mask = detail::filter_bits(ctx, j, "mask", kAllCollisionGroups);
+      break;
   }
   if (const std::string why = check_input_value(in); !why.empty()) ctx.fail(value_field(in.kind), why);
   return in;
@@ -200,6 +211,7 @@ const char* input_kind_name(UserInput::Kind kind) {
     case UserInput::Kind::RemoveJoint: return "remove_joint";
     case UserInput::Kind::AddJoint: return "add_joint";
     case UserInput::Kind::SetJointMotor: return "set_joint_motor";
+    case UserInput::Kind::SetCollisionFilter: return "set_collision_filter";
   }
   return "unknown";
 }
@@ -340,6 +352,11 @@ std::string inputs_to_json(const std::vector<UserInput>& inputs) {
         e["velocity"] = in.motor.velocity;
         e["max_impulse"] = in.motor.max_impulse;
         if (in.motor.axis >= 0) e["axis"] = in.motor.axis;
+        break;
+      case UserInput::Kind::SetCollisionFilter:
+        e["id"] = in.id;
+        e["group"] = in.collision_group;
+        e["mask"] = in.collision_mask;
         break;
     }
     list.push_back(std::move(e));

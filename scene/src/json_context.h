@@ -98,6 +98,10 @@ json body_json(const Body& b);
 /// A triangle mesh's file is read from `base_dir` (the scene file's folder).
 Body parse_body(std::string where, const json& j, const std::string& base_dir = "");
 
+/// A 32-bit collision group or mask in field `field` of `j` (an integer in
+/// [0, 2^32)), or `fallback` when absent (body_json.cpp).
+std::uint32_t filter_bits(const Context& ctx, const json& j, const char* field, std::uint32_t fallback);
+
 /// A joint as the scene file writes it (joint_json.cpp).
 json joint_json(const Joint& joint);
 

@@ -6,13 +6,18 @@
 // speculating (anticipation 8), under SyncTest and with parking on and off.
 // The filter decides: the same pile unfiltered ends elsewhere, and so does a
 // pile whose filter reaches only the worlds that own the bodies (a ghost
-// without it would touch what its owner does not).
+// without it would touch what its owner does not). Filters changed by input
+// at a step boundary keep it too, on every schedule, under churn and the
+// fuzzer.
 #include <gtest/gtest.h>
 
 #include <cstdio>
 #include <string>
 
+#include "driver/testing_hooks.h"
 #include "runtime/partitioned_test_util.h"
+#include "soda/runtime/balance_log.h"
+#include "soda/runtime/simulation.h"
 #include "soda/worlds/canonical_world.h"
 #include "soda/worlds/stock_world.h"
 
@@ -130,6 +135,117 @@ TEST(FilterDecomposition, FilteredBoxesPassThroughEachOtherEverywhere) {
         EXPECT_NEAR(y, 1.5, 0.05);  // on the lower box
       }
     }
+  }
+}
+
+// Filters changed by input (UserInput::Kind::SetCollisionFilter), on the
+// filtered pile: every tenth cube joins a group of its own at step 60 (its
+// pairs end, those that still pass begin again), and takes its scene filter
+// back at step 120 (pairs it passed through meanwhile push apart); at step
+// 170 the first cube is set to touch nothing and falls through the ground.
+constexpr BodyId kFalls = 1;
+constexpr int kFallsAt = 170;
+
+std::vector<UserInput> filter_inputs() {
+  std::vector<UserInput> out;
+  auto filter = [&](std::int64_t step, const Body& b, std::uint32_t group, std::uint32_t mask) {
+    UserInput in;
+    in.kind = UserInput::Kind::SetCollisionFilter;
+    in.step = step;
+    in.id = b.id;
+    in.collision_group = group;
+    in.collision_mask = mask;
+    in.sequence = out.size();
+    out.push_back(in);
+  };
+  for (const Body& b : pile().bodies)
+    if (!b.is_static && b.id % 2 == 0) filter(60, b, 16u, ~16u);
+  for (const Body& b : pile().bodies)
+    if (!b.is_static && b.id % 2 == 0) filter(120, b, b.collision_group, b.collision_mask);
+  for (const Body& b : pile().bodies)
+    if (b.id == kFalls) filter(kFallsAt, b, 0u, 0u);
+  return out;
+}
+
+// One territory, lockstep, parking off, the inputs given before the run.
+std::uint64_t input_reference() {
+  static const std::uint64_t hash = [] {
+    PartitionedOptions o;
+    o.inputs = filter_inputs();
+    PartitionedWorld one(pile(), make_partition("kmeans", pile(), 1, GridOptions{}), o);
+    one.step(kSteps);
+    return one.state_hash();
+  }();
+  return hash;
+}
+
+class FilterInputDecomposition : public ::testing::TestWithParam<test::MatrixCase> {};
+
+TEST_P(FilterInputDecomposition, EqualsTheOneWorldHash) {
+  const test::MatrixCase c = GetParam();
+  const test::MatrixRun run =
+      test::expect_one_world_hash(pile(), "filtered cube-pile 150, filters by input", c, kSteps, input_reference(),
+                                  filter_inputs());
+  if (c.territories > 1) EXPECT_GT(run.total.migrations_out, 0u);
+  if (c.anticipation > 0 && c.territories > 1) EXPECT_GT(run.total.bets, 0u);
+  if (c.sync_test > 0) EXPECT_GT(run.sync_rollbacks, 0u);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Partitioned, FilterInputDecomposition,
+    test::decomposition_matrix(),
+    [](const auto& info) { return test::matrix_case_name(info.param); });
+
+// The inputs decide: without them the pile ends elsewhere, the cube set to
+// touch nothing ends below the ground, and a Simulation given the same
+// inputs (one territory, one thread) ends on the same hash.
+TEST(FilterInputDecomposition, TheInputsChangeTheRunAsTheSimulationDoes) {
+  PartitionedOptions o;
+  o.inputs = filter_inputs();
+  PartitionedWorld w(pile(), make_partition("kmeans", pile(), 2, GridOptions{}), o);
+  w.step(kSteps);
+  double y = 1e9;
+  for (const BodyState& b : w.body_states())
+    if (b.id == kFalls) y = double(b.origin[1]);
+  Simulation sim(pile(), SimulationConfig{.threads = 1});
+  for (const UserInput& in : filter_inputs()) sim.give(in);
+  EXPECT_TRUE(sim.advance_to(sim.time_of(kSteps)));
+  const std::uint64_t none = reference(false);
+  std::printf("[ filtered cube-pile 150 %s, filters by input ] K 2 %s, one territory %s, Simulation %s, without "
+              "the inputs %s; body %u at y %.2f\n",
+              kPrecisionName, hash_hex(w.state_hash()).c_str(), hash_hex(input_reference()).c_str(),
+              hash_hex(sim.state_hash()).c_str(), hash_hex(none).c_str(), kFalls, y);
+  EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(input_reference()));
+  EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(input_reference()));
+  EXPECT_NE(hash_hex(input_reference()), hash_hex(none));
+  EXPECT_LT(y, -0.3);  // through the ground, which it touched before step 170
+}
+
+// Cells ceded every 10 steps (churn) while speculating, with the fuzzer's
+// pauses, on each schedule: the inputs' filters reach every copy of their
+// bodies wherever the bodies are owned then.
+TEST(FilterInputDecomposition, ChurnFuzzedOnEverySchedule) {
+  std::uint64_t seed = 3;
+  for (Schedule schedule : {Schedule::Sequential, Schedule::Pool, Schedule::ThreadPerWorld}) {
+    PartitionedOptions o;
+    o.schedule = schedule;
+    o.threads = schedule == Schedule::Pool ? 2 : 0;
+    o.inputs = filter_inputs();
+    o.runtime.anticipation = 8;
+    o.runtime.balance.policy = "churn";
+    o.runtime.balance.period = 10;
+    o.runtime.balance.seed = seed;
+    detail::edit_testing_hooks(o).fuzz_seed = seed++;
+    PartitionedWorld w(pile(), make_partition("kmeans", pile(), 4, GridOptions{}), o);
+    w.step(kSteps);
+    const BalanceTotals t = balance_totals(w.balance_log());
+    std::printf("[ filtered cube-pile 150 %s, filters by input, K 4, churn, fuzz %llu, schedule %d ] %lld bodies "
+                "moved; %s, one world %s\n",
+                kPrecisionName, static_cast<unsigned long long>(seed - 1), static_cast<int>(schedule),
+                static_cast<long long>(t.bodies_moved), hash_hex(w.state_hash()).c_str(),
+                hash_hex(input_reference()).c_str());
+    EXPECT_GT(t.bodies_moved, 0);
+    EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(input_reference())) << "schedule " << static_cast<int>(schedule);
   }
 }
 

@@ -151,16 +151,18 @@ struct MatrixRun {
 
 /// Runs `s` for `steps` steps on c's partition with the validator on and
 /// expects the one-world hash `reference`; on a mismatch under lockstep,
-/// names the first step and bodies that differ. `label` names the scene in
-/// the printed line.
+/// names the first step and bodies that differ (a run without inputs).
+/// `label` names the scene in the printed line; `inputs` are given to the
+/// run before it starts (PartitionedOptions::inputs).
 inline MatrixRun expect_one_world_hash(const Scene& s, const char* label, const MatrixCase& c, int steps,
-                                       std::uint64_t reference) {
+                                       std::uint64_t reference, const std::vector<UserInput>& inputs = {}) {
   const TerritoryMap map = make_partition("kmeans", s, c.territories, GridOptions{});
   PartitionedOptions o;
   o.runtime.anticipation = c.anticipation;
   o.runtime.parking = c.parking;
   o.runtime.validate = true;
   o.sync_test = c.sync_test;
+  o.inputs = inputs;
   if (c.territories > 1) {
     o.schedule = Schedule::Pool;
     o.threads = 2;
@@ -172,7 +174,7 @@ inline MatrixRun expect_one_world_hash(const Scene& s, const char* label, const 
               kPrecisionName, c.territories, c.anticipation, c.sync_test, int(c.parking), summary(run.total).c_str(),
               hash_hex(w.state_hash()).c_str(), hash_hex(reference).c_str());
   EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(reference));
-  if (w.state_hash() != reference && c.anticipation == 0 && c.sync_test == 0) {
+  if (w.state_hash() != reference && c.anticipation == 0 && c.sync_test == 0 && inputs.empty()) {
     PartitionedOptions lockstep;
     lockstep.runtime.parking = c.parking;
     ADD_FAILURE() << first_divergence(s, map, steps, lockstep);

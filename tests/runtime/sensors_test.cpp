@@ -313,7 +313,7 @@ TEST(Sensors, CheckpointCarriesThem) {
   EXPECT_TRUE(sim.advance_to(sim.time_of(kSave)));
   const std::vector<std::uint8_t> bytes = encode_checkpoint(sim.snapshot());
   sim.stop();
-  EXPECT_EQ(checkpoint_header(bytes).version, 10u);
+  EXPECT_EQ(checkpoint_header(bytes).version, kCheckpointVersion);
   try {
     encode_checkpoint(decode_checkpoint(bytes, "v6"), 5);
     ADD_FAILURE() << "version 5 took a sensor";

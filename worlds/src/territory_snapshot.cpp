@@ -13,6 +13,7 @@
 #include <string>
 
 #include "soda/scene/kinematic_command.h"
+#include "canonical_dynamics_world.h"
 #include "soda/worlds/bullet_bodies.h"
 #include "territory_world_parts.h"
 #include "watchdog_scan.h"
@@ -240,6 +241,26 @@ bool TerritoryWorld::set_user_data(BodyId id, std::uint64_t user_data) {
   Entry* e = owned_for_input(id);
   if (!e) return false;
   e->description.user_data = user_data;
+  return true;
+}
+
+// In every world at the same boundary (the runtime's apply_inputs): every
+// copy of the body leaves the broadphase and comes back with the new filter,
+// so each of its pairs, with its manifold, ends wherever it was held, and no
+// world keeps contact state for them. Pairs that pass the filter begin
+// again at the next collide, as in one world.
+bool TerritoryWorld::set_collision_filter(BodyId id, std::uint32_t group, std::uint32_t mask) {
+  for (auto it = kept_.begin(); it != kept_.end();)
+    it = (it->first.first == id || it->first.second == id) ? kept_.erase(it) : std::next(it);
+  auto found = entries_.find(id);
+  if (found == entries_.end() || found->second->role == Role::Static) return false;
+  Entry& e = *found->second;
+  unpark_for_input(e);
+  e.description.collision_group = group;
+  e.description.collision_mask = mask;
+  parts_->world.removeRigidBody(e.body.get());
+  add_body_with_canonical_proxy(parts_->world, parts_->broadphase, e.body.get(), proxy_bits(group), proxy_bits(mask));
+  quiet_ = -1;
   return true;
 }
 

@@ -41,7 +41,8 @@ void Census::record(const UserInput& in) {
     // A scene body has first = 0 (default); an added one keeps its first.
     changed_[in.id].end = in.step + 1;
   } else if (in.kind == UserInput::Kind::SetMass || in.kind == UserInput::Kind::SetFriction ||
-             in.kind == UserInput::Kind::SetRestitution || in.kind == UserInput::Kind::SetUserData) {
+             in.kind == UserInput::Kind::SetRestitution || in.kind == UserInput::Kind::SetUserData ||
+             in.kind == UserInput::Kind::SetCollisionFilter) {
     std::vector<UserInput>& list = property_changes_[in.id];
     const auto key = [](const UserInput& i) { return std::make_pair(i.step, i.sequence); };
     list.insert(std::upper_bound(list.begin(), list.end(), in,
@@ -82,6 +83,10 @@ bool Census::properties(BodyId id, std::int64_t step, Body& out) const {
       case UserInput::Kind::SetFriction: out.friction = in.value; break;
       case UserInput::Kind::SetRestitution: out.restitution = in.value; break;
       case UserInput::Kind::SetUserData: out.user_data = in.user_data; break;
+      case UserInput::Kind::SetCollisionFilter:
+        out.collision_group = in.collision_group;
+        out.collision_mask = in.collision_mask;
+        break;
       default: break;
     }
   }

@@ -70,8 +70,13 @@ constexpr std::uint32_t kJointInputsVersion = 9;
 // record).
 constexpr std::uint32_t kAddJointVersion = 10;
 
+// The first version with collision filter inputs (kind 14, its group and
+// mask after the input record).
+constexpr std::uint32_t kFilterInputVersion = 11;
+
 // The newest input kind a version knows.
 UserInput::Kind last_kind(std::uint32_t version) {
+  if (version >= kFilterInputVersion) return UserInput::Kind::SetCollisionFilter;
   if (version >= kAddJointVersion) return UserInput::Kind::SetJointMotor;
   if (version >= kJointInputsVersion) return UserInput::Kind::RemoveJoint;
   if (version >= kKinematicVersion) return UserInput::Kind::SetKinematicTarget;
@@ -99,7 +104,8 @@ BodyFormat body_format(std::uint32_t version) {
 // orientation as 4 f64 (w, x, y, z); from version 9: u32 joint; from
 // version 10: the motor as u8 on, f64 velocity, f64 max impulse, i32 axis;
 // an added body's record (write_body, its raw state unused) or, from
-// version 10, an added joint's (write_joint, not broken) follows.
+// version 10, an added joint's (write_joint, not broken) follows; from
+// version 11, a collision filter input's u32 group and u32 mask.
 void write_input(ByteWriter& w, const UserInput& in, std::uint32_t version) {
   w.put(static_cast<std::uint8_t>(in.kind));
   w.put(in.step);
@@ -118,6 +124,7 @@ void write_input(ByteWriter& w, const UserInput& in, std::uint32_t version) {
   if (in.kind == UserInput::Kind::AddBody)
     write_body(w, BodySnapshot{in.body, BodyDynamicState{}}, body_format(version));
   if (in.kind == UserInput::Kind::AddJoint) write_joint(w, JointSnapshot{in.added_joint, false});
+  if (in.kind == UserInput::Kind::SetCollisionFilter) w.put(in.collision_group), w.put(in.collision_mask);
 }
 
 UserInput read_input(ByteReader& r, std::uint32_t version) {
@@ -162,6 +169,10 @@ UserInput read_input(ByteReader& r, std::uint32_t version) {
     if (j.broken || j.description.id != in.joint) r.fail("an input adding joint " + std::to_string(in.joint) +
                                                          " with a broken joint record or another id");
     in.added_joint = j.description;
+  }
+  if (in.kind == UserInput::Kind::SetCollisionFilter) {
+    in.collision_group = r.get<std::uint32_t>();
+    in.collision_mask = r.get<std::uint32_t>();
   }
   return in;
 }

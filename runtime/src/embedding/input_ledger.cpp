@@ -213,7 +213,9 @@ void InputLedger::check(const UserInput& in) const {
                                 "body that is not static somewhere)");
   if (life.kinematic && !moves_kinematic)
     throw std::invalid_argument(what + ": body " + std::to_string(in.id) +
-                                " is kinematic: it is moved by its path, set_kinematic_target and set_pose only");
+                                " is kinematic: it is moved by its path, set_kinematic_target and set_pose only" +
+                                (in.kind == UserInput::Kind::SetCollisionFilter ? " (its collision filter is the scene's)"
+                                                                                 : ""));
   if (life.is_static && !life.kinematic) throw std::invalid_argument(what + ": the body is static");
   if (life.retired)
     throw std::invalid_argument(what + ": the body was removed before the snapshot this run was restored from");

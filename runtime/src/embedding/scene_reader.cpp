@@ -225,6 +225,8 @@ std::optional<BodyAt> SceneReader::properties(std::int64_t step, BodyId id) cons
   out.friction = d.friction;
   out.restitution = d.restitution;
   out.user_data = d.user_data;
+  out.collision_group = d.collision_group;
+  out.collision_mask = d.collision_mask;
   return out;
 }
 

@@ -161,6 +161,13 @@ void Simulation::set_user_data(double time, BodyId id, std::uint64_t user_data) 
   engine_->input(in);
 }
 
+void Simulation::set_collision_filter(double time, BodyId id, std::uint32_t group, std::uint32_t mask) {
+  UserInput in = body_value(UserInput::Kind::SetCollisionFilter, engine_->core->step_at(time), id, 0.0);
+  in.collision_group = group;
+  in.collision_mask = mask;
+  engine_->input(in);
+}
+
 namespace {
 
 UserInput pose_input(UserInput::Kind kind, std::int64_t step, BodyId id, const Pose& pose) {
@@ -221,6 +228,9 @@ BodyId Simulation::give(const UserInput& input) {
     case UserInput::Kind::SetFriction: set_friction(time, input.id, input.value); break;
     case UserInput::Kind::SetRestitution: set_restitution(time, input.id, input.value); break;
     case UserInput::Kind::SetUserData: set_user_data(time, input.id, input.user_data); break;
+    case UserInput::Kind::SetCollisionFilter:
+      set_collision_filter(time, input.id, input.collision_group, input.collision_mask);
+      break;
     case UserInput::Kind::SetPose: set_pose(time, input.id, Pose{input.linear, input.orientation}); break;
     case UserInput::Kind::SetKinematicTarget:
       set_kinematic_target(time, input.id, Pose{input.linear, input.orientation});

@@ -20,6 +20,8 @@ std::string describe(const UserInput& input) {
     case UserInput::Kind::RemoveJoint: return "remove joint " + std::to_string(input.joint) + at;
     case UserInput::Kind::AddJoint: return "add joint " + std::to_string(input.joint) + at;
     case UserInput::Kind::SetJointMotor: return "set the motor of joint " + std::to_string(input.joint) + at;
+    case UserInput::Kind::SetCollisionFilter:
+      return "set the collision filter of body " + std::to_string(input.id) + at;
   }
   return "input" + at;
 }

@@ -47,8 +47,9 @@ PartitionedWorld::Process::Process(TerritoryWorld& world, Transport& transport, 
 // Inputs at this boundary, in sequence order; each world applies those that
 // concern its territory (the owner of a body, the owner of a new body's home
 // cell: a spawned group's anchor's), so that exactly one world applies each;
-// a gravity change and a kinematic body's command concern every world, and
-// each applies it at the same boundary.
+// a gravity change, a kinematic body's command and a collision filter (every
+// copy of the body, every kept contact of it) concern every world, and each
+// applies it at the same boundary.
 void PartitionedWorld::Process::apply_inputs() {
   const std::vector<UserInput>& inputs = output_.inputs->at(s_.step / substeps_);
   const std::map<BodyId, Vec3> homes = spawned_group_homes(inputs);
@@ -77,6 +78,9 @@ void PartitionedWorld::Process::apply_inputs() {
       case UserInput::Kind::RemoveJoint: s_.world->remove_joint(in.joint); break;  // the world holding it
       case UserInput::Kind::AddJoint: s_.world->add_joint(in.added_joint); break;  // the owner of its bodies
       case UserInput::Kind::SetJointMotor: s_.world->set_joint_motor(in.joint, in.motor); break;  // the same
+      case UserInput::Kind::SetCollisionFilter:  // every world (its copies and kept contacts of the body)
+        s_.world->set_collision_filter(in.id, in.collision_group, in.collision_mask);
+        break;
     }
   }
 }

@@ -38,7 +38,7 @@ class CheckpointError : public std::runtime_error {
 
 /// The checkpoint format version this build writes. It reads this one and
 /// every one from kOldestCheckpointVersion on (docs/checkpoints.md, "Versions").
-inline constexpr std::uint32_t kCheckpointVersion = 10;
+inline constexpr std::uint32_t kCheckpointVersion = 11;
 /// Version 1: body records without a collision filter (they read back with
 /// the default one); version 2: without compound children; version 3:
 /// without user data (it reads back as 0), and inputs without the value and
@@ -48,7 +48,8 @@ inline constexpr std::uint32_t kCheckpointVersion = 10;
 /// kinematic bodies, and inputs without an orientation and kinds 9 and 10;
 /// version 7: without joints; version 8: inputs without a joint id and
 /// kind 11 (remove_joint); version 9: without kinds 12 (add_joint) and 13
-/// (set_joint_motor), and inputs without a motor.
+/// (set_joint_motor), and inputs without a motor; version 10: without kind
+/// 14 (set_collision_filter).
 inline constexpr std::uint32_t kOldestCheckpointVersion = 1;
 
 /// What a checkpoint's fixed header says (docs/checkpoints.md, "Header").

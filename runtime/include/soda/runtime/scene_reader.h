@@ -81,6 +81,8 @@ struct BodyAt {
   double friction = 0.0;     // as the scene or set_friction gave it before `step`
   double restitution = 0.0;  // as the scene or set_restitution gave it before `step`
   std::uint64_t user_data = 0;  // Body::user_data, as set_user_data gave it before `step`
+  std::uint32_t collision_group = kDefaultCollisionGroup;  // as the scene or set_collision_filter gave it before `step`
+  std::uint32_t collision_mask = kAllCollisionGroups;      // the same
 };
 
 struct SimulationCore;  // internal, shared by a Simulation and its readers

@@ -1,7 +1,8 @@
 // The input file format (`soda-inputs`, docs/inputs.md): a script of user
 // inputs — add a body, remove one, set a body's velocity, give it an
 // impulse, change the scene's gravity, a body's mass, friction, restitution
-// or user data, add or remove a joint or set its motor — each at a scene step boundary, which `soda run --inputs FILE`
+// user data or collision filter, add or remove a joint or set its motor —
+// each at a scene step boundary, which `soda run --inputs FILE`
 // replays through the same calls as the embedding API
 // (soda::Simulation::add_body, ...), so the run ends on the same hash as the
 // API and as one territory.
@@ -34,6 +35,7 @@ struct UserInput {
     RemoveJoint,         // a joint removed (no body): joint
     AddJoint,            // a joint added (no body): added_joint, its id in joint too
     SetJointMotor,       // a joint's motor (no body): joint, motor
+    SetCollisionFilter,  // a dynamic body's collision group and mask: collision_group, collision_mask
   };
   Kind kind = Kind::SetVelocity;
   /// Applied at the boundary after scene step `step` (0: before the first
@@ -51,6 +53,8 @@ struct UserInput {
   JointId joint = 0;           // RemoveJoint, AddJoint, SetJointMotor: the joint's id (Joint::id)
   Joint added_joint;           // AddJoint: the new joint (its id must be unused)
   JointMotor motor;            // SetJointMotor: on/off, target velocity, max impulse, axis
+  std::uint32_t collision_group = kDefaultCollisionGroup;  // SetCollisionFilter (Body::collision_group)
+  std::uint32_t collision_mask = kAllCollisionGroups;      // SetCollisionFilter (Body::collision_mask)
 };
 
 /// True for the kinds that name a body by `id` (all but AddBody, SetGravity
@@ -60,8 +64,8 @@ bool names_body(UserInput::Kind kind);
 /// "add_body" | "remove_body" | "set_velocity" | "apply_impulse" |
 /// "set_gravity" | "set_mass" | "set_friction" | "set_restitution" |
 /// "set_user_data" | "set_pose" | "set_kinematic_target" | "remove_joint" |
-/// "add_joint" | "set_joint_motor", the names the file uses ("unknown" for a
-/// value no kind has).
+/// "add_joint" | "set_joint_motor" | "set_collision_filter", the names the
+/// file uses ("unknown" for a value no kind has).
 const char* input_kind_name(UserInput::Kind kind);
 
 /// Reads an input file. Returns its inputs sorted by step (stable: inputs of

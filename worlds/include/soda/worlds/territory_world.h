@@ -78,25 +78,24 @@ class TerritoryWorld {
   /// Builds world `id` of `map` for a scene: every static body, and the
   /// dynamic bodies whose home cell the map gives to `id`.
   TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map);
-  /// Builds world `id` of `map` from the whole scene's state at a step
-  /// boundary (PartitionedWorld::snapshot, CanonicalWorld::snapshot): every
-  /// static body, the dynamic bodies whose home cell (origin as held) the
-  /// map gives to `id`, each with its raw state, and the contact state of
-  /// every pair whose key body it owns (kept, seeded into whichever world
-  /// holds the pair at the next step). Worlds rebuilt this way from one
-  /// snapshot step exactly as the worlds the snapshot was taken from, for
-  /// any map (tests/runtime/snapshot_restore_test.cpp). steps_done() is
-  /// snapshot.steps_done * settings.substeps, or `internal_steps_done` if
-  /// given (>= 0: a boundary between substeps, which the snapshot's scene
-  /// step count cannot name). Throws as the scene constructor does.
+  /// Builds world `id` of `map` from the whole scene's state at a step boundary
+  /// (PartitionedWorld::snapshot, CanonicalWorld::snapshot): every static body,
+  /// the dynamic bodies whose home cell (origin as held) the map gives to `id`,
+  /// each with its raw state, and the contact state of every pair whose key
+  /// body it owns (kept, seeded into whichever world holds the pair at the next
+  /// step). Worlds rebuilt this way from one snapshot step exactly as the
+  /// worlds the snapshot was taken from, for any map
+  /// (tests/runtime/snapshot_restore_test.cpp). steps_done() is
+  /// snapshot.steps_done * settings.substeps, or `internal_steps_done` if given
+  /// (>= 0: a boundary between substeps, which the snapshot's scene step count
+  /// cannot name). Throws as the scene constructor does.
   ///
   /// `share_pools_of`: a world this one replaces (a rollback). The two then
-  /// share Bullet's collision configuration, whose manifold and algorithm
-  /// pools cost about 1 ms to build (a rollback of every world rebuilt 8 of
-  /// them at a time), and, for the same id and map, its interior cells;
-  /// results do not depend on it. Both must then be used by
-  /// one thread at a time between them; the shared pools live as long as
-  /// either world.
+  /// share Bullet's collision configuration, whose manifold and algorithm pools
+  /// cost about 1 ms to build (a rollback of every world rebuilt 8 of them at a
+  /// time), and, for the same id and map, its interior cells; results do not
+  /// depend on it. Both must then be used by one thread at a time between them;
+  /// the shared pools live as long as either world.
   TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map, std::int64_t internal_steps_done = -1,
                  const TerritoryWorld* share_pools_of = nullptr);
   ~TerritoryWorld();
@@ -138,16 +137,15 @@ class TerritoryWorld {
   /// world's fragments of border islands (ascending root) and solves the
   /// components that no neighbour glued.
   std::vector<Fragment> border_fragments(const std::vector<std::pair<WorldId, GlueBatch>>& glue);
-  /// solve: one merged border island, given every fragment of it (from
-  /// every world involved, this one included); a pure function of the
-  /// fragments (any world computes the same result). This world's own
-  /// fragments of this step's border_fragments() are solved in place, each
-  /// at most once: their bodies and the manifolds held here take the result
-  /// now (the other worlds' bodies and manifolds are solved on copies; a
-  /// held manifold with a ghost at one end points at the copy of the ghost's
-  /// body during the solve). Bit for bit as on copies: a copy is written
-  /// from the state the fragment read from the original (docs/coloured-solve.md,
-  /// "The root's own share in place").
+  /// solve: one merged border island, given every fragment of it (from every
+  /// world involved, this one included); a pure function of the fragments (any
+  /// world computes the same result). This world's own fragments of this step's
+  /// border_fragments() are solved in place, each at most once: their bodies
+  /// and the manifolds held here take the result now (the other worlds' bodies
+  /// and manifolds are solved on copies; a held manifold with a ghost at one
+  /// end points at the copy of the ghost's body during the solve). Bit for bit
+  /// as on copies: a copy is written from the state the fragment read from the
+  /// original (docs/coloured-solve.md, "The root's own share in place").
   IslandResult solve_border_island(const std::vector<const Fragment*>& island);
   /// Keeps this world's part of an island's result: its owned bodies, the
   /// manifolds it holds, the manifolds it keeps that others hold (what this
@@ -197,34 +195,32 @@ class TerritoryWorld {
   /// The islands solved (or replayed) in place in the last step.
   const LocalIslands& local_islands() const { return local_islands_; }
 
-  /// Parking (docs/skip.md, worlds/src/parking.h): at the end of every
-  /// step, each island this world solved in place whose bodies are all
-  /// settled (settled.h), lie inside this world's cells (sent to no
-  /// neighbour) and keep no contact state here for a pair held elsewhere
-  /// leaves the Bullet world; its contact state is kept as values. It comes
-  /// back in collide() when the AABB of an active owned body or ghost
-  /// overlaps one of its bodies (before the pair pass, its manifolds after
-  /// it), or at once when an input names one of its bodies. Parked bodies
-  /// are still owned: every readout and snapshot includes them and their
-  /// contacts. Exact: every state is the same on and off
-  /// (tests/runtime/parking_test.cpp). Switched on in a world without
-  /// contact state (built from a scene), every settled body inside its
-  /// cells is parked at once, each its own island; switched off, every
-  /// island comes back; a world built from a snapshot in which another
-  /// world keeps contact state of one of its bodies parks nothing then. A
-  /// world built with share_pools_of takes the other world's setting. Off by
-  /// default; call at a step boundary.
+  /// Parking (docs/skip.md, worlds/src/parking.h): at the end of every step,
+  /// each island this world solved in place whose bodies are all settled
+  /// (settled.h), lie inside this world's cells (sent to no neighbour) and keep
+  /// no contact state here for a pair held elsewhere leaves the Bullet world;
+  /// its contact state is kept as values. It comes back in collide() when the
+  /// AABB of an active owned body or ghost overlaps one of its bodies (before
+  /// the pair pass, its manifolds after it), or at once when an input names one
+  /// of its bodies. Parked bodies are still owned: every readout and snapshot
+  /// includes them and their contacts. Exact: every state is the same on and
+  /// off (tests/runtime/parking_test.cpp). Switched on in a world without
+  /// contact state (built from a scene), every settled body inside its cells is
+  /// parked at once, each its own island; switched off, every island comes
+  /// back; a world built from a snapshot in which another world keeps contact
+  /// state of one of its bodies parks nothing then. A world built with
+  /// share_pools_of takes the other world's setting. Off by default; call at a
+  /// step boundary.
   void set_parking(bool on);
   bool parking() const { return parking_; }
   /// Owned bodies parked now.
   std::size_t parked_count() const { return parked_.size(); }
 
-  /// The pool that large islands solved here (in place or merged) share
-  /// their colours on (docs/coloured-solve.md); null: this world's thread
-  /// alone. Several worlds may share one pool (one job at a time; a world
-  /// that finds it busy solves alone). Results never depend on it. A world
-  /// rebuilt with share_pools_of takes the other world's pool. Not during
-  /// a step.
+  /// The pool that large islands solved here (in place or merged) share their
+  /// colours on (docs/coloured-solve.md); null: this world's thread alone.
+  /// Several worlds may share one pool (one job at a time; a world that finds
+  /// it busy solves alone). Results never depend on it. A world rebuilt with
+  /// share_pools_of takes the other world's pool. Not during a step.
   void set_solver_pool(std::shared_ptr<SolverPool> pool);
   std::shared_ptr<SolverPool> solver_pool() const;
 
@@ -300,6 +296,10 @@ class TerritoryWorld {
   bool set_friction(BodyId id, double friction);
   bool set_restitution(BodyId id, double restitution);
   bool set_user_data(BodyId id, std::uint64_t user_data);
+  /// Input at a step boundary, in every world: a dynamic body's collision
+  /// filter. Its copy here (owned or ghost) re-enters the broadphase with it:
+  /// its pairs and contacts end, kept ones too. False if no copy is here.
+  bool set_collision_filter(BodyId id, std::uint32_t group, std::uint32_t mask);
   /// Input after scene step `command.step`, in every world: a kinematic
   /// body's command (docs/scene-format.md, "Kinematic bodies"), kept in its
   /// description, one per step (the later replaces). False if not kinematic.
