@@ -1,13 +1,16 @@
 // The scheduler alone (runtime/src/execution/scheduler.h), on toy worlds: each world
 // of a ring sends its successor one message per step and waits for its
 // predecessor's. Every schedule runs every world to the end; the first error
-// of any world stops every thread and reaches the caller; the round-robin
-// schedule reports a deadlock naming what each world waits for. Run under
+// of any world stops every thread and reaches the caller; every schedule
+// reports a deadlock naming what each world waits for. Run under
 // ThreadSanitizer in CI (label "concurrency").
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include "execution/scheduler.h"
 #include "soda/runtime/transport.h"
@@ -114,15 +117,64 @@ TEST(Scheduler, TheFirstErrorStopsEveryScheduleAndReachesTheCaller) {
   }
 }
 
-TEST(Scheduler, RoundRobinReportsADeadlock) {
-  Ring ring(3, 10, kNoWorld, 1);  // world 1 never sends: world 2 waits at step 0 for ever
-  try {
-    Scheduler(options(Schedule::Sequential), ring.tasks, *ring.transport, nullptr).run();
-    ADD_FAILURE() << "no deadlock reported";
-  } catch (const std::logic_error& e) {
-    const std::string what = e.what();
-    EXPECT_EQ(what.rfind("Ring: deadlock:", 0), 0u) << what;
-    EXPECT_NE(what.find("[world 2 waits for step 0]"), std::string::npos) << what;
+// World 1 never sends: world 2 waits at step 0 for ever, and every world
+// after it waits in turn. The round-robin thread sees that no world can go
+// on; the pool's last worker to go idle finds no world queued; the threads
+// of a thread per world have all waited deadlock_after with no message
+// taken. Each reports it instead of hanging, naming what each world waits
+// for, and the error reaches the caller.
+TEST(Scheduler, EveryScheduleReportsADeadlock) {
+  for (Schedule s : kSchedules) {
+    Ring ring(3, 10, kNoWorld, 1);
+    Scheduler::Options o = options(s);
+    o.deadlock_after = std::chrono::milliseconds(200);
+    WorldId reported = 7;
+    try {
+      Scheduler(o, ring.tasks, *ring.transport, nullptr, [&](WorldId w, std::exception_ptr) { reported = w; }).run();
+      ADD_FAILURE() << "no deadlock reported with " << schedule_name(s);
+    } catch (const std::logic_error& e) {
+      const std::string what = e.what();
+      std::printf("%s: %s\n", schedule_name(s), what.c_str());
+      EXPECT_EQ(what.rfind("Ring: deadlock:", 0), 0u) << what;
+      EXPECT_NE(what.find("[world 2 waits for step 0]"), std::string::npos) << what;
+    }
+    if (s != Schedule::Sequential) EXPECT_EQ(reported, kNoWorld) << schedule_name(s);  // no world failed
+  }
+}
+
+// A world that is slow, not stuck, is no deadlock: one world of a ring
+// computes for longer than deadlock_after at each of its first steps while
+// the others wait for it.
+class SlowWorld final : public WorldTask {
+ public:
+  SlowWorld(RingWorld& inner, std::chrono::milliseconds pause) : inner_(inner), pause_(pause) {}
+  Advance advance() override {
+    if (inner_.steps_done() < 3) std::this_thread::sleep_for(pause_);
+    return inner_.advance();
+  }
+  void deliver(Message m) override { inner_.deliver(std::move(m)); }
+  bool waiting_for_room() const override { return false; }
+  void publish_blocking() override {}
+  std::int64_t steps_done() const override { return inner_.steps_done(); }
+  std::string waiting_for() const override { return inner_.waiting_for(); }
+  void add_blocked_ns(std::int64_t ns) override { inner_.add_blocked_ns(ns); }
+  void add_guest_work(std::int64_t, std::int64_t) override {}
+
+ private:
+  RingWorld& inner_;
+  std::chrono::milliseconds pause_;
+};
+
+TEST(Scheduler, ASlowWorldIsNoDeadlock) {
+  for (Schedule s : {Schedule::ThreadPerWorld, Schedule::Pool}) {
+    Ring ring(3, 10);
+    SlowWorld slow(*ring.owned[1], std::chrono::milliseconds(150));
+    std::vector<WorldTask*> tasks = ring.tasks;
+    tasks[1] = &slow;
+    Scheduler::Options o = options(s);
+    o.deadlock_after = std::chrono::milliseconds(50);
+    Scheduler(o, tasks, *ring.transport, nullptr).run();
+    for (const auto& w : ring.owned) EXPECT_EQ(w->steps_done(), 10) << schedule_name(s);
   }
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <condition_variable>
 #include <deque>
+#include <optional>
 #include <stdexcept>
 
 #include "embedding/run_control.h"
@@ -23,6 +24,7 @@ struct Scheduler::Pool {
   std::vector<WorldId> parked;          // gated: at the limit or waiting for room
   std::vector<std::int64_t> parked_at;  // per world: wall ns it parked on its mailbox; 0: not. Its runner's only.
   std::size_t finished = 0;
+  std::size_t idle = 0;  // workers waiting for a queued world
   bool stop = false;
 };
 
@@ -74,7 +76,7 @@ void Scheduler::launch() {
       threads_.emplace_back([this] {
         if (options_.pin) pin_current_thread(0, "round-robin thread");
         run_sequential();
-        ++ended_;
+        thread_ended();
       });
       break;
     case Schedule::ThreadPerWorld:
@@ -90,7 +92,7 @@ void Scheduler::launch() {
         if (local(w))
           threads_.emplace_back([this, w] {
             run_world(w);
-            ++ended_;
+            thread_ended();
           });
       break;
     case Schedule::Pool: {
@@ -117,7 +119,7 @@ void Scheduler::launch() {
       for (int i = 0; i < options_.threads; ++i)
         threads_.emplace_back([this, i] {
           run_pool_worker(i);
-          ++ended_;
+          thread_ended();
         });
       break;
     }
@@ -125,7 +127,24 @@ void Scheduler::launch() {
   launched_ = threads_.size();
 }
 
+void Scheduler::thread_ended() {
+  {
+    std::lock_guard lock(ended_mutex_);
+    ++ended_;
+  }
+  ended_cv_.notify_all();
+}
+
+bool Scheduler::watches_deadlocks() const { return !control_ && options_.local.empty(); }
+
+std::string Scheduler::deadlock_report() const {
+  std::string why = options_.name + ": deadlock:";
+  for (WorldTask* t : tasks_) why += " [" + t->waiting_for() + "]";
+  return why;
+}
+
 void Scheduler::join() {
+  if (options_.schedule == Schedule::ThreadPerWorld && watches_deadlocks()) watch_threads();
   for (std::thread& t : threads_) t.join();
   threads_.clear();
   if (pool_ || arrived_) {
@@ -164,6 +183,29 @@ void Scheduler::fail(WorldId world, std::exception_ptr error) {
   }
 }
 
+// Invariant 5 for a thread per world, on the joining thread: every world's
+// thread has waited on its mailbox for deadlock_after with no message taken.
+// Reading the worlds then is safe: each published its state with its
+// increment of waiting_ (read here with acquire) and none runs.
+void Scheduler::watch_threads() {
+  const auto tick = std::max(options_.deadlock_after / 10, std::chrono::milliseconds(1));
+  std::unique_lock lock(ended_mutex_);
+  std::uint64_t seen = taken_.load();
+  std::chrono::milliseconds quiet{0};
+  while (!ended_cv_.wait_for(lock, tick, [&] { return ended_.load() == launched_; })) {
+    const std::uint64_t taken = taken_.load();
+    const bool all_wait = waiting_.load() == launched_ - ended_.load();
+    quiet = all_wait && taken == seen ? quiet + tick : std::chrono::milliseconds(0);
+    seen = taken;
+    if (quiet < options_.deadlock_after) continue;
+    const std::string why = deadlock_report() + " (every world waited " +
+                            std::to_string(options_.deadlock_after.count()) + " ms for a message)";
+    lock.unlock();
+    fail(kNoWorld, std::make_exception_ptr(std::logic_error(why)));
+    return;
+  }
+}
+
 // Round-robin in world order: deterministic. Gated, a world waiting for room
 // or parked at the limit must not hold the others up: the thread goes on
 // with them and sleeps only when none can go on, until a wake-up (a reader
@@ -192,9 +234,7 @@ void Scheduler::run_sequential() {
         control_->wait_wake(seen);
         continue;
       }
-      std::string why = options_.name + ": deadlock:";
-      for (WorldTask* t : tasks_) why += " [" + t->waiting_for() + "]";
-      throw std::logic_error(why);
+      throw std::logic_error(deadlock_report());
     }
   } catch (...) {
     fail(current, std::current_exception());
@@ -218,14 +258,25 @@ void Scheduler::run_world(WorldId w) {
         task.publish_blocking();
         continue;
       }
-      if (arrived_) {
-        task.deliver(receive_serving(w, task));
-        continue;
+      // Counted for invariant 5: the increment publishes this world's state
+      // to join()'s watch, which reads it only once every world waits.
+      waiting_.fetch_add(1);
+      std::optional<Message> m;
+      try {
+        if (arrived_) {
+          m = receive_serving(w, task);
+        } else {
+          const std::int64_t t0 = wall_ns();
+          m = transport_.receive(w);
+          task.add_blocked_ns(wall_ns() - t0);
+        }
+      } catch (...) {
+        waiting_.fetch_sub(1);
+        throw;
       }
-      const std::int64_t t0 = wall_ns();
-      Message m = transport_.receive(w);
-      task.add_blocked_ns(wall_ns() - t0);
-      task.deliver(std::move(m));
+      taken_.fetch_add(1);
+      waiting_.fetch_sub(1);
+      task.deliver(std::move(*m));
     }
   } catch (...) {
     fail(w, std::current_exception());
@@ -271,7 +322,19 @@ void Scheduler::run_pool_worker(int index) {
     std::uint64_t seen = 0;
     {
       std::unique_lock lock(pool.mutex);
+      // Invariant 5: the last worker to go idle with no world queued and
+      // some not done. Every world is parked; a parked world's message could
+      // only come from a running one.
+      if (++pool.idle == static_cast<std::size_t>(options_.threads) && pool.ready.empty() && !pool.stop &&
+          pool.finished < local_count() && watches_deadlocks()) {
+        const std::string why = deadlock_report();
+        --pool.idle;
+        lock.unlock();
+        fail(kNoWorld, std::make_exception_ptr(std::logic_error(why)));
+        return;
+      }
       pool.cv.wait(lock, [&] { return pool.stop || !pool.ready.empty(); });
+      --pool.idle;
       if (pool.stop) return;
       w = pool.ready.front();
       pool.ready.pop_front();

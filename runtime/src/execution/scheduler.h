@@ -33,9 +33,19 @@
 //     worlds, are dropped.
 //  4. A thread ends by itself once its worlds are finished (ungated: done;
 //     gated: RunControl::finished) or the run is shut down.
+//  5. Ungated, in one process, no schedule hangs: the round-robin thread
+//     reports a deadlock when no world can go on; the pool when every
+//     worker is idle with no world queued and some world not done (no
+//     thread can send the message a parked world waits for); a thread per
+//     world when every world's thread has waited on its mailbox, with no
+//     message taken, for Options::deadlock_after (none of them computes, so
+//     none will send). Each report names what every world waits for and
+//     fails the run like a world's error (invariant 3).
 #pragma once
 
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <exception>
 #include <functional>
@@ -102,6 +112,10 @@ class Scheduler {
     /// pool's jobs meanwhile (SolverPool::serve). Null, or a pool without
     /// guest slots: it blocks on its mailbox. Outlives the scheduler.
     SolverPool* guest_pool = nullptr;
+    /// ThreadPerWorld, ungated, one process: how long every world's thread
+    /// must have waited on its mailbox, no message taken meanwhile, before
+    /// the run fails with a deadlock report (invariant 5).
+    std::chrono::milliseconds deadlock_after{10000};
   };
   /// Called once, on the failing thread, with the first error and the world
   /// it came from (kNoWorld if unknown), before the transport is closed.
@@ -145,6 +159,14 @@ class Scheduler {
   Message receive_serving(WorldId world, WorldTask& task);
   bool local(WorldId world) const;
   std::size_t local_count() const;
+  /// Invariant 5 applies: ungated, every world in this process.
+  bool watches_deadlocks() const;
+  /// "<name>: deadlock: [what world 0 waits for] ...".
+  std::string deadlock_report() const;
+  /// A launched thread ends (run_world, run_pool_worker, run_sequential).
+  void thread_ended();
+  /// ThreadPerWorld: join()'s watch for invariant 5 until every thread ended.
+  void watch_threads();
 
   const Options options_;
   const std::vector<WorldTask*> tasks_;
@@ -159,6 +181,12 @@ class Scheduler {
   std::vector<std::thread> threads_;
   std::size_t launched_ = 0;          // threads launch() started
   std::atomic<std::size_t> ended_{0};  // ... that have ended
+  std::mutex ended_mutex_;             // with ended_cv_: join() waits for ended_ (invariant 5)
+  std::condition_variable ended_cv_;
+  // ThreadPerWorld (invariant 5): world threads waiting on their mailbox,
+  // and messages they have taken from it.
+  std::atomic<std::size_t> waiting_{0};
+  std::atomic<std::uint64_t> taken_{0};
   mutable std::mutex error_mutex_;
   std::exception_ptr error_;
 };
