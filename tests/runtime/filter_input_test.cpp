@@ -63,20 +63,8 @@ std::vector<test::PlannedInput> plan(const Scene& s) {
   return out;
 }
 
-struct Reference {
-  test::QueuedRun run;  // one territory on one thread, every input queued before the run
-  std::uint64_t no_input_hash = 0;
-};
-
-const Reference& reference() {
-  static const Reference ref = [] {
-    const Scene s = filter_scene();
-    Reference r{test::queued_run(s, plan(s), kSteps)};
-    Simulation none(s, SimulationConfig{.threads = 1});
-    EXPECT_TRUE(none.advance_to(none.time_of(kSteps)));
-    r.no_input_hash = none.state_hash();
-    return r;
-  }();
+const test::InputReference& reference() {
+  static const test::InputReference ref = test::input_reference(filter_scene(), plan(filter_scene()), kSteps);
   return ref;
 }
 
@@ -92,7 +80,7 @@ class FilterInputs : public ::testing::TestWithParam<std::tuple<int, int>> {};
 TEST_P(FilterInputs, EveryFrameAndTheHashEqualOneTerritory) {
   const auto [territories, anticipation] = GetParam();
   const Scene s = filter_scene();
-  const Reference& ref = reference();
+  const test::InputReference& ref = reference();
   test::Progress progress;
   SimulationConfig config{.territories = territories, .buffer_capacity = 16, .past_inputs = true};
   config.runtime.anticipation = anticipation;
@@ -168,16 +156,7 @@ TEST(SimulationFilterInputs, InputFilesCarryTheFilter) {
   ASSERT_EQ(again.size(), 1u);
   EXPECT_EQ(again[0].collision_group, 0xffffffffu);
   EXPECT_EQ(again[0].collision_mask, 0u);
-  auto refused = [](const std::string& entry, const std::vector<std::string>& needles) {
-    const std::string text = R"({"format": "soda-inputs", "version": 1, "inputs": [)" + entry + "]}";
-    try {
-      parse_inputs_json(text, "bad.json");
-      ADD_FAILURE() << "accepted: " << entry;
-    } catch (const SceneError& e) {
-      std::printf("refused: %s\n", e.what());
-      for (const std::string& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
-    }
-  };
+  const auto refused = test::expect_input_file_refused;
   refused(R"({"type": "set_collision_filter", "step": 3, "id": 7, "group": -1, "mask": 1})",
           {"body 7", "'group'", "[0, 2^32)"});
   refused(R"({"type": "set_collision_filter", "step": 3, "id": 7, "group": 1, "mask": 4294967296})",

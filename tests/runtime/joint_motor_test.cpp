@@ -466,16 +466,7 @@ TEST(JointMotorScenes, RefusalsNameTheJointAndTheFieldAndApplyNothing) {
 }
 
 TEST(JointMotorScenes, InputFileRefusesBadMotorFields) {
-  auto refused = [](const std::string& entry, const std::vector<std::string>& needles) {
-    const std::string text = R"({"format": "soda-inputs", "version": 1, "inputs": [)" + entry + "]}";
-    try {
-      parse_inputs_json(text, "bad.json");
-      ADD_FAILURE() << "accepted: " << entry;
-    } catch (const SceneError& e) {
-      std::printf("refused: %s\n", e.what());
-      for (const std::string& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
-    }
-  };
+  const auto refused = test::expect_input_file_refused;
   refused(R"({"type": "set_joint_motor", "step": 3, "velocity": 1, "max_impulse": 1})",
           {"set_joint_motor at step 3", "'joint'", "missing"});
   refused(R"({"type": "set_joint_motor", "step": 3, "joint": 2, "max_impulse": 1})", {"joint 2", "'velocity'"});

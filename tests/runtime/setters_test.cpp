@@ -50,20 +50,8 @@ std::vector<test::PlannedInput> planned(const Scene& s) {
   return out;
 }
 
-struct Reference {
-  test::QueuedRun run;  // one territory on one thread, every input queued before the run
-  std::uint64_t no_input_hash = 0;
-};
-
-const Reference& reference() {
-  static const Reference ref = [] {
-    const Scene s = setter_scene();
-    Reference r{test::queued_run(s, planned(s), kSteps)};
-    Simulation none(s, SimulationConfig{.threads = 1});
-    EXPECT_TRUE(none.advance_to(none.time_of(kSteps)));
-    r.no_input_hash = none.state_hash();
-    return r;
-  }();
+const test::InputReference& reference() {
+  static const test::InputReference ref = test::input_reference(setter_scene(), planned(setter_scene()), kSteps);
   return ref;
 }
 
@@ -73,7 +61,7 @@ class Setters : public ::testing::TestWithParam<std::tuple<int, int>> {};
 TEST_P(Setters, EveryFrameAndTheHashEqualOneTerritory) {
   const auto [territories, anticipation] = GetParam();
   const Scene s = setter_scene();
-  const Reference& ref = reference();
+  const test::InputReference& ref = reference();
   const std::vector<test::PlannedInput> plan = planned(s);
 
   test::Progress progress;
@@ -201,16 +189,7 @@ TEST(SimulationSetters, InputLogReplaysToTheSameHash) {
 }
 
 TEST(SimulationSetters, InputFileRefusesBadValuesNamingTheBodyAndTheField) {
-  auto refused = [](const std::string& entry, const std::vector<std::string>& needles) {
-    const std::string text = R"({"format": "soda-inputs", "version": 1, "inputs": [)" + entry + "]}";
-    try {
-      parse_inputs_json(text, "bad.json");
-      ADD_FAILURE() << "accepted: " << entry;
-    } catch (const SceneError& e) {
-      std::printf("refused: %s\n", e.what());
-      for (const std::string& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
-    }
-  };
+  const auto refused = test::expect_input_file_refused;
   refused(R"({"type": "set_mass", "step": 3, "id": 7, "mass": -2})", {"body 7", "'mass'", "> 0"});
   refused(R"({"type": "set_friction", "step": 3, "id": 7, "friction": -1})", {"body 7", "'friction'"});
   refused(R"({"type": "set_restitution", "step": 3, "id": 7, "restitution": 2})", {"body 7", "'restitution'"});

@@ -22,6 +22,8 @@
 
 #include "runtime/partitioned_test_util.h"
 #include "soda/runtime/simulation.h"
+#include "soda/scene/input_file.h"
+#include "soda/scene/validate.h"
 
 namespace soda::test {
 
@@ -167,6 +169,21 @@ inline QueuedRun queued_run(const Scene& s, const std::vector<PlannedInput>& inp
   return r;
 }
 
+/// A game-loop suite's reference: the queued one-territory run of `inputs`,
+/// and the hash of the same scene without them (the inputs must change the
+/// run, or the comparisons prove nothing).
+struct InputReference {
+  QueuedRun run;
+  std::uint64_t no_input_hash = 0;
+};
+inline InputReference input_reference(const Scene& s, const std::vector<PlannedInput>& inputs, int steps) {
+  InputReference r{queued_run(s, inputs, steps)};
+  Simulation none(s, SimulationConfig{.threads = 1});
+  EXPECT_TRUE(none.advance_to(none.time_of(steps)));
+  r.no_input_hash = none.state_hash();
+  return r;
+}
+
 /// What a game loop's render thread saw (run_game_loop).
 struct RenderedRun {
   std::vector<std::string> bad;     // frames missing or not the reference's, and the render thread's error
@@ -181,6 +198,20 @@ inline void expect_refused(const std::function<void()>& call, const std::vector<
     call();
     ADD_FAILURE() << "accepted";
   } catch (const std::invalid_argument& e) {
+    std::printf("refused: %s\n", e.what());
+    for (const std::string& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
+  }
+}
+
+/// An input file holding the one entry `entry` (JSON text) must be refused:
+/// SceneError whose message holds every one of `needles` (the entry, the
+/// body or joint, the field).
+inline void expect_input_file_refused(const std::string& entry, const std::vector<std::string>& needles) {
+  const std::string text = R"({"format": "soda-inputs", "version": 1, "inputs": [)" + entry + "]}";
+  try {
+    parse_inputs_json(text, "bad.json");
+    ADD_FAILURE() << "accepted: " << entry;
+  } catch (const SceneError& e) {
     std::printf("refused: %s\n", e.what());
     for (const std::string& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
   }

@@ -177,6 +177,28 @@ Message glue_from(WorldId from, std::int64_t step, bool empty) {
   return m;
 }
 
+// This world used world 1's empty Glue of step 0 and is merging that step;
+// then world 1's Notice voids its messages from step 0 on (the empty Glue
+// awaits its re-send).
+std::unique_ptr<Anticipation> merging_with_a_voided_empty_glue(Bench& b) {
+  auto spec = b.anticipation();
+  const MessageKey key = message_key(MessageKind::Glue, 0, 1);
+  b.step.inbox.emplace(key, glue_from(1, 0, true));
+  spec->used(key, b.step.inbox.at(key));
+  b.step.inbox.erase(key);
+  b.step.phase = StepPhase::Merging;  // past its glue, merging the islands of step 0
+  EXPECT_TRUE(b.horizon.try_pin(0));
+  Message notice;
+  notice.from = 1;
+  notice.to = 0;
+  notice.payload = Control{Control::Type::Notice, 1, 0, 0};
+  Verdict n = spec->screen(notice);
+  EXPECT_TRUE(n.drop);
+  EXPECT_FALSE(n.restart);
+  b.apply_inbox(n);
+  return spec;
+}
+
 // The neighbour's first run of step 0 found no island across the border
 // (its Glue empty, used here), then it rolled back on its own (a bet lost)
 // and its re-run found one: the Glue it sends again holds entries. This
@@ -186,21 +208,7 @@ Message glue_from(WorldId from, std::int64_t step, bool empty) {
 // in the merge, and the neighbours wait for each other for good.
 TEST(SpeculationVerdict, AGlueWithEntriesSentAgainForAnEmptyOneRestarts) {
   Bench b(8);
-  auto spec = b.anticipation();
-  const MessageKey key = message_key(MessageKind::Glue, 0, 1);
-  b.step.inbox.emplace(key, glue_from(1, 0, true));
-  spec->used(key, b.step.inbox.at(key));
-  b.step.inbox.erase(key);
-  b.step.phase = StepPhase::Merging;  // past its glue, merging the islands of step 0
-  ASSERT_TRUE(b.horizon.try_pin(0));
-  Message notice;
-  notice.from = 1;
-  notice.to = 0;
-  notice.payload = Control{Control::Type::Notice, 1, 0, 0};
-  Verdict n = spec->screen(notice);
-  EXPECT_TRUE(n.drop);
-  EXPECT_FALSE(n.restart);
-  b.apply_inbox(n);
+  auto spec = merging_with_a_voided_empty_glue(b);
   Message again = glue_from(1, 0, false);
   Verdict v = spec->screen(again);
   EXPECT_FALSE(v.drop);  // the re-run of step 0 uses it
@@ -214,19 +222,7 @@ TEST(SpeculationVerdict, AGlueWithEntriesSentAgainForAnEmptyOneRestarts) {
 // The same Glue sent again, empty: confirmed, no restart.
 TEST(SpeculationVerdict, AnEmptyGlueSentAgainUnchangedIsConfirmed) {
   Bench b(8);
-  auto spec = b.anticipation();
-  const MessageKey key = message_key(MessageKind::Glue, 0, 1);
-  b.step.inbox.emplace(key, glue_from(1, 0, true));
-  spec->used(key, b.step.inbox.at(key));
-  b.step.inbox.erase(key);
-  b.step.phase = StepPhase::Merging;
-  ASSERT_TRUE(b.horizon.try_pin(0));
-  Message notice;
-  notice.from = 1;
-  notice.to = 0;
-  notice.payload = Control{Control::Type::Notice, 1, 0, 0};
-  Verdict n = spec->screen(notice);
-  b.apply_inbox(n);
+  auto spec = merging_with_a_voided_empty_glue(b);
   Message again = glue_from(1, 0, true);
   Verdict v = spec->screen(again);
   EXPECT_TRUE(v.drop);
