@@ -212,7 +212,9 @@ TEST(JointInputScenes, FromTheInputFileUnderSyncTestAndValidation) {
 // A removal queued in a checkpoint: the bridge saved at step 40 on 2
 // territories with joint 8-9 removed at 15 and the right pillar's joint
 // queued for 70, resumed on 1 and on 4 speculating: the uninterrupted hash
-// at step 120. Version 8 cannot hold a joint input.
+// at step 120. The removed joint's id stays retired: no input names it and
+// no added joint takes it, as in the uninterrupted run. Version 8 cannot
+// hold a joint input, version 10 the retired joint ids.
 TEST(JointInputScenes, CheckpointsCarryAQueuedRemoval) {
   const JointScene& j = joint_scenes()[1];
   const Scene& s = scene_of(j);
@@ -222,6 +224,11 @@ TEST(JointInputScenes, CheckpointsCarryAQueuedRemoval) {
   };
   Simulation whole(s, SimulationConfig{.territories = 1});
   inputs(whole);
+  Joint reused;
+  reused.id = joint_between(s, 8, 9);
+  reused.body_a = 8;
+  reused.body_b = 9;
+  test::expect_refused([&] { whole.add_joint(whole.time_of(50), reused); }, {"is in use", "never used again"});
   EXPECT_TRUE(whole.advance_to(whole.time_of(kSteps)));
   const std::string expected = hash_hex(whole.state_hash());
   whole.stop();
@@ -237,6 +244,21 @@ TEST(JointInputScenes, CheckpointsCarryAQueuedRemoval) {
   ASSERT_EQ(back.inputs.size(), 1u);
   EXPECT_EQ(back.inputs[0].kind, UserInput::Kind::RemoveJoint);
   EXPECT_EQ(back.inputs[0].joint, joint_between(s, 14, 2));
+  const JointId removed = joint_between(s, 8, 9);
+  EXPECT_EQ(back.retired_joint_ids, std::vector<JointId>{removed});
+  try {
+    encode_checkpoint(back, 10);
+    ADD_FAILURE() << "version 10 took retired joint ids";
+  } catch (const CheckpointError& e) {
+    EXPECT_NE(std::string(e.what()).find("version 10 cannot hold the ids of joints removed before its step (joint " +
+                                         std::to_string(removed)),
+              std::string::npos)
+        << e.what();
+  }
+  Joint again;  // a new joint given the removed one's id
+  again.id = removed;
+  again.body_a = 8;
+  again.body_b = 9;
   try {
     encode_checkpoint(back, 8);
     ADD_FAILURE() << "version 8 took a joint input";
@@ -248,8 +270,11 @@ TEST(JointInputScenes, CheckpointsCarryAQueuedRemoval) {
     SimulationConfig config{.territories = k};
     config.runtime.anticipation = k > 1 ? 8 : 0;
     Simulation resumed = Simulation::resume(path, config);
-    // The joint removed before the snapshot is unknown to the resumed run.
-    EXPECT_THROW(resumed.remove_joint(resumed.time_of(50), joint_between(s, 8, 9)), std::invalid_argument);
+    // The joint removed before the snapshot: retired in the resumed run.
+    test::expect_refused([&] { resumed.remove_joint(resumed.time_of(50), removed); },
+                         {"joint " + std::to_string(removed), "removed before the snapshot"});
+    test::expect_refused([&] { resumed.add_joint(resumed.time_of(50), again); },
+                         {"id: joint " + std::to_string(removed) + " is in use", "never used again"});
     EXPECT_TRUE(resumed.advance_to(resumed.time_of(kSteps)));
     std::printf("[ chain-bridge 12 %s ] resumed at step 40 on %d: %s, uninterrupted %s\n", kPrecisionName, k,
                 hash_hex(resumed.state_hash()).c_str(), expected.c_str());
@@ -300,16 +325,7 @@ TEST(JointInputScenes, RefusalsNameTheJointAndApplyNothing) {
 }
 
 TEST(JointInputScenes, InputFileRefusesABadJointField) {
-  auto refused = [](const std::string& entry, const std::vector<std::string>& needles) {
-    const std::string text = R"({"format": "soda-inputs", "version": 1, "inputs": [)" + entry + "]}";
-    try {
-      parse_inputs_json(text, "bad.json");
-      ADD_FAILURE() << "accepted: " << entry;
-    } catch (const SceneError& e) {
-      std::printf("refused: %s\n", e.what());
-      for (const std::string& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
-    }
-  };
+  const auto refused = test::expect_input_file_refused;
   refused(R"({"type": "remove_joint", "step": 3})", {"remove_joint at step 3", "'joint'", "missing"});
   refused(R"({"type": "remove_joint", "step": 3, "joint": -1})", {"'joint'", "[0, 2^31)"});
   refused(R"({"type": "remove_joint", "step": 3, "joint": 2, "id": 4})", {"'id'"});
@@ -750,16 +766,7 @@ INSTANTIATE_TEST_SUITE_P(Simulation, JointSpawns,
                          });
 
 TEST(JointAddScenes, InputFileRefusesABadJoint) {
-  auto refused = [](const std::string& entry, const std::vector<std::string>& needles) {
-    const std::string text = R"({"format": "soda-inputs", "version": 1, "inputs": [)" + entry + "]}";
-    try {
-      parse_inputs_json(text, "bad.json");
-      ADD_FAILURE() << "accepted: " << entry;
-    } catch (const SceneError& e) {
-      std::printf("refused: %s\n", e.what());
-      for (const std::string& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
-    }
-  };
+  const auto refused = test::expect_input_file_refused;
   refused(R"({"type": "add_joint", "step": 3})", {"add_joint at step 3", "'joint'", "missing"});
   refused(R"({"type": "add_joint", "step": 3, "joint": 4})", {"add_joint at step 3): joint", "must be an object"});
   refused(R"({"type": "add_joint", "step": 3, "joint": {"id": 7, "type": "hinge", "body_a": 1, "body_b": 2,

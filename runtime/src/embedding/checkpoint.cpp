@@ -71,7 +71,7 @@ constexpr std::uint32_t kJointInputsVersion = 9;
 constexpr std::uint32_t kAddJointVersion = 10;
 
 // The first version with collision filter inputs (kind 14, its group and
-// mask after the input record).
+// mask after the input record) and retired joint ids (after the joints).
 constexpr std::uint32_t kFilterInputVersion = 11;
 
 // The newest input kind a version knows.
@@ -242,6 +242,10 @@ std::vector<std::uint8_t> encode_checkpoint(const SimulationSnapshot& snapshot, 
     if (in.kind > last_kind(version) ||
         (in.kind == UserInput::Kind::AddBody && !body_format_loss(in.body, format).empty()))
       throw CheckpointError(cannot + "the input to " + describe(in));
+  if (version < kFilterInputVersion && !snapshot.retired_joint_ids.empty())
+    throw CheckpointError(cannot + "the ids of joints removed before its step (joint " +
+                          std::to_string(snapshot.retired_joint_ids.front()) + "; from version " +
+                          std::to_string(kFilterInputVersion) + ")");
   if (version < kJointsVersion && !s.joints.empty())
     throw CheckpointError(cannot + "joint " + std::to_string(s.joints.front().description.id) + " (" +
                           std::to_string(s.joints.size()) + " joints; joints from version " +
@@ -264,6 +268,10 @@ std::vector<std::uint8_t> encode_checkpoint(const SimulationSnapshot& snapshot, 
   if (version >= kJointsVersion) {
     w.count(s.joints.size());
     for (const JointSnapshot& j : s.joints) write_joint(w, j);
+  }
+  if (version >= kFilterInputVersion) {
+    w.count(snapshot.retired_joint_ids.size());
+    for (JointId id : snapshot.retired_joint_ids) w.put(id);
   }
   const std::uint64_t length = w.bytes.size() - kHeaderBytes;
   std::memcpy(w.bytes.data() + 40, &length, sizeof length);
@@ -331,6 +339,19 @@ SimulationSnapshot decode_checkpoint(const std::vector<std::uint8_t>& bytes, con
       if (!s.joints.empty() && !(s.joints.back().description.id < j.description.id))
         r.fail("joints not sorted by id or a duplicate id");
       s.joints.push_back(std::move(j));
+    }
+  }
+  if (h.version >= kFilterInputVersion) {
+    const std::uint32_t retired = r.count(sizeof(JointId));
+    for (std::uint32_t i = 0; i < retired; ++i) {
+      const JointId id = r.get<JointId>();
+      if (id > kMaxJointId) r.fail("a retired joint id above kMaxJointId");
+      if (!out.retired_joint_ids.empty() && id <= out.retired_joint_ids.back())
+        r.fail("retired joint ids not ascending");
+      const bool held = std::any_of(s.joints.begin(), s.joints.end(),
+                                    [&](const JointSnapshot& j) { return j.description.id == id; });
+      if (held) r.fail("joint " + std::to_string(id) + " both held and retired");
+      out.retired_joint_ids.push_back(id);
     }
   }
   r.get<std::uint64_t>();  // the checksum, checked above

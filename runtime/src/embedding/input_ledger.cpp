@@ -24,6 +24,9 @@ void InputLedger::check_joint(const UserInput& in, const std::string& what) cons
   auto it = joints_.find(in.joint);
   if (it == joints_.end()) throw std::invalid_argument(what + ": joint: no joint has that id");
   const JointLife& j = it->second;
+  if (j.retired)
+    throw std::invalid_argument(what + ": joint: joint " + std::to_string(in.joint) +
+                                " was removed before the snapshot this run was restored from");
   const bool removal = in.kind == UserInput::Kind::RemoveJoint;
   if (j.removed.step != INT64_MAX && (removal || in.step >= j.removed.step))
     throw std::invalid_argument(what + ": joint: joint " + std::to_string(in.joint) + " is removed at step " +
@@ -110,7 +113,9 @@ void InputLedger::check_added_joint(const UserInput& in, const std::string& what
                                 " but carries joint " + std::to_string(joint.id));
   if (auto it = joints_.find(joint.id); it != joints_.end())
     throw std::invalid_argument(what + ": id: joint " + std::to_string(joint.id) + " is in use" +
-                                (it->second.removed.step != INT64_MAX
+                                (it->second.retired ? " (removed before the snapshot this run was restored "
+                                                      "from; a joint's id is never used again)"
+                                 : it->second.removed.step != INT64_MAX
                                      ? " (removed at step " + std::to_string(it->second.removed.step) +
                                            "; a joint's id is never used again)"
                                      : ""));
@@ -270,6 +275,19 @@ std::vector<BodyId> InputLedger::removed_before(std::int64_t step) const {
   std::vector<BodyId> out;
   for (const auto& [id, life] : lives_)
     if (life.retired || life.removed < step) out.push_back(id);
+  return out;
+}
+
+void InputLedger::retire_joint(JointId id) {
+  JointLife& j = joints_[id];
+  j.retired = true;
+  j.removed = Place{0, 0};
+}
+
+std::vector<JointId> InputLedger::joints_removed_before(std::int64_t step) const {
+  std::vector<JointId> out;
+  for (const auto& [id, j] : joints_)
+    if (j.retired || j.removed.step < step) out.push_back(id);
   return out;
 }
 

@@ -39,6 +39,10 @@ class InputLedger {
   /// Ids of every body removed at a boundary before `step` (retired ones
   /// included), ascending: what a snapshot at `step` must keep from reuse.
   std::vector<BodyId> removed_before(std::int64_t step) const;
+  /// The same for joints: `id` was removed before the snapshot (a joint's
+  /// id is never used again), and the ids removed before `step`.
+  void retire_joint(JointId id);
+  std::vector<JointId> joints_removed_before(std::int64_t step) const;
 
  private:
   // An input's place in the order the worlds apply them: its step, then the
@@ -65,6 +69,7 @@ class InputLedger {
     Place removed{INT64_MAX, 0};         // removed by input
     bool closes_loop = false;            // added by input between two dynamic bodies (of one group)
     std::int64_t last_motor = -1;        // newest step of a motor input naming it
+    bool retired = false;                // removed before the snapshot this run was restored from
   };
   // A removal the joint groups are tested without: a joint's or a body's.
   struct Without {

@@ -65,6 +65,7 @@ SimulationEngine::SimulationEngine(const SimulationSnapshot& snapshot, Territory
     : config_(std::move(config)), substeps_(snapshot.state.settings.substeps), ledger_(scene_of(snapshot.state)) {
   const PartitionedOptions options = partitioned_options(config_, map.world_count());
   for (BodyId id : snapshot.retired_ids) ledger_.retire(id);
+  for (JointId id : snapshot.retired_joint_ids) ledger_.retire_joint(id);
   set_up(scene_of(snapshot.state), options,
          std::make_unique<PartitionedWorld>(snapshot.state, std::move(map), options), snapshot.state.steps_done);
   for (const UserInput& given : snapshot.inputs) {
@@ -163,6 +164,7 @@ SimulationSnapshot SimulationEngine::snapshot() const {
   out.state = in.assemble(step, std::move(parts));
   out.inputs = inputs_.from(step);
   out.retired_ids = ledger_.removed_before(step);
+  out.retired_joint_ids = ledger_.joints_removed_before(step);
   return out;
 }
 
