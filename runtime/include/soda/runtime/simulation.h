@@ -162,8 +162,7 @@ struct SimulationSnapshot {
   /// The inputs given for steps at or after that step (not applied yet), in
   /// the order they apply.
   std::vector<UserInput> inputs;
-  /// Ids of bodies and of joints removed before that step: a restored run
-  /// never reuses them.
+  /// Ids of bodies and of joints removed before that step: a restored run never reuses them.
   std::vector<BodyId> retired_ids;
   std::vector<JointId> retired_joint_ids;
 };
