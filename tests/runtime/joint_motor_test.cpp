@@ -43,7 +43,13 @@ constexpr double kHeight = 3.0;
 // in the vertical plane: joint i even is a hinge (motor 1.5 rad/s, max
 // impulse 1 N m s), odd a spring-6dof joint with its linear axes and
 // angular x, y locked, angular z free, motor on axis 5 (1.5 rad/s, max
-// force 60 N m: the same impulse a step at 1/60 s).
+// force 60 N m: the same impulse a step at 1/60 s). At the row's end a
+// slider (joint 8): a carriage (id 18, 1 kg) on a post (id 17) at x = 48,
+// free along x within [-1, 3] m of its start, its motor driving it at
+// 0.5 m/s (max force 60 N).
+constexpr JointId kSlider = 8;
+constexpr BodyId kCarriage = 18;
+
 Scene motor_row() {
   Scene s;
   s.name = "motor-row";
@@ -79,6 +85,30 @@ Scene motor_row() {
     }
     s.joints.push_back(j);
   }
+  Body post;
+  post.id = 17;
+  post.is_static = true;
+  post.shape = Shape::box(Vec3(0.05, 0.05, 0.05));
+  post.position = Vec3(47.9, kHeight, 0.0);
+  Body carriage;
+  carriage.id = kCarriage;
+  carriage.shape = Shape::box(Vec3(0.2, 0.1, 0.1));
+  carriage.mass = 1.0;
+  carriage.position = Vec3(48.5, kHeight, 0.0);
+  s.bodies.push_back(post);
+  s.bodies.push_back(carriage);
+  Joint slider;
+  slider.id = kSlider;
+  slider.kind = JointKind::Slider;
+  slider.body_a = post.id, slider.body_b = carriage.id;
+  slider.frame_a.position = Vec3(0.1, 0.0, 0.0);
+  slider.frame_b.position = Vec3(-0.5, 0.0, 0.0);
+  slider.limited = true;
+  slider.lower = -1.0, slider.upper = 3.0;
+  slider.motor = true;
+  slider.motor_velocity = 0.5;
+  slider.motor_max_impulse = 60.0;
+  s.joints.push_back(slider);
   return s;
 }
 
@@ -114,7 +144,8 @@ struct MotorCase {
 // motor-row: 6-DoF joint 1 to -4 rad/s (queued, step 10), hinge 2 off at
 // the frame on screen (step 30), 6-DoF joint 5 off given ahead (frame 50,
 // step 70), hinge 6 to 3 rad/s at the frame on screen (step 90), 6-DoF
-// joint 7 to 2.5 rad/s at the frame on screen (step 100).
+// joint 7 to 2.5 rad/s at the frame on screen (step 100), the slider back
+// at -0.8 m/s at the frame on screen (step 40).
 // ragdolls 4 (ragdoll r: bodies 1 + 11r .. 11 + 11r) in one falling pile
 // across the territories' borders: the first hinge (waist, elbow or knee)
 // of ragdoll 0 driven (queued, step 10), of ragdoll 1 at the frame on
@@ -142,6 +173,7 @@ const std::vector<MotorCase>& motor_cases() {
        motor_row,
        {{motor(10, 1, true, -4.0, 60.0, 5)},
         {motor(30, 2, false, 1.5, 1.0), true},
+        {motor(40, kSlider, true, -0.8, 60.0), true},
         {motor(70, 5, false, 0.0, 0.0, 5), false, 50},
         {motor(90, 6, true, 3.0, 2.0), true},
         {motor(100, 7, true, 2.5, 80.0, 5), true}},
@@ -216,6 +248,22 @@ TEST(JointMotorScenes, TheArmsTurnAtTheNewTargets) {
     } else {
       EXPECT_GT(high - low, 1.0) << "arm " << arm << "'s motor is off";
     }
+  }
+  // The slider's carriage runs along x at its motor's target, 0.5 m/s, then
+  // at the new one, -0.8 m/s (within 2 %), inside its limits.
+  auto carriage = [&](int step) {
+    for (const ScenePose& p : row.frames.at(static_cast<std::size_t>(step)))
+      if (p.id == kCarriage) return p;
+    ADD_FAILURE() << "no carriage in frame " << step;
+    return ScenePose{};
+  };
+  for (const auto& [step, target] : {std::pair{35, 0.5}, std::pair{kSteps, -0.8}}) {
+    const ScenePose p = carriage(step);
+    std::printf("[ motor_row %s ] slider carriage at step %d: x %.3f m, %.4f m/s along x, target %.2f\n",
+                kPrecisionName, step, double(p.position[0]), double(p.linear_velocity[0]), target);
+    EXPECT_NEAR(double(p.linear_velocity[0]), target, 0.02 * std::abs(target)) << "step " << step;
+    EXPECT_GT(double(p.position[0]), 48.5 - 1.0);
+    EXPECT_LT(double(p.position[0]), 48.5 + 3.0);
   }
 }
 
@@ -354,7 +402,7 @@ TEST(JointMotorScenes, TheSetterLeavesTheConstraintAFreshDescriptionMakes) {
 
 // A motor input queued in a checkpoint: the row saved at step 40 on 2
 // territories with the queued inputs of steps 10 and 30 applied and those
-// of 70 and 100 queued, resumed on 1 and on 4 speculating: the
+// of 40 (the slider's), 70 and 100 queued, resumed on 1 and on 4 speculating: the
 // uninterrupted hash at step 120, the changed descriptions carried.
 // Version 9 cannot hold a motor input.
 TEST(JointMotorScenes, CheckpointsCarryAQueuedMotorInput) {
@@ -377,13 +425,15 @@ TEST(JointMotorScenes, CheckpointsCarryAQueuedMotorInput) {
   EXPECT_EQ(sim.save(path), 40);
   sim.stop();
   const SimulationSnapshot back = read_checkpoint(path);
-  ASSERT_EQ(back.inputs.size(), 2u);
+  ASSERT_EQ(back.inputs.size(), 3u);
   EXPECT_EQ(back.inputs[0].kind, UserInput::Kind::SetJointMotor);
-  EXPECT_EQ(back.inputs[0].joint, 5u);
-  EXPECT_EQ(back.inputs[1].motor.velocity, 2.5);
-  EXPECT_EQ(back.inputs[1].motor.max_impulse, 80.0);
-  EXPECT_EQ(back.inputs[1].motor.axis, 5);
-  EXPECT_TRUE(back.inputs[1].motor.on);
+  EXPECT_EQ(back.inputs[0].joint, kSlider);
+  EXPECT_EQ(back.inputs[0].motor.velocity, -0.8);
+  EXPECT_EQ(back.inputs[1].joint, 5u);
+  EXPECT_EQ(back.inputs[2].motor.velocity, 2.5);
+  EXPECT_EQ(back.inputs[2].motor.max_impulse, 80.0);
+  EXPECT_EQ(back.inputs[2].motor.axis, 5);
+  EXPECT_TRUE(back.inputs[2].motor.on);
   for (const JointSnapshot& j : back.state.joints) {
     if (j.description.id == 1) {
       EXPECT_EQ(j.description.motor_velocities[5], -4.0);
@@ -396,7 +446,8 @@ TEST(JointMotorScenes, CheckpointsCarryAQueuedMotorInput) {
     encode_checkpoint(back, 9);
     ADD_FAILURE() << "version 9 took a motor input";
   } catch (const CheckpointError& e) {
-    EXPECT_NE(std::string(e.what()).find("version 9 cannot hold the input to set the motor of joint 5"),
+    EXPECT_NE(std::string(e.what()).find("version 9 cannot hold the input to set the motor of joint " +
+                                         std::to_string(kSlider)),
               std::string::npos)
         << e.what();
   }
@@ -420,9 +471,9 @@ using test::expect_refused;
 TEST(JointMotorScenes, RefusalsNameTheJointAndTheFieldAndApplyNothing) {
   const double nan = std::nan(""), inf = INFINITY;
   Scene s = motor_row();
-  // A point-to-point joint between arms 2 and 4 (id 8): no motor.
+  // A point-to-point joint between arms 2 and 4 (id 9): no motor.
   Joint p2p;
-  p2p.id = 8;
+  p2p.id = 9;
   p2p.kind = JointKind::PointToPoint;
   p2p.body_a = 2, p2p.body_b = 4;
   p2p.frame_a.position = Vec3(3.0, 0.0, 0.0);
@@ -434,8 +485,8 @@ TEST(JointMotorScenes, RefusalsNameTheJointAndTheFieldAndApplyNothing) {
   sim.set_joint_motor(sim.time_of(30), 2, true, -2.0, 1.0);
   expect_refused([&] { sim.set_joint_motor(sim.time_of(5), 99, true, 1.0, 1.0); },
                  {"set the motor of joint 99 at step 5", "joint: no joint has that id"});
-  expect_refused([&] { sim.set_joint_motor(sim.time_of(5), 8, true, 1.0, 1.0); },
-                 {"joint 8", "joint: joint 8 is a point-to-point joint, which has no motor"});
+  expect_refused([&] { sim.set_joint_motor(sim.time_of(5), 9, true, 1.0, 1.0); },
+                 {"joint 9", "joint: joint 9 is a point-to-point joint, which has no motor"});
   expect_refused([&] { sim.set_joint_motor(sim.time_of(5), 0, true, 1.0, 1.0, 5); },
                  {"joint 0", "axis: a hinge joint has one motor (no axis)"});
   expect_refused([&] { sim.set_joint_motor(sim.time_of(5), 1, true, 1.0, 1.0); },
