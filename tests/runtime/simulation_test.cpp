@@ -10,7 +10,9 @@
 #include <thread>
 
 #include "runtime/simulation_test_util.h"
+#include "soda/grid/partition.h"
 #include "soda/scene/registry.h"
+#include "soda/scene/validate.h"
 
 namespace soda {
 namespace {
@@ -177,6 +179,37 @@ TEST(Simulation, BadConfigIsRejected) {
   EXPECT_THROW(Simulation(s, SimulationConfig{.territories = 2, .threads = -1}), std::invalid_argument);
   EXPECT_THROW(Simulation(s, SimulationConfig{.territories = 2, .buffer_capacity = 1}), std::invalid_argument);
   EXPECT_THROW(Simulation(s, SimulationConfig{.territories = 2, .partition = "nonsense"}), GridError);
+}
+
+// A scene made in code is checked as a scene file is, before any world is
+// built: SceneError naming the body or joint and the field, on one
+// territory and on several (with a ready map too).
+TEST(Simulation, AScenesMadeInCodeIsCheckedAsAFileIs) {
+  auto refused = [](const Scene& s, const std::vector<std::string>& needles) {
+    for (int k : {1, 3}) {
+      try {
+        Simulation sim(s, SimulationConfig{.territories = k});
+        ADD_FAILURE() << "accepted on " << k;
+      } catch (const SceneError& e) {
+        std::printf("refused: %s\n", e.what());
+        for (const std::string& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
+      }
+    }
+  };
+  Scene nan = test::scene("falling-cubes", 20);
+  nan.bodies[5].position.x() = std::nan("");
+  refused(nan, {"Simulation: scene", "(id " + std::to_string(nan.bodies[5].id) + ")", "'position'"});
+  Scene twice = test::scene("falling-cubes", 20);
+  twice.bodies[7].id = twice.bodies[6].id;
+  refused(twice, {"duplicate id"});
+  Scene joints = test::scene("pendulums", 4);
+  joints.joints.push_back(joints.joints.front());
+  refused(joints, {"joint #" + std::to_string(joints.joints.size() - 1), "duplicate joint id"});
+  Scene missing = test::scene("pendulums", 4);
+  missing.joints.front().body_b = 100000;
+  refused(missing, {"'body_b'", "no body with id 100000"});
+  const Scene ok = test::scene("falling-cubes", 20);
+  EXPECT_THROW(Simulation(nan, make_partition("kmeans", ok, 2, GridOptions{})), SceneError);  // a ready map
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include "embedding/simulation_engine.h"
 #include "soda/grid/partition.h"
+#include "soda/scene/validate.h"
 
 namespace soda {
 
@@ -24,13 +25,21 @@ TerritoryMap partition_for(const Scene& scene, const SimulationConfig& config) {
   return make_partition(config.partition, scene, config.territories, config.grid);
 }
 
+// A scene made in code is checked as a scene file is (docs/scene-format.md,
+// within this build's precision envelope) before anything is built of it.
+const Scene& checked(const Scene& scene) {
+  validate_scene(scene, "Simulation: scene" + (scene.name.empty() ? std::string() : " '" + scene.name + "'"),
+                 kDoublePrecision ? Precision::Double : Precision::Float);
+  return scene;
+}
+
 }  // namespace
 
 Simulation::Simulation(const Scene& scene, SimulationConfig config)
-    : Simulation(scene, partition_for(scene, config), config) {}
+    : engine_(std::make_unique<SimulationEngine>(scene, partition_for(checked(scene), config), config)) {}
 
 Simulation::Simulation(const Scene& scene, TerritoryMap map, SimulationConfig config)
-    : engine_(std::make_unique<SimulationEngine>(scene, std::move(map), std::move(config))) {}
+    : engine_(std::make_unique<SimulationEngine>(checked(scene), std::move(map), std::move(config))) {}
 
 namespace {
 

@@ -177,12 +177,12 @@ class Simulation {
  public:
   /// Cuts the scene into config.territories territories (config.partition,
   /// config.grid), builds one world per territory and publishes step 0 (the
-  /// scene as given, time 0). No thread runs yet. Throws
+  /// scene as given, time 0). No thread runs yet. Throws SceneError (naming
+  /// the body or joint and field) for a scene no scene file could hold,
   /// std::invalid_argument for a bad config, GridError for a bad partition,
   /// PartitionError for a scene outside the partitioned step's contract.
   explicit Simulation(const Scene& scene, SimulationConfig config = {});
-  /// As above with a ready territory map (config.territories, partition and
-  /// grid are ignored).
+  /// As above with a ready territory map (config.territories, partition and grid are ignored).
   Simulation(const Scene& scene, TerritoryMap map, SimulationConfig config = {});
   /// Restores a snapshot (Simulation::snapshot()): a Simulation at scene step
   /// snapshot.state.steps_done, published as its first frame, steps numbered
