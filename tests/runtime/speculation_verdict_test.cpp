@@ -77,6 +77,16 @@ Message ghosts_from(WorldId from, std::int64_t step, bool empty) {
   return m;
 }
 
+// World `from`'s first Notice to world 0: it rolled back to `step`, its
+// pin held there.
+Message notice_from(WorldId from, std::int64_t step) {
+  Message m;
+  m.from = from;
+  m.to = 0;
+  m.payload = Control{Control::Type::Notice, 1, step, step};
+  return m;
+}
+
 TEST(SpeculationVerdict, LockstepDecidesNothing) {
   Bench b(0);
   Lockstep lockstep(Lockstep::Context{b.step, b.kept, b.safety, b.output, nullptr, 1, b.clock});
@@ -154,10 +164,7 @@ TEST(SpeculationVerdict, ANoticeDropsTheNeighboursLaterMessages) {
   Message before = ghosts_from(1, 0, false);
   b.step.inbox.emplace(message_key(MessageKind::Ghosts, 0, 1), before);
   ASSERT_TRUE(b.horizon.try_pin(2));
-  Message notice;
-  notice.from = 1;
-  notice.to = 0;
-  notice.payload = Control{Control::Type::Notice, 1, 2, 2};
+  Message notice = notice_from(1, 2);
   Verdict v = spec->screen(notice);
   EXPECT_TRUE(v.drop);
   EXPECT_FALSE(v.restart);
@@ -188,10 +195,7 @@ std::unique_ptr<Anticipation> merging_with_a_voided_empty_glue(Bench& b) {
   b.step.inbox.erase(key);
   b.step.phase = StepPhase::Merging;  // past its glue, merging the islands of step 0
   EXPECT_TRUE(b.horizon.try_pin(0));
-  Message notice;
-  notice.from = 1;
-  notice.to = 0;
-  notice.payload = Control{Control::Type::Notice, 1, 0, 0};
+  Message notice = notice_from(1, 0);
   Verdict n = spec->screen(notice);
   EXPECT_TRUE(n.drop);
   EXPECT_FALSE(n.restart);
