@@ -81,13 +81,10 @@ TEST_P(FilterInputs, EveryFrameAndTheHashEqualOneTerritory) {
   const auto [territories, anticipation] = GetParam();
   const Scene s = filter_scene();
   const test::InputReference& ref = reference();
-  test::Progress progress;
-  SimulationConfig config{.territories = territories, .buffer_capacity = 16, .past_inputs = true};
-  config.runtime.anticipation = anticipation;
-  config.after_step = progress.hook();
-  Simulation sim(s, config);
-  SceneReader reader = sim.add_reader();
-  const test::RenderedRun run = test::run_game_loop(sim, reader, progress, plan(s), ref.run.frames, kSteps);
+  test::GameLoop loop(s, territories, anticipation);
+  Simulation& sim = loop.sim;
+  SceneReader& reader = loop.reader;
+  const test::RenderedRun run = loop.run(plan(s), ref.run.frames, kSteps);
   const std::uint64_t hash = sim.state_hash();
   // The filter of the frame's step: an input at boundary s shows from s + 1.
   const std::optional<BodyAt> before = reader.properties(80, kFalls), after = reader.properties(81, kFalls);

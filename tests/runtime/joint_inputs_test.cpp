@@ -124,16 +124,11 @@ TEST_P(JointInputs, EveryFrameWithJointsRemovedEqualsOneTerritory) {
   const Scene& s = scene_of(j);
   const test::QueuedRun& ref = reference(j);
 
-  test::Progress progress;
-  SimulationConfig config{.territories = territories, .buffer_capacity = 16, .past_inputs = true};
-  config.runtime.anticipation = anticipation;
-  config.after_step = progress.hook();
   // A re-run's replayed islands are solved too and compared: an island
   // replayed with the joints of the run it repeats would throw.
-  detail::edit_testing_hooks(config).verify_replay = true;
-  Simulation sim(s, config);
-  SceneReader reader = sim.add_reader();
-  const test::RenderedRun run = test::run_game_loop(sim, reader, progress, plan(j), ref.frames, kSteps);
+  test::GameLoop loop(s, territories, anticipation, true);
+  Simulation& sim = loop.sim;
+  const test::RenderedRun run = loop.run(plan(j), ref.frames, kSteps);
   const std::uint64_t hash = sim.state_hash();
   const std::size_t joints = sim.snapshot().state.joints.size();
   sim.stop();
@@ -425,14 +420,9 @@ TEST_P(JointAdds, EveryFrameWithJointsAddedEqualsOneTerritory) {
   const Scene& s = scene_of(j);
   const test::QueuedRun& ref = add_reference(j);
 
-  test::Progress progress;
-  SimulationConfig config{.territories = territories, .buffer_capacity = 16, .past_inputs = true};
-  config.runtime.anticipation = anticipation;
-  config.after_step = progress.hook();
-  detail::edit_testing_hooks(config).verify_replay = true;
-  Simulation sim(s, config);
-  SceneReader reader = sim.add_reader();
-  const test::RenderedRun run = test::run_game_loop(sim, reader, progress, add_plan(j), ref.frames, kSteps);
+  test::GameLoop loop(s, territories, anticipation, true);
+  Simulation& sim = loop.sim;
+  const test::RenderedRun run = loop.run(add_plan(j), ref.frames, kSteps);
   const std::uint64_t hash = sim.state_hash();
   const std::vector<JointSnapshot> joints = sim.snapshot().state.joints;
   sim.stop();

@@ -276,16 +276,12 @@ TEST_P(JointMotorInputs, EveryFrameWithMotorsSetEqualsOneTerritory) {
   const Scene& s = scene_of(c);
   const test::QueuedRun& ref = reference(c);
 
-  test::Progress progress;
-  SimulationConfig config{.territories = territories, .buffer_capacity = 16, .past_inputs = true};
-  config.runtime.anticipation = anticipation;
-  config.after_step = progress.hook();
   // A re-run's replayed islands are solved too and compared: an island
   // replayed with the joints of the run it repeats would throw.
-  detail::edit_testing_hooks(config).verify_replay = true;
-  Simulation sim(s, config);
-  SceneReader reader = sim.add_reader();
-  const test::RenderedRun run = test::run_game_loop(sim, reader, progress, c.plan, ref.frames, kSteps);
+  test::GameLoop loop(s, territories, anticipation, true);
+  Simulation& sim = loop.sim;
+  SceneReader& reader = loop.reader;
+  const test::RenderedRun run = loop.run(c.plan, ref.frames, kSteps);
   const std::uint64_t hash = sim.state_hash();
   const std::vector<JointSnapshot> joints = sim.snapshot().state.joints;
   std::set<WorldId> owners;  // of the joints' bodies b in the last frame

@@ -64,13 +64,10 @@ TEST_P(Setters, EveryFrameAndTheHashEqualOneTerritory) {
   const test::InputReference& ref = reference();
   const std::vector<test::PlannedInput> plan = planned(s);
 
-  test::Progress progress;
-  SimulationConfig config{.territories = territories, .buffer_capacity = 16, .past_inputs = true};
-  config.runtime.anticipation = anticipation;
-  config.after_step = progress.hook();
-  Simulation sim(s, config);
-  SceneReader reader = sim.add_reader();
-  const test::RenderedRun run = test::run_game_loop(sim, reader, progress, plan, ref.run.frames, kSteps);
+  test::GameLoop loop(s, territories, anticipation);
+  Simulation& sim = loop.sim;
+  SceneReader& reader = loop.reader;
+  const test::RenderedRun run = loop.run(plan, ref.run.frames, kSteps);
   const std::uint64_t hash = sim.state_hash();
   // Readbacks at the last step: the plan's tags and masses, whatever K.
   const BodyId heavy = test::first_dynamic(s);

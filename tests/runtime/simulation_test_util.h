@@ -20,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "driver/testing_hooks.h"
 #include "runtime/partitioned_test_util.h"
 #include "soda/runtime/simulation.h"
 #include "soda/scene/input_file.h"
@@ -260,6 +261,31 @@ inline RenderedRun run_game_loop(Simulation& sim, SceneReader& reader, Progress&
   EXPECT_TRUE(sim.advance_to(sim.time_of(steps)));
   return run;
 }
+
+/// A game loop as the input suites run it: `sim` on `territories`
+/// territories (anticipation, a 16-frame buffer, past inputs, progress's
+/// hook; with verify_replay a re-run's replayed islands are solved too and
+/// compared, so an island replayed with stale contents throws) and a reader
+/// from step 0. run() is run_game_loop; read sim and reader, then stop.
+struct GameLoop {
+  GameLoop(const Scene& s, int territories, int anticipation, bool verify_replay = false)
+      : sim(s, config(territories, anticipation, verify_replay)), reader(sim.add_reader()) {}
+  RenderedRun run(const std::vector<PlannedInput>& plan, const std::vector<std::vector<ScenePose>>& ref, int steps) {
+    return run_game_loop(sim, reader, progress, plan, ref, steps);
+  }
+  Progress progress;  // before sim: its hook is sim's after_step
+  Simulation sim;
+  SceneReader reader;
+
+ private:
+  SimulationConfig config(int territories, int anticipation, bool verify_replay) {
+    SimulationConfig c{.territories = territories, .buffer_capacity = 16, .past_inputs = true};
+    c.runtime.anticipation = anticipation;
+    c.after_step = progress.hook();
+    detail::edit_testing_hooks(c).verify_replay = verify_replay;
+    return c;
+  }
+};
 
 /// Late spawn: the step the body was added at (-1: never) and the lead over
 /// the commit horizon the far world had then.
