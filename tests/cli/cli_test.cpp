@@ -548,6 +548,43 @@ TEST_F(CliTest, JointMotorInputsRunFromAFileAndBadOnesAreBadInput) {
       << refused.output;
 }
 
+// Collision filter inputs from an input file (docs/inputs.md,
+// "set_collision_filter"): cubes of a pile made to pass through each other
+// and one through the ground, on 1, 2 and 4 territories (speculating) and
+// across a checkpoint with one queued: one hash, not the run without them.
+// A static body's filter: exit 2, the body named.
+TEST_F(CliTest, CollisionFilterInputsRunFromAFileAndBadOnesAreBadInput) {
+  const std::string inputs = (dir_ / "filter-inputs.json").string();
+  std::ofstream(inputs) << R"({"format": "soda-inputs", "version": 1, "inputs": [
+      {"type": "set_collision_filter", "step": 20, "id": 4, "group": 16, "mask": 0},
+      {"type": "set_collision_filter", "step": 30, "id": 6, "group": 16, "mask": 4294967279},
+      {"type": "set_collision_filter", "step": 30, "id": 8, "group": 16, "mask": 4294967279},
+      {"type": "set_collision_filter", "step": 50, "id": 6, "group": 1, "mask": 4294967295}]})";
+  const std::string scene = "run --scene cube-pile --n 60 --steps 80";
+  const Outcome none = run_cli(scene);
+  ASSERT_EQ(none.exit_code, 0) << none.output;
+  const std::string with = scene + " --log-level warn --inputs " + inputs;
+  const Outcome one = run_cli(with);
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  EXPECT_NE(hash_of(one), hash_of(none));
+  const std::string ckpt = (dir_ / "filter.ckpt").string();
+  for (const std::string& args : {with + " --territories 2", with + " --territories 4 --anticipation 8",
+                                  with + " --territories 2 --checkpoint-at 40 --checkpoint " + ckpt,
+                                  "run --resume " + ckpt + " --steps 80 --log-level warn --territories 4"}) {
+    const Outcome o = run_cli(args);
+    ASSERT_EQ(o.exit_code, 0) << args << "\n" << o.output;
+    EXPECT_EQ(hash_of(o), hash_of(one)) << args;
+  }
+  const std::string bad = (dir_ / "bad-filter.json").string();
+  std::ofstream(bad) << R"({"format": "soda-inputs", "version": 1, "inputs": [
+      {"type": "set_collision_filter", "step": 20, "id": 0, "group": 16, "mask": 0}]})";
+  const Outcome refused = run_cli(scene + " --inputs " + bad);
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("set the collision filter of body 0 at step 20: the body is static"),
+            std::string::npos)
+      << refused.output;
+}
+
 // A bad joint in a scene file: exit 2, the joint and the field named.
 TEST_F(CliTest, ABadJointIsBadInput) {
   const std::filesystem::path file = dir_ / "bad-joint.json";
