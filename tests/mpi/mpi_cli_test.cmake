@@ -1,8 +1,8 @@
 # `mpirun -np 2 soda run ... --territories K` prints the hash of the
 # threaded 1-territory run, writes the JSON (with its per-rank traffic) from
 # rank 0 only, gives it with speculation and SyncTest too, also for a scene
-# with joints and with a solver pool, and refuses a bad --ranks-worlds or
-# --validate with exit 2.
+# with joints, with a solver pool and with inputs from a file, and refuses a
+# bad --ranks-worlds or --validate with exit 2.
 # Run by ctest: cmake -DSODA=... -DMPIEXEC=... -P mpi_cli_test.cmake
 set(scene --scene falling-cubes --n 120 --steps 60)
 
@@ -84,3 +84,27 @@ hash_of(reference "${one}")
 ranked_run(pool --solver-threads 2)
 ranked_run(pool_spec --solver-threads 2 --anticipation 8)
 message(STATUS "cube-pile 600: one territory ${reference}; 3 territories on 2 ranks with --solver-threads 2: the same")
+
+# Inputs from a file over ranks (`--inputs`): every rank reads them and each
+# world applies those that concern it. A push, a velocity, a collision
+# filter, a turned gravity, a body removed and one added: the threaded
+# 1-territory run's hash, lockstep and speculating.
+set(inputs ${CMAKE_CURRENT_BINARY_DIR}/mpi_cli_inputs.json)
+file(WRITE ${inputs} [=[{"format": "soda-inputs", "version": 1, "inputs": [
+ {"type": "apply_impulse", "step": 10, "id": 5, "impulse": [0, 30, 0]},
+ {"type": "set_velocity", "step": 15, "id": 7, "linear_velocity": [2, 0, 0]},
+ {"type": "set_collision_filter", "step": 20, "id": 4, "group": 16, "mask": 0},
+ {"type": "set_gravity", "step": 25, "gravity": [1, -9.81, 0]},
+ {"type": "remove_body", "step": 35, "id": 9},
+ {"type": "add_body", "step": 40, "body": {"id": 500, "type": "dynamic", "mass": 1,
+   "shape": {"type": "box", "half_extents": [0.5, 0.5, 0.5]}, "position": [0, 8, 0]}}]}
+]=])
+set(scene --scene cube-pile --n 100 --steps 80 --inputs ${inputs})
+execute_process(COMMAND ${SODA} run ${scene} --territories 1 OUTPUT_VARIABLE one RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "soda run ${scene} --territories 1 failed (${rc}):\n${one}")
+endif()
+hash_of(reference "${one}")
+ranked_run(inputs)
+ranked_run(inputs_spec --anticipation 8)
+message(STATUS "cube-pile 100 with 6 inputs: one territory ${reference}; 3 territories on 2 ranks: the same")

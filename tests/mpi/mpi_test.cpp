@@ -229,6 +229,74 @@ TEST(Mpi, AFailingRankStopsEveryRankWithItsError) { expect_failure_stops_every_r
 
 TEST(Mpi, AFailingRankStopsEveryRankWhileSpeculating) { expect_failure_stops_every_rank(speculating()); }
 
+// Inputs known before the run (PartitionedOptions::inputs; `soda run
+// --inputs` under mpirun): every rank holds them all, and each world applies
+// those that concern it at their boundary. The gathered hash and body count
+// are the one-territory run's given the same inputs (every rank runs that
+// one alone), lockstep and speculating: bodies pushed, made heavy, given a
+// velocity, a pose and a collision filter, the gravity turned, a body
+// removed and one added; on the pendulums, a joint removed.
+void expect_inputs_give_the_one_territory_hash(const Case& c, const std::vector<UserInput>& inputs) {
+  const Scene s = test::scene(c.scene, c.n);
+  PartitionedOptions alone;
+  alone.inputs = inputs;
+  PartitionedWorld one(s, make_partition("kmeans", s, 1, GridOptions{}), alone);
+  one.step(c.steps);
+  for (PartitionedOptions o : {threads_per_world(), speculating()}) {
+    o.inputs = inputs;
+    o.group = g_group;
+    PartitionedWorld world(s, make_partition(c.partition, s, c.territories, GridOptions{}), o);
+    world.step(c.steps);
+    const std::uint64_t hash = world.state_hash();  // collective
+    const std::size_t bodies = world.body_count();  // collective
+    if (g_group->rank() != 0) continue;
+    std::printf("[ %s %d with %zu inputs, K %d on %d ranks, anticipation %d ] %s, %zu bodies (one territory %s, %zu)\n",
+                c.scene.c_str(), c.n, inputs.size(), c.territories, g_group->size(), o.runtime.anticipation,
+                hash_hex(hash).c_str(), bodies, hash_hex(one.state_hash()).c_str(), one.body_count());
+    EXPECT_EQ(hash_hex(hash), hash_hex(one.state_hash())) << c.scene << " anticipation " << o.runtime.anticipation;
+    EXPECT_EQ(bodies, one.body_count());
+    EXPECT_NE(hash_hex(hash), hash_hex(test::reference_hash(s, c.steps)));  // the inputs changed the run
+  }
+}
+
+UserInput input(UserInput::Kind kind, std::int64_t step, BodyId id) {
+  UserInput in;
+  in.kind = kind;
+  in.step = step;
+  in.id = id;
+  return in;
+}
+
+TEST(Mpi, InputsGiveTheOneTerritoryHash) {
+  std::vector<UserInput> bodies;
+  UserInput push = input(UserInput::Kind::ApplyImpulse, 10, 5);
+  push.linear = Vec3(0, 30, 0);
+  UserInput heavy = input(UserInput::Kind::SetMass, 12, 11);
+  heavy.value = 5.0;
+  UserInput fast = input(UserInput::Kind::SetVelocity, 15, 7);
+  fast.linear = Vec3(2, 0, 0);
+  UserInput ghost = input(UserInput::Kind::SetCollisionFilter, 20, 4);
+  ghost.collision_group = 16u, ghost.collision_mask = 0u;
+  UserInput tilt = input(UserInput::Kind::SetGravity, 25, 0);
+  tilt.linear = Vec3(1, -9.81, 0);
+  UserInput moved = input(UserInput::Kind::SetPose, 30, 13);
+  moved.linear = Vec3(0.5, 6.0, 0.5);
+  UserInput added = input(UserInput::Kind::AddBody, 40, 0);
+  added.body.id = 500;
+  added.body.shape = Shape::box(Vec3(0.5, 0.5, 0.5));
+  added.body.position = Vec3(0, 8, 0);
+  bodies = {push, heavy, fast, ghost, tilt, moved, input(UserInput::Kind::RemoveBody, 35, 9), added};
+  for (std::size_t i = 0; i < bodies.size(); ++i) bodies[i].sequence = i;
+  expect_inputs_give_the_one_territory_hash({"cube-pile", 100, "kmeans", 4, 80}, bodies);
+
+  const Scene pendulums = test::scene("pendulums", 8);
+  UserInput cut;
+  cut.kind = UserInput::Kind::RemoveJoint;
+  cut.step = 20;
+  cut.joint = pendulums.joints.at(3).id;
+  expect_inputs_give_the_one_territory_hash({"pendulums", 8, "grid:2x1x1", 2, 80}, {cut});
+}
+
 }  // namespace
 }  // namespace soda
 

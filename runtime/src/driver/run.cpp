@@ -401,8 +401,6 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
     if (config.world != WorldKind::Canonical) throw std::invalid_argument("over MPI ranks: the canonical world only");
     if (!config.record_path.empty())
       throw std::invalid_argument("over MPI ranks: --record is not supported yet (docs/mpi.md)");
-    if (config.inputs)
-      throw std::invalid_argument("over MPI ranks: inputs are not supported yet (docs/mpi.md)");
     if (!config.checkpoint_path.empty() || config.resume)
       throw std::invalid_argument("over MPI ranks: --checkpoint and --resume are not supported yet (docs/mpi.md)");
     return with_estimate(run_partitioned(scene, config));
