@@ -19,6 +19,15 @@
 #include "watchdog_scan.h"
 
 namespace soda {
+namespace {
+
+// Every value of a pair with `id` (a removed body's, or one whose filter
+// changed: its pairs end).
+void erase_pairs_of(std::map<std::pair<BodyId, BodyId>, ManifoldState>& values, BodyId id) {
+  std::erase_if(values, [id](const auto& v) { return v.first.first == id || v.first.second == id; });
+}
+
+}  // namespace
 
 TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, TerritoryMap map,
                                std::int64_t internal_steps_done, const TerritoryWorld* share_pools_of)
@@ -250,8 +259,7 @@ bool TerritoryWorld::set_user_data(BodyId id, std::uint64_t user_data) {
 // world keeps contact state for them. Pairs that pass the filter begin
 // again at the next collide, as in one world.
 bool TerritoryWorld::set_collision_filter(BodyId id, std::uint32_t group, std::uint32_t mask) {
-  for (auto it = kept_.begin(); it != kept_.end();)
-    it = (it->first.first == id || it->first.second == id) ? kept_.erase(it) : std::next(it);
+  erase_pairs_of(kept_, id);
   auto found = entries_.find(id);
   if (found == entries_.end() || found->second->role == Role::Static) return false;
   Entry& e = *found->second;
@@ -280,8 +288,7 @@ bool TerritoryWorld::remove_body(BodyId id) {
   if (!owns(id)) return false;
   unpark_for_input(*entries_.at(id));
   drop_joints(id, 0, true);
-  for (auto it = kept_.begin(); it != kept_.end();)
-    it = (it->first.first == id || it->first.second == id) ? kept_.erase(it) : std::next(it);
+  erase_pairs_of(kept_, id);
   remove_entry(id);
   return true;
 }

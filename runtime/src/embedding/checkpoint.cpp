@@ -348,9 +348,10 @@ SimulationSnapshot decode_checkpoint(const std::vector<std::uint8_t>& bytes, con
       if (id > kMaxJointId) r.fail("a retired joint id above kMaxJointId");
       if (!out.retired_joint_ids.empty() && id <= out.retired_joint_ids.back())
         r.fail("retired joint ids not ascending");
-      const bool held = std::any_of(s.joints.begin(), s.joints.end(),
-                                    [&](const JointSnapshot& j) { return j.description.id == id; });
-      if (held) r.fail("joint " + std::to_string(id) + " both held and retired");
+      auto held = std::lower_bound(s.joints.begin(), s.joints.end(), id,  // joints: ascending ids (above)
+                                   [](const JointSnapshot& j, JointId x) { return j.description.id < x; });
+      if (held != s.joints.end() && held->description.id == id)
+        r.fail("joint " + std::to_string(id) + " both held and retired");
       out.retired_joint_ids.push_back(id);
     }
   }

@@ -18,8 +18,9 @@
 // (Glue with entries, Fragments, Gather, Results) are not kept: a merged
 // island is re-merged by all its worlds, so a rollback over a step with
 // merge messages is one of every world (rollback_board.h), after which no
-// message of the old run of those steps is used. When no message can change any more (GVT at the clock) every
-// world has run every step on the final messages, which is the lockstep run.
+// message of the old run of those steps is used. When no message can change
+// any more (GVT at the clock) every world has run every step on the final
+// messages, which is the lockstep run.
 //
 // Why it ends: every rollback starts from a lost bet (a message that turned
 // out not empty; that bet is never placed again) or from a message that
