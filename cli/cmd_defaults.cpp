@@ -1,9 +1,12 @@
 // `soda bench defaults` (docs/stress.md "What the defaults cost"): one scene in one canonical world with the solver defaults
 // (SolverDefaults::Soda) and with Bullet's own solver
-// settings (SolverDefaults::Bullet), interleaved (soda, bullet, then bullet, soda,
-// ...) so that both see the same machine. Per configuration: every
-// repeat's stepping-thread CPU and wall seconds, the least of each, the
-// state hash; the ratios soda / bullet of the least CPU and wall seconds.
+// settings (SolverDefaults::Bullet), and in stock Bullet's own world (the
+// baseline of every speed-up), interleaved (the order rotates every repeat)
+// so that all see the same machine. Per configuration: every repeat's
+// stepping-thread CPU and wall seconds, the least of each, the state hash,
+// the pile's mean height at the end (RunResult::mean_height); the cost
+// soda / bullet of the least CPU and wall seconds, and the speed-up
+// stock / soda (> 1: the defaults are faster than stock Bullet).
 // JSON on stdout (and --out FILE), a summary on stderr.
 #include <algorithm>
 #include <cstdio>
@@ -25,22 +28,29 @@ struct DefaultsOptions {
   int steps = 600;
   int repeat = 3;
   std::string out;
+  bool stock = true;
 };
 
 struct DefaultsRun {
   const char* name;
   SolverDefaults defaults;
+  WorldKind world;
   std::vector<double> cpu, wall;
   std::uint64_t hash = 0;
   std::size_t sleeping = 0;
+  double mean_height = 0;
+  std::size_t below_ground = 0;
   double least_cpu() const { return *std::min_element(cpu.begin(), cpu.end()); }
   double least_wall() const { return *std::min_element(wall.begin(), wall.end()); }
 };
 
 nlohmann::json run_json(const DefaultsRun& run) {
   return {{"defaults", run.name},
+          {"world", world_kind_name(run.world)},
           {"state_hash", hash_hex(run.hash)},
           {"sleeping_bodies", run.sleeping},
+          {"mean_height", run.mean_height},
+          {"bodies_below_ground", run.below_ground},
           {"cpu_seconds", run.cpu},
           {"wall_seconds", run.wall},
           {"cpu_seconds_least", run.least_cpu()},
@@ -54,21 +64,27 @@ int run_defaults(DefaultsOptions& o) {
   RunConfig base;
   base.steps = o.steps;
   base.progress_seconds = 0;
-  DefaultsRun soda_run{"soda", SolverDefaults::Soda, {}, {}, 0, 0};
-  DefaultsRun bullet_run{"bullet", SolverDefaults::Bullet, {}, {}, 0, 0};
+  DefaultsRun soda_run{"soda", SolverDefaults::Soda, WorldKind::Canonical};
+  DefaultsRun bullet_run{"bullet", SolverDefaults::Bullet, WorldKind::Canonical};
+  DefaultsRun stock_run{"stock", SolverDefaults::Soda, WorldKind::Stock};
+  std::vector<DefaultsRun*> runs = {&soda_run, &bullet_run};
+  if (o.stock) runs.push_back(&stock_run);
   for (int r = 0; r < o.repeat; ++r) {
-    DefaultsRun* order[2] = {&soda_run, &bullet_run};
-    if (r % 2 == 1) std::swap(order[0], order[1]);
-    for (DefaultsRun* run : order) {
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      DefaultsRun* run = runs[(i + static_cast<std::size_t>(r)) % runs.size()];
       RunConfig c = base;
-      c.solver_defaults = run->defaults;
+      c.world = run->world;
+      if (run->world == WorldKind::Canonical) c.solver_defaults = run->defaults;
       const RunResult res = run_scene(scene, c);
       run->cpu.push_back(res.cpu_seconds);
       run->wall.push_back(res.wall_seconds);
       run->hash = res.state_hash;
       run->sleeping = res.sleeping_bodies;
-      std::fprintf(stderr, "  repeat %d/%d %-6s cpu %.3f s wall %.3f s hash %s\n", r + 1, o.repeat, run->name,
-                   res.cpu_seconds, res.wall_seconds, hash_hex(res.state_hash).c_str());
+      run->mean_height = res.mean_height;
+      run->below_ground = res.bodies_below_ground;
+      std::fprintf(stderr, "  repeat %d/%d %-6s cpu %.3f s wall %.3f s mean height %.3f m hash %s\n", r + 1,
+                   o.repeat, run->name, res.cpu_seconds, res.wall_seconds, res.mean_height,
+                   hash_hex(res.state_hash).c_str());
     }
   }
   const double cpu_cost = soda_run.least_cpu() / std::max(bullet_run.least_cpu(), 1e-12);
@@ -81,11 +97,19 @@ int run_defaults(DefaultsOptions& o) {
                       {"steps", o.steps},
                       {"repeat", o.repeat},
                       {"precision", kPrecisionName},
-                      {"runs", {run_json(soda_run), run_json(bullet_run)}},
                       {"cpu_cost_vs_bullet", cpu_cost},
                       {"wall_cost_vs_bullet", wall_cost}};
+  for (const DefaultsRun* run : runs) j["runs"].push_back(run_json(*run));
   std::fprintf(stderr, "defaults bench, %s n=%d, %d steps, least of %d: cost vs bullet (soda / bullet) CPU %.3f, wall %.3f\n",
                o.scene.c_str(), o.params.n, o.steps, o.repeat, cpu_cost, wall_cost);
+  if (o.stock) {
+    // One meaning everywhere: baseline time / our time, > 1 is faster.
+    j["speedup_vs_stock_cpu"] = stock_run.least_cpu() / std::max(soda_run.least_cpu(), 1e-12);
+    j["speedup_vs_stock_wall"] = stock_run.least_wall() / std::max(soda_run.least_wall(), 1e-12);
+    std::fprintf(stderr, "  speed-up of the defaults over stock Bullet (stock / soda): CPU %.3f, wall %.3f; mean height soda %.3f m, bullet settings %.3f m, stock %.3f m\n",
+                 j["speedup_vs_stock_cpu"].get<double>(), j["speedup_vs_stock_wall"].get<double>(),
+                 soda_run.mean_height, bullet_run.mean_height, stock_run.mean_height);
+  }
   write_json(j, "-");
   if (!o.out.empty()) write_json(j, o.out);
   return 0;
@@ -109,6 +133,7 @@ Command add_defaults_command(CLI::App& bench) {
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Also write the JSON to this file");
+  cmd->add_flag("!--no-stock", o->stock, "Leave out the run in stock Bullet's own world");
   return {cmd, [o] { return run_defaults(*o); }};
 }
 

@@ -43,6 +43,26 @@ class SleepingSwitch {
   bool saved_;
 };
 
+// RunResult::mean_height and bodies_below_ground from the final states.
+void measure_pile(const std::vector<BodyState>& states, const Scene& scene, RunResult& r) {
+  std::vector<BodyId> dynamic;
+  for (const Body& b : scene.bodies)
+    if (!b.is_static && !b.kinematic) dynamic.push_back(b.id);
+  std::sort(dynamic.begin(), dynamic.end());
+  double sum = 0;
+  std::size_t above = 0;
+  for (const BodyState& s : states) {
+    if (!std::binary_search(dynamic.begin(), dynamic.end(), s.id)) continue;
+    if (s.origin[1] < 0) {
+      ++r.bodies_below_ground;
+      continue;
+    }
+    sum += static_cast<double>(s.origin[1]);
+    ++above;
+  }
+  if (above > 0) r.mean_height = sum / static_cast<double>(above);
+}
+
 // Steps `world` and measures it. W: StockWorld or CanonicalWorld (same
 // step / state_hash / sleeping_count surface).
 template <class W>
@@ -87,6 +107,7 @@ RunResult run_world(W& world, const Scene& scene, const RunConfig& config) {
   r.step_time = StepTimeStats::from_ns(std::move(step_ns));
   r.state_hash = world.state_hash();
   r.sleeping_bodies = world.sleeping_count();
+  measure_pile(world.body_states(), scene, r);
   return r;
 }
 

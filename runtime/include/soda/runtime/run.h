@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -132,6 +133,14 @@ struct RunResult {
   std::size_t bodies = 0;           // all bodies, statics included
   std::size_t dynamic_bodies = 0;
   std::size_t sleeping_bodies = 0;  // at the end of the run
+  /// One territory (canonical or stock world): the mean height (centre y)
+  /// at the end of the dynamic bodies whose centre is at or above y = 0 (the
+  /// registry's ground top), and how many are below it (fallen off the
+  /// ground's edge, left out of the mean): how tall a pile stands, so that
+  /// "stable" is a number beside the time (`soda bench defaults`). NaN when
+  /// none is above; unset (NaN, 0) for partitioned runs.
+  double mean_height = std::numeric_limits<double>::quiet_NaN();
+  std::size_t bodies_below_ground = 0;
   int steps = 0;
   int territories = 1;
   double wall_seconds = 0;          // stepping only, not scene set-up
