@@ -199,20 +199,21 @@ TEST_F(CliWatchdog, HealThatCannotHelpGivesUpClearly) {
 }
 
 // A real blow-up (the README's example): a 1000 kg box on a 1 kg box
-// stepped at 0.33 s sinks 1.1 m into it in step 2. Stop names step 3,
-// whose contacts find it; heal re-simulates step 2 in substeps and the run
-// ends normally, every later step within the watchdog's limits.
+// stepped at 0.33 s with 5 iterations sinks 1.05 m into it in step 4. Stop
+// names step 5, whose contacts find it; heal re-simulates step 4 in
+// substeps, and step 13, where the falling stack sinks again, and the run
+// ends normally, every other step within the watchdog's limits.
 TEST_F(CliWatchdog, HealSavesARealBlowUp) {
-  const std::string run = "run --scene mass-ratio --n 1000 --dt 0.33 --steps 60 --log-level warn ";
+  const std::string run = "run --scene mass-ratio --n 1000 --dt 0.33 --iterations 5 --steps 60 --log-level warn ";
   const Outcome stop = run_cli(run);
   EXPECT_EQ(stop.exit_code, 1) << stop.output;
-  EXPECT_NE(stop.output.find("watchdog: step 3"), std::string::npos) << stop.output;
+  EXPECT_NE(stop.output.find("watchdog: step 5"), std::string::npos) << stop.output;
   EXPECT_NE(stop.output.find("penetrates"), std::string::npos) << stop.output;
   const std::string out = (dir_ / "healed.json").string();
   const Outcome heal = run_cli(run + "--watchdog heal --json " + out);
   ASSERT_EQ(heal.exit_code, 0) << heal.output;
   const nlohmann::json j = nlohmann::json::parse(std::ifstream(out));
-  EXPECT_EQ(j["healed_steps"], nlohmann::json::array({2})) << j.dump();
+  EXPECT_EQ(j["healed_steps"], nlohmann::json::array({4, 13})) << j.dump();
   EXPECT_EQ(j["steps"], 60);
 }
 
@@ -502,9 +503,9 @@ TEST_F(CliTest, JointScenesRunInEveryWorld) {
               std::string::npos)
         << o.output;
   }
-  // --watchdog heal: in steps of 0.5 s boxes sink more than 1 m into the planks; the heals are the same for 1
+  // --watchdog heal: in steps of 0.65 s boxes sink more than 1 m into the planks; the heals are the same for 1
   // and 2 territories, and so is the hash.
-  const std::string heal = "run --scene chain-bridge --n 12 --steps 60 --dt 0.5 --log-level warn --watchdog heal";
+  const std::string heal = "run --scene chain-bridge --n 12 --steps 60 --dt 0.65 --log-level warn --watchdog heal";
   const Outcome healed_one = run_cli(heal);
   ASSERT_EQ(healed_one.exit_code, 0) << healed_one.output;
   EXPECT_NE(healed_one.output.find("re-simulate step"), std::string::npos) << healed_one.output;

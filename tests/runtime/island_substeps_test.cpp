@@ -132,6 +132,24 @@ TEST(IslandSubsteps, JointChainProfile) {
   }
 }
 
+// A box island substepped by its approach splits its iterations between the
+// substeps; a joint chain substepped by the joint rule solves each substep
+// with the whole iterations (the chain stretches otherwise).
+TEST(IslandSubsteps, ContactSubstepsSplitTheIterationsJointSubstepsDoNot) {
+  IslandProfile fast;
+  fast.approach_rate = 1e3;
+  ASSERT_EQ(island_substeps(fast, 1.0 / 60), kIslandSubsteps);
+  EXPECT_EQ(substep_iterations(34, kIslandSubsteps, fast), 17);
+  EXPECT_EQ(substep_iterations(35, kIslandSubsteps, fast), 18);  // rounded up, never below half
+  EXPECT_EQ(substep_iterations(10, kIslandSubsteps, fast), kMinSubstepIterations);
+  EXPECT_EQ(substep_iterations(4, kIslandSubsteps, fast), 4);  // never more than the whole step's
+  EXPECT_EQ(substep_iterations(10, 1, fast), 10);
+  Chain c(kJointSubstepHeight + 1, 1);
+  const IslandProfile chain = c.profile();
+  ASSERT_EQ(island_substeps(chain, 1.0 / 60), kJointSubsteps);
+  EXPECT_EQ(substep_iterations(10, kJointSubsteps, chain), 10);
+}
+
 // Pendulums (four chains of 16 links) and chain-bridge (24 planks, with
 // boxes dropped on it: border islands with joints) are substepped, and
 // keep the one-world hash.

@@ -129,22 +129,27 @@ INSTANTIATE_TEST_SUITE_P(Runtime, WatchdogHeal,
                          });
 
 // A real blow-up, no hook: a 1000 kg box resting on a 1 kg box, stepped at
-// a third of a second. In step 2 the heavy box sinks 1.1 m into the light
-// one; the contact points of step 3 find it (a step's contacts come from
-// the positions the step before left), so stop names step 3, and heal
-// re-simulates step 2 — the step that made the penetration — in 8
-// substeps, and every later step passes the watchdog's check to the end
-// (the stack still falls: at 0.33 s no step keeps a 1000:1 stack up; the
-// heal keeps the run within bounds). One heal, the same for 1 and 2
-// territories, and the hash of one CanonicalWorld that takes step 2 in
-// substeps.
+// a third of a second with 5 iterations (the island gets sqrt(1000) x 5 =
+// 159; at the scene's 10 a substepped solve holds it). In step
+// kRealBlowUp - 1 the heavy box sinks more than 1 m into the light one; the
+// contact points of step kRealBlowUp find it (a step's contacts come from
+// the positions the step before left), so stop names step kRealBlowUp, and
+// heal re-simulates the step before — the step that made the penetration —
+// in 8 substeps, and every later step of the run passes the watchdog's
+// check (the stack still falls: at 0.33 s no step keeps a 1000:1 stack up;
+// it sinks again at step 14, a second heal, which kRealSteps stops short
+// of: repeated heals are HealsEveryBlowUpOfAStepTooLongForEveryPartition's).
+// One heal, the same for 1 and 2 territories, and the hash of one
+// CanonicalWorld that takes that step in substeps.
 Scene heavy_on_light() {
   Scene s = test::scene("mass-ratio", 1000);
   s.settings.dt = 0.33;
+  s.settings.iterations = 5;
   return s;
 }
 
-constexpr int kRealSteps = 60;
+constexpr int kRealBlowUp = 5;
+constexpr int kRealSteps = 12;
 
 TEST(Watchdog, StopFindsTheRealBlowUpAtTheStepAfterIt) {
   const Scene s = heavy_on_light();
@@ -156,7 +161,7 @@ TEST(Watchdog, StopFindsTheRealBlowUpAtTheStepAfterIt) {
     FAIL() << "the blow-up went unnoticed";
   } catch (const WatchdogError& e) {
     std::printf("stop: %s\n", e.what());
-    EXPECT_EQ(e.step(), 3);
+    EXPECT_EQ(e.step(), kRealBlowUp);
     ASSERT_FALSE(e.findings().empty());
     EXPECT_EQ(e.findings().front().kind, WatchdogFinding::Kind::Penetration);
     EXPECT_GT(e.findings().front().value, 1.0);
@@ -165,9 +170,9 @@ TEST(Watchdog, StopFindsTheRealBlowUpAtTheStepAfterIt) {
 
 TEST(Watchdog, HealsARealBlowUpAndStaysWithinBounds) {
   const Scene s = heavy_on_light();
-  // The reference: one CanonicalWorld, step 2 in 8 substeps.
+  // The reference: one CanonicalWorld, step kRealBlowUp - 1 in 8 substeps.
   CanonicalWorld w(s);
-  w.step();
+  for (int i = 0; i < kRealBlowUp - 2; ++i) w.step();
   WorldSnapshot at = w.snapshot();
   at.settings.substeps *= PartitionedOptions{}.runtime.watchdog.heal_substeps;
   auto fine = std::make_unique<CanonicalWorld>(at);
@@ -175,7 +180,7 @@ TEST(Watchdog, HealsARealBlowUpAndStaysWithinBounds) {
   WorldSnapshot after = fine->snapshot();
   after.settings.substeps = s.settings.substeps;
   CanonicalWorld rest(after);
-  for (int i = 2; i < kRealSteps; ++i) {
+  for (int i = kRealBlowUp - 1; i < kRealSteps; ++i) {
     rest.step();
     EXPECT_TRUE(rest.watchdog_findings(WatchdogLimits{}).empty()) << "step " << i + 1;
   }
@@ -189,7 +194,7 @@ TEST(Watchdog, HealsARealBlowUpAndStaysWithinBounds) {
     world.step(kRealSteps);  // every step checked; a finding the heal left would throw
     EXPECT_EQ(world.steps_done(), kRealSteps);
     ASSERT_EQ(world.heals(), 1) << territories << " territories";
-    EXPECT_EQ(world.healed_steps().front(), 2);
+    EXPECT_EQ(world.healed_steps().front(), kRealBlowUp - 1);
     EXPECT_EQ(hash_hex(world.state_hash()), hash_hex(rest.state_hash())) << territories << " territories";
     std::printf("[ heal K=%d ] healed step %lld: %s\n", territories,
                 static_cast<long long>(world.healed_steps().front()), hash_hex(world.state_hash()).c_str());
@@ -232,13 +237,13 @@ TEST(Watchdog, HealsEveryBlowUpOfAStepTooLongForEveryPartition) {
 
 // Joint scenes healed. The heals rebuild the worlds from kept states that
 // carry the joints (and whether each has broken), and re-simulate the step
-// with every joint. chain-bridge stepped at 0.5 s, where boxes sink more
+// with every joint. chain-bridge stepped at 0.65 s, where boxes sink more
 // than 1 m into the planks again and again: the same heals and hash for 1
 // and 4 territories. A ragdoll's pelvis made NaN at kBadStep: one heal, and
 // the hash of one CanonicalWorld that takes that step in substeps.
 TEST(Watchdog, HealsJointScenesForEveryPartition) {
   Scene bridge = test::scene("chain-bridge", 12);
-  bridge.settings.dt = 0.5;
+  bridge.settings.dt = 0.65;
   expect_same_heals_for_every_partition(bridge, 60, 1);
   const Scene ragdolls = test::scene("ragdolls", 8);
   ASSERT_FALSE(ragdolls.joints.empty());

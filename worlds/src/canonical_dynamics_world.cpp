@@ -408,15 +408,24 @@ void CanonicalDynamicsWorld::solve_islands(btContactSolverInfo& solver_info) {
                         solver_info, getDebugDrawer(), dispatcher);
 }
 
+// Coloured solves of the world's solver and of the spare ones: an island
+// small at the step's start may grow past kColouredMinContactRows in its
+// second substep on a spare solver, and counts as on one thread.
+std::size_t CanonicalDynamicsWorld::coloured_so_far() const {
+  std::size_t n = solver_->stats().coloured_islands;
+  for (const auto& s : spare_solvers_) n += s->stats().coloured_islands;
+  return n;
+}
+
 void CanonicalDynamicsWorld::solveConstraints(btContactSolverInfo& solver_info) {
   if (!bodies_sorted_) sort_dynamic_bodies();
   getConstraintSolver()->prepareSolve(getNumCollisionObjects(), getDispatcher()->getNumManifolds());
-  const std::size_t coloured_before = solver_->stats().coloured_islands;
+  const std::size_t coloured_before = coloured_so_far();
   build_islands();
   decide_sleeping();
   collect_island_manifolds();
   solve_islands(solver_info);
-  stats_.coloured_islands = solver_->stats().coloured_islands - coloured_before;
+  stats_.coloured_islands = coloured_so_far() - coloured_before;
   stats_.solver_threads = solver_->stats().threads_max;
   getConstraintSolver()->allSolved(solver_info, getDebugDrawer());
 }

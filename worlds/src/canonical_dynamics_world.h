@@ -150,6 +150,7 @@ class CanonicalDynamicsWorld final : public DetachableWorld, public ParkingHost 
   void decide_sleeping();
   void collect_island_manifolds();
   void solve_islands(btContactSolverInfo& solver_info);
+  std::size_t coloured_so_far() const;
   // canonical_stages.cpp: Bullet's per-item loops on the pool.
   SolverPool* stage_pool() const;  // null: no pool, or a pool of one thread
   void note_stage_threads(int threads);

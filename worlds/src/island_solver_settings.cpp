@@ -136,11 +136,23 @@ int island_iterations(int base, const IslandProfile& profile) {
   return static_cast<int>(std::ceil(base * factor));
 }
 
+namespace {
+
+bool joint_rule(const IslandProfile& profile) {
+  return profile.joint_height > kJointSubstepHeight || profile.joint_mass_ratio > kJointSubstepMassRatio;
+}
+
+}  // namespace
+
 int island_substeps(const IslandProfile& profile, double h) {
   if (!profile.boxes_only) return 1;
-  if (profile.joint_height > kJointSubstepHeight || profile.joint_mass_ratio > kJointSubstepMassRatio)
-    return kJointSubsteps;
+  if (joint_rule(profile)) return kJointSubsteps;
   return profile.approach_rate * h > kSubstepApproach ? kIslandSubsteps : 1;
+}
+
+int substep_iterations(int iterations, int substeps, const IslandProfile& profile) {
+  if (substeps <= 1 || joint_rule(profile)) return iterations;
+  return std::max(std::min(kMinSubstepIterations, iterations), (iterations + substeps - 1) / substeps);
 }
 
 const btContactSolverInfo& island_solver_info(const btContactSolverInfo& base, btContactSolverInfo& scratch,
@@ -149,7 +161,8 @@ const btContactSolverInfo& island_solver_info(const btContactSolverInfo& base, b
                                               btTypedConstraint* const* joints, int joint_count, int& substeps) {
   const IslandProfile profile = profile_island(bodies, body_count, manifolds, manifold_count, joints, joint_count);
   substeps = island_substeps(profile, base.m_timeStep);
-  const int iterations = island_iterations(base.m_numIterations, profile);
+  const int iterations =
+      substep_iterations(island_iterations(base.m_numIterations, profile), substeps, profile);
   const bool tall = profile.height > kPlainHeight;
   if (iterations == base.m_numIterations && !tall && !profile.stiff()) return base;
   scratch = base;

@@ -69,8 +69,22 @@ constexpr btScalar kTallWarmStartingFactor = 1;
 /// islands). Resting islands stay below it (they move ~0 per step).
 constexpr double kSubstepApproach = 0.05;
 /// Substeps of such an island: 2 passes the dense pile; 3 gave 0.141 m
-/// with the 0.1 threshold (no better), and each one costs a solve.
+/// with the 0.1 threshold (no better), and each one costs a solve. The
+/// island's iterations are split between its substeps (each solves
+/// ceil(iterations / kIslandSubsteps), at least kMinSubstepIterations), and
+/// the second substep warm-starts in full from the first
+/// (island_substeps.h): substepping costs a second setup and narrowphase,
+/// not a second solve, and every stress case passes in float and double
+/// (docs/stress.md, "The solver defaults"). Joint substeps (below) keep the
+/// whole iterations in each: split, hanging-chain-100 stretched 9.9 % of a
+/// link.
 constexpr int kIslandSubsteps = 2;
+/// The fewest iterations of a split substep: card-house-5 (planks on their
+/// 0.1 m edge, substepped as they settle) fell in double precision with 5
+/// per substep (7.5 m) and stands with 6, 7 and 8 in both precisions (6:
+/// 0.060 m double, 0.046 m float). The planks are close to tipping, so the
+/// verdict is partly chance (with 15 per substep: 0.11 m in double, FAIL).
+constexpr int kMinSubstepIterations = 6;
 
 /// An island whose joints hang a chain of more than this many dynamic
 /// bodies from a static one (IslandProfile::joint_height), or join two
@@ -128,6 +142,11 @@ int island_iterations(int base, const IslandProfile& profile);
 /// The substeps of an island of this profile with step h (island_substeps.h).
 int island_substeps(const IslandProfile& profile, double h);
 
+/// The iterations of each substep when an island of this profile is solved
+/// in `substeps` substeps of its `iterations`: split for the contact rule
+/// (kIslandSubsteps), whole for the joint rule (kJointSubsteps).
+int substep_iterations(int iterations, int substeps, const IslandProfile& profile);
+
 /// The solver info to solve one island with: `base` itself when nothing
 /// differs, else `scratch` (a copy of base with the island's iterations;
 /// an island taller than kPlainHeight warm-starts with
@@ -136,7 +155,8 @@ int island_substeps(const IslandProfile& profile, double h);
 /// split-impulse threshold 0, so no position error enters its velocities:
 /// heavy-drop-10 with Bullet's -0.04 m threw tower boxes 24 m at 340
 /// iterations and slid them 0.14 m at 1000).
-/// `substeps` gets island_substeps(profile, base.m_timeStep).
+/// `substeps` gets island_substeps(profile, base.m_timeStep); the info
+/// returned then holds the iterations of each substep (substep_iterations).
 const btContactSolverInfo& island_solver_info(const btContactSolverInfo& base, btContactSolverInfo& scratch,
                                               btCollisionObject* const* bodies, int body_count,
                                               btPersistentManifold* const* manifolds, int manifold_count,

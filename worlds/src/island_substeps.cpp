@@ -70,6 +70,10 @@ int solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int bod
                                                   for (int k = begin; k < end; ++k)
                                                     refresh_manifold(*manifolds[k], dispatch_info);
                                                 }));
+    // The first substep warm-starts from the last step as a whole solve
+    // does (info's factor); a later one from the substep just solved, with
+    // the same h / substeps, in full (docs/stress.md, "The solver defaults").
+    if (s == 1) sub.m_warmstartingFactor = 1;
     solver.solveGroup(bodies, body_count, manifolds, manifold_count, constraints, constraint_count, sub, nullptr,
                       &dispatcher);
     const bool last = s + 1 == substeps;

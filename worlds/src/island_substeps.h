@@ -52,7 +52,10 @@ class SolverPool;
 /// between substeps; the solveGroup calls use whatever pool the solver has.
 /// Returns the most threads that work between substeps could use (0: one
 /// substep, nothing between). `constraints` (the island's joints, in joint
-/// id order) go to every solveGroup call.
+/// id order) go to every solveGroup call. Each substep solves with
+/// info.m_numIterations (island_solver_info has split them); substeps
+/// after the first warm-start with factor 1: their impulses come from the
+/// substep before, of the same length, not from a step ago.
 int solve_island(btConstraintSolver& solver, btCollisionObject** bodies, int body_count,
                  btPersistentManifold** manifolds, int manifold_count, const btContactSolverInfo& info,
                  int substeps, btDispatcher& dispatcher, SolverPool* pool = nullptr,
