@@ -121,8 +121,8 @@ TEST(Simulation, SolverThreadsKeepTheOneWorldHash) {
   config.territories = 2;
   config.runtime.solver_threads = 2;
   Simulation sim(s, config);
-  ASSERT_TRUE(sim.advance_to(sim.time_of(60)));
-  EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(test::reference_hash(s, 60)));
+  ASSERT_TRUE(sim.advance_to(sim.time_of(90)));
+  EXPECT_EQ(hash_hex(sim.state_hash()), hash_hex(test::reference_hash(s, 90)));
   EXPECT_GT(test::total(sim.metrics()).coloured_islands, 0u);
   EXPECT_EQ(test::total(sim.metrics()).solver_threads, 2);
 }
