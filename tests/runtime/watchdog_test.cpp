@@ -137,8 +137,9 @@ INSTANTIATE_TEST_SUITE_P(Runtime, WatchdogHeal,
 // heal re-simulates the step before — the step that made the penetration —
 // in 8 substeps, and every later step of the run passes the watchdog's
 // check (the stack still falls: at 0.33 s no step keeps a 1000:1 stack up;
-// it sinks again at step 14, a second heal, which kRealSteps stops short
-// of: repeated heals are HealsEveryBlowUpOfAStepTooLongForEveryPartition's).
+// it sinks again in step 13, found at 14, a second heal, which kRealSteps
+// stops short of: repeated heals are
+// HealsEveryBlowUpOfAStepTooLongForEveryPartition's).
 // One heal, the same for 1 and 2 territories, and the hash of one
 // CanonicalWorld that takes that step in substeps.
 Scene heavy_on_light() {
