@@ -39,11 +39,20 @@ Outcome run(const Scene& s, const TerritoryMap& map, const PartitionedOptions& o
   return Outcome{w.state_hash(), test::total(w.metrics())};
 }
 
-// The heap is coloured, on `threads` threads; with K > 1 it is a merged
-// border island solved at a root.
-void expect_coloured(const Outcome& r, int k, int threads) {
+// The heap is coloured, on the pool's `threads` threads and up to `guests`
+// more; with K > 1 it is a merged border island solved at a root. A pool
+// of one thread with guest slots has someone to share a job with only
+// while a guest is inside (SolverPool::run): whether one ever was is a
+// matter of timing (under load at K = 2, often never in 150 steps), so the
+// guests' slots are a range here and their work is checked over all runs.
+void expect_coloured(const Outcome& r, int k, int threads, int guests = 0) {
   EXPECT_GT(r.total.coloured_islands, static_cast<std::uint64_t>(kMinColoured)) << "the heap was not solved coloured";
-  EXPECT_EQ(r.total.solver_threads, threads) << "the coloured solve did not get the pool's threads";
+  if (threads > 1 || guests == 0) {
+    EXPECT_EQ(r.total.solver_threads, threads + guests) << "the coloured solve did not get the pool's threads";
+  } else {
+    EXPECT_GE(r.total.solver_threads, 1) << "the coloured solve did not run";
+    EXPECT_LE(r.total.solver_threads, threads + guests) << "the coloured solve counted more threads than slots";
+  }
   if (k > 1) {
     EXPECT_GT(r.total.islands_solved, 0u);
     // The root solves its own share in place and the others' on copies.
@@ -82,7 +91,7 @@ TEST(ColouredSolve, CubePileEveryTerritoryCountAndSolverThreadCount) {
                   hash_hex(r.hash).c_str(), hash_hex(reference).c_str(),
                   static_cast<unsigned long long>(r.total.coloured_islands), r.total.solver_threads);
       EXPECT_EQ(hash_hex(r.hash), hash_hex(reference)) << "K=" << k << ", solver threads " << threads;
-      expect_coloured(r, k, threads + o.runtime.solver_guests);
+      expect_coloured(r, k, threads, o.runtime.solver_guests);
     }
   }
 }
@@ -123,7 +132,7 @@ TEST(ColouredSolve, WaitingWorldsServeTheRootsSolve) {
                 hash_hex(w.state_hash()).c_str(), hash_hex(reference).c_str(),
                 static_cast<unsigned long long>(total.guest_tasks));
     EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(reference)) << "K=" << c.k << ", guests " << c.guests;
-    expect_coloured(Outcome{w.state_hash(), total}, c.k, c.solver_threads + c.guests);
+    expect_coloured(Outcome{w.state_hash(), total}, c.k, c.solver_threads, c.guests);
     guest_tasks += total.guest_tasks;
     for (const WorldMetrics& m : metrics)
       if (m.guest_tasks > 0) {
