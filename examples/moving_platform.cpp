@@ -6,7 +6,11 @@
 // called (set_kinematic_target), waits at each floor, and rides again. The
 // ferry shuttles across the territory borders on a path from the scene (no
 // calls at all). Crates ride both: carried by friction, lifted, dropped at
-// the ends. A render thread reads every frame while the worlds run ahead:
+// the ends. At 3 s the ferry opens its hold: the application sets its
+// collision filter to touch nothing at the frame on screen, its crates drop
+// through to the ground, and at 5 s, past them, it closes again
+// (set_collision_filter on a kinematic body, kept by every world as a
+// command of its step). A render thread reads every frame while the worlds run ahead:
 // the platforms from the frame's kinematic list, the crates riding the
 // lift from a query at that frame. The run ends on the hash of one world
 // given the same calls.
@@ -25,6 +29,7 @@ namespace {
 
 constexpr soda::BodyId kElevator = 1;
 constexpr soda::BodyId kFerry = 2;
+constexpr int kHoldOpens = 180, kHoldCloses = 300;  // frames (60 Hz)
 
 soda::Body crate(soda::BodyId id, const soda::Vec3& at) {
   soda::Body b;
@@ -120,6 +125,9 @@ int main(int argc, char** argv) {
           const std::optional<soda::SceneFrame> frame = reader.read_at(sim.time_of(k));
           if (!frame) break;  // the run was stopped
           if (k < frames) sim.set_kinematic_target(frame->time, kElevator, elevator_target(k));
+          if (k == kHoldOpens) sim.set_collision_filter(frame->time, kFerry, soda::kDefaultCollisionGroup, 0u);
+          if (k == kHoldCloses)
+            sim.set_collision_filter(frame->time, kFerry, soda::kDefaultCollisionGroup, soda::kAllCollisionGroups);
           // Platforms are in the frame's kinematic list, where every world has them.
           const soda::ScenePose* lift = frame->find_kinematic(kElevator);
           const soda::ScenePose* ferry = frame->find_kinematic(kFerry);
@@ -130,9 +138,17 @@ int main(int argc, char** argv) {
           const auto riders = query.overlap_aabb(frame->time, soda::Vec3(-8.0, floor, 4.5),
                                                  soda::Vec3(-4.0, floor + 0.7, 7.5), crates_only);
           if (k % 60 != 0) continue;
-          std::printf("t = %4.1f s: elevator at y %5.2f m carrying %zu crates, ferry at x %6.2f m (v %5.2f m/s)\n",
-                      frame->time, double(lift->position[1]), riders ? riders->items.size() : 0,
-                      double(ferry->position[0]), double(ferry->linear_velocity[0]));
+          // Aboard the ferry: above its floor (0.45 m) and above the top of a
+          // crate on the ground (0.6 m).
+          const double fx = double(ferry->position[0]);
+          const auto aboard = query.overlap_aabb(frame->time, soda::Vec3(fx - 2.0, 0.62, -5.5),
+                                                 soda::Vec3(fx + 2.0, 1.15, -2.5), crates_only);
+          const std::optional<soda::BodyAt> hold = reader.properties(frame->step, kFerry);
+          std::printf("t = %4.1f s: elevator at y %5.2f m carrying %zu crates, ferry at x %6.2f m (v %5.2f m/s, hold "
+                      "%s) carrying %zu\n",
+                      frame->time, double(lift->position[1]), riders ? riders->items.size() : 0, fx,
+                      double(ferry->linear_velocity[0]), hold && hold->collision_mask == 0u ? "open" : "closed",
+                      aboard ? aboard->items.size() : 0);
         }
       } catch (...) {
         render_error = std::current_exception();
@@ -152,6 +168,9 @@ int main(int argc, char** argv) {
     // One world, the same calls given before it runs.
     soda::Simulation one(scene, {.threads = 1});
     for (int k = 0; k < frames; ++k) one.set_kinematic_target(one.time_of(k), kElevator, elevator_target(k));
+    if (kHoldOpens < frames) one.set_collision_filter(one.time_of(kHoldOpens), kFerry, soda::kDefaultCollisionGroup, 0u);
+    if (kHoldCloses < frames)
+      one.set_collision_filter(one.time_of(kHoldCloses), kFerry, soda::kDefaultCollisionGroup, soda::kAllCollisionGroups);
     one.advance_to(one.time_of(frames));
     const std::uint64_t expected = one.state_hash();
     std::printf("state hash %016llx, one world %016llx: %s\n", static_cast<unsigned long long>(hash),

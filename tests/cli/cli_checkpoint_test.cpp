@@ -98,10 +98,10 @@ TEST_F(CliCheckpoint, BadFilesAndOptionsAreBadInput) {
   flipped[bytes.size() / 2] ^= 1;
   const std::string damaged = write("damaged.ckpt", flipped);
   expect_refused("run --resume " + damaged, "checkpoint " + damaged + ": damaged");
-  std::string v12 = bytes;
-  v12[8] = 12;
-  const std::string version = write("v12.ckpt", v12);
-  expect_refused("run --resume " + version, "format version 12; this build reads versions 1 to 11");
+  std::string v13 = bytes;
+  v13[8] = 13;
+  const std::string version = write("v13.ckpt", v13);
+  expect_refused("run --resume " + version, "format version 13; this build reads versions 1 to 12");
   const std::string scene_file = write("scene.json", R"({"format": "soda-scene", "version": 1, "bodies": []})");
   expect_refused("run --resume " + scene_file, "not a SODA checkpoint");
   expect_refused("run --resume " + (dir_ / "missing.ckpt").string(), "cannot open");

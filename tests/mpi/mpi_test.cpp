@@ -235,7 +235,8 @@ TEST(Mpi, AFailingRankStopsEveryRankWhileSpeculating) { expect_failure_stops_eve
 // are the one-territory run's given the same inputs (every rank runs that
 // one alone), lockstep and speculating: bodies pushed, made heavy, given a
 // velocity, a pose and a collision filter, the gravity turned, a body
-// removed and one added; on the pendulums, a joint removed.
+// removed and one added; on the pendulums, a joint removed; on the
+// conveyor, a kinematic pallet's filter changed and changed back.
 void expect_inputs_give_the_one_territory_hash(const Case& c, const std::vector<UserInput>& inputs) {
   const Scene s = test::scene(c.scene, c.n);
   PartitionedOptions alone;
@@ -295,6 +296,14 @@ TEST(Mpi, InputsGiveTheOneTerritoryHash) {
   cut.step = 20;
   cut.joint = pendulums.joints.at(3).id;
   expect_inputs_give_the_one_territory_hash({"pendulums", 8, "grid:2x1x1", 2, 80}, {cut});
+
+  // A kinematic pallet (body 2) touches nothing from 30 to 40: its boxes
+  // drop into it; every rank keeps the filter as a command of its step.
+  UserInput open = input(UserInput::Kind::SetCollisionFilter, 30, 2);
+  open.collision_group = kDefaultCollisionGroup, open.collision_mask = 0u;
+  UserInput closed = input(UserInput::Kind::SetCollisionFilter, 40, 2);
+  closed.sequence = 1;
+  expect_inputs_give_the_one_territory_hash({"conveyor", 48, "kmeans", 4, 80}, {open, closed});
 }
 
 }  // namespace

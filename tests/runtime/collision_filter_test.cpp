@@ -250,5 +250,96 @@ TEST(FilterInputDecomposition, ChurnFuzzedOnEverySchedule) {
   }
 }
 
+// A kinematic body's filter by input (kept as a command of its step in
+// every world, Body::filter_commands): on the conveyor, pallet 2 touches
+// nothing from step 30 to 40 (its boxes drop into it, then it catches them
+// again), and the elevator (6) nothing from step 150 to 170, while it rests
+// at the bottom with its boxes asleep on it (parked, with parking on: they
+// come back at each of its filter changes, so that their contacts with it
+// end as in a world that parks nothing); it rises from step 240 and wakes
+// them. The same matrix: K 1 to 8, parking on and off, speculating, under
+// SyncTest (which rebuilds every world at each step between the commands),
+// and cells ceded under the fuzzer on every schedule.
+constexpr int kConveyorSteps = 260;
+
+const Scene& conveyor() {
+  static const Scene s = test::scene("conveyor", 48);
+  return s;
+}
+
+std::vector<UserInput> kinematic_filter_inputs() {
+  std::vector<UserInput> out;
+  auto filter = [&](std::int64_t step, BodyId id, std::uint32_t group, std::uint32_t mask) {
+    UserInput in;
+    in.kind = UserInput::Kind::SetCollisionFilter;
+    in.step = step;
+    in.id = id;
+    in.collision_group = group;
+    in.collision_mask = mask;
+    in.sequence = out.size();
+    out.push_back(in);
+  };
+  filter(30, 2, kDefaultCollisionGroup, 0u);
+  filter(40, 2, kDefaultCollisionGroup, kAllCollisionGroups);
+  filter(150, 6, kDefaultCollisionGroup, 0u);
+  filter(170, 6, kDefaultCollisionGroup, kAllCollisionGroups);
+  return out;
+}
+
+std::uint64_t kinematic_input_reference() {
+  static const std::uint64_t hash = [] {
+    PartitionedOptions o;
+    o.inputs = kinematic_filter_inputs();
+    o.runtime.parking = false;
+    PartitionedWorld one(conveyor(), make_partition("kmeans", conveyor(), 1, GridOptions{}), o);
+    one.step(kConveyorSteps);
+    return one.state_hash();
+  }();
+  return hash;
+}
+
+class KinematicFilterInputDecomposition : public ::testing::TestWithParam<test::MatrixCase> {};
+
+TEST_P(KinematicFilterInputDecomposition, EqualsTheOneWorldHash) {
+  const test::MatrixCase c = GetParam();
+  const test::MatrixRun run = test::expect_one_world_hash(conveyor(), "conveyor 48, kinematic filters by input", c,
+                                                          kConveyorSteps, kinematic_input_reference(),
+                                                          kinematic_filter_inputs());
+  if (c.sync_test > 0) EXPECT_GT(run.sync_rollbacks, 0u);
+  EXPECT_NE(hash_hex(kinematic_input_reference()), hash_hex(test::reference_hash(conveyor(), kConveyorSteps)))
+      << "the inputs changed nothing";
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Partitioned, KinematicFilterInputDecomposition,
+    test::decomposition_matrix(),
+    [](const auto& info) { return test::matrix_case_name(info.param); });
+
+TEST(KinematicFilterInputDecomposition, ChurnFuzzedOnEverySchedule) {
+  std::uint64_t seed = 11;
+  for (Schedule schedule : {Schedule::Sequential, Schedule::Pool, Schedule::ThreadPerWorld}) {
+    PartitionedOptions o;
+    o.schedule = schedule;
+    o.threads = schedule == Schedule::Pool ? 2 : 0;
+    o.inputs = kinematic_filter_inputs();
+    o.runtime.anticipation = 8;
+    o.runtime.balance.policy = "churn";
+    o.runtime.balance.period = 10;
+    o.runtime.balance.seed = seed;
+    detail::edit_testing_hooks(o).fuzz_seed = seed++;
+    PartitionedWorld w(conveyor(), make_partition("kmeans", conveyor(), 4, GridOptions{}), o);
+    w.step(kConveyorSteps);
+    const BalanceTotals t = balance_totals(w.balance_log());
+    std::printf("[ conveyor 48 %s, kinematic filters by input, K 4, churn, fuzz %llu, schedule %d ] %lld bodies "
+                "moved; %s, one world %s\n",
+                kPrecisionName, static_cast<unsigned long long>(seed - 1), static_cast<int>(schedule),
+                static_cast<long long>(t.bodies_moved), hash_hex(w.state_hash()).c_str(),
+                hash_hex(kinematic_input_reference()).c_str());
+    EXPECT_GT(t.bodies_moved, 0);
+    EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(kinematic_input_reference()))
+        << "schedule " << static_cast<int>(schedule);
+  }
+}
+
 }  // namespace
 }  // namespace soda

@@ -2,7 +2,7 @@
 //
 // Layout (little-endian, no padding): "SODAWSN1", u32 version, u32
 // sizeof(btScalar), settings, i64 steps_done, u32 body count, bodies, u32
-// manifold count, manifolds; version 6 (written only for a snapshot with
+// manifold count, manifolds; version 12 (written only for a snapshot with
 // joints) then u32 joint count, joints. Bodies as write_body writes them
 // (collision filter, compound children, user data). Every read is bounds-checked; counts are checked
 // against the bytes left before anything is allocated.
@@ -24,10 +24,10 @@ namespace {
 constexpr char kMagic[8] = {'S', 'O', 'D', 'A', 'W', 'S', 'N', '1'};
 // 3 and 4: bodies carry their collision filter and compound children (1
 // and 2 before); 5 and 6: and their user data; 7 and 8: and triangle mesh
-// and heightfield data; 9 and 10: and their sensor flag. Only these two are
-// read.
-constexpr std::uint32_t kVersion = 9;        // no joints
-constexpr std::uint32_t kJointsVersion = 10;  // with joints
+// and heightfield data; 9 and 10: and their sensor flag; 11 and 12: and a
+// kinematic body's collision filter inputs. Only these two are read.
+constexpr std::uint32_t kVersion = 11;        // no joints
+constexpr std::uint32_t kJointsVersion = 12;  // with joints
 std::vector<std::uint8_t> joint_bytes(const JointSnapshot& j) {
   ByteWriter w;
   write_joint(w, j);

@@ -225,7 +225,8 @@ bool TerritoryWorld::touches_commanded_kinematic(int island) const {
   for (int i = parts_->held.begin(island); i < parts_->held.begin(island + 1); ++i)
     for (const btCollisionObject* o : {ms[static_cast<std::size_t>(i)]->getBody0(), ms[static_cast<std::size_t>(i)]->getBody1()}) {
       const Entry& e = entry_of(o);
-      if (e.description.kinematic && !e.description.commands.empty()) return true;
+      if (e.description.kinematic && (!e.description.commands.empty() || !e.description.filter_commands.empty()))
+        return true;
     }
   return false;
 }

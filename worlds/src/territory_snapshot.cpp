@@ -41,18 +41,16 @@ TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, Territ
     if (d.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
     if (d.is_static) {
       // A rollback's rebuild: the world it replaces has every command of
-      // its kinematic bodies applied so far (the snapshot's statics may be
-      // the scene's); commands are keyed by step and never change.
+      // its kinematic bodies applied so far, pose and filter (the
+      // snapshot's statics may be the scene's); commands are keyed by step
+      // and never change.
       const Entry* old = nullptr;
       if (d.kinematic && share_pools_of)
         if (auto it = share_pools_of->entries_.find(d.id); it != share_pools_of->entries_.end()) old = it->second.get();
-      if (old && !old->description.commands.empty()) {
+      if (old && (!old->description.commands.empty() || !old->description.filter_commands.empty())) {
         Body merged = d;
-        for (const KinematicCommand& c : old->description.commands) {
-          auto at = std::lower_bound(merged.commands.begin(), merged.commands.end(), c.step,
-                                     [](const KinematicCommand& x, std::int64_t step) { return x.step < step; });
-          if (at == merged.commands.end() || at->step != c.step) merged.commands.insert(at, c);
-        }
+        merge_commands(merged.commands, old->description.commands);
+        merge_commands(merged.filter_commands, old->description.filter_commands);
         insert_static(merged);
       } else {
         insert_static(d);
@@ -268,6 +266,33 @@ bool TerritoryWorld::set_collision_filter(BodyId id, std::uint32_t group, std::u
   e.description.collision_mask = mask;
   parts_->world.removeRigidBody(e.body.get());
   add_body_with_canonical_proxy(parts_->world, parts_->broadphase, e.body.get(), proxy_bits(group), proxy_bits(mask));
+  quiet_ = -1;
+  return true;
+}
+
+// A kinematic body's filter, in every world at the same boundary: the
+// command joins its description (a world rebuilt later takes the filter
+// in effect from there: collision_filter_before), and the body leaves the
+// broadphase and comes back with it, as a dynamic body's does. Every parked
+// island comes back first: a pair the new filter allows with a parked body
+// is found at the next collide, as in a world that parks nothing.
+bool TerritoryWorld::filter_kinematic(BodyId id, const FilterCommand& command) {
+  auto found = entries_.find(id);
+  if (found == entries_.end() || !found->second->description.kinematic) return false;
+  Entry& e = *found->second;
+  record_filter_command(e.description.filter_commands, command);
+  erase_pairs_of(kept_, id);
+  if (parking_ && parts_->parking.parked_islands() > 0) {
+    // As unpark_for_input, for every island: bodies and contacts back now,
+    // so that the body's contacts with them end below as Bullet's do.
+    parts_->parking.touch_all();
+    parts_->parking.wake_touched();
+    parts_->parking.restore_woken_contacts();
+    sort_lists();
+  }
+  parts_->world.removeRigidBody(e.body.get());
+  add_body_with_canonical_proxy(parts_->world, parts_->broadphase, e.body.get(), proxy_bits(command.group),
+                                proxy_bits(command.mask));
   quiet_ = -1;
   return true;
 }

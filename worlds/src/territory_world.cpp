@@ -9,6 +9,7 @@
 #include <string>
 
 #include "canonical_dynamics_world.h"
+#include "soda/scene/kinematic_command.h"
 #include "soda/worlds/bullet_allocator.h"
 #include "soda/worlds/bullet_bodies.h"
 #include "island_solver_settings.h"
@@ -109,8 +110,8 @@ void TerritoryWorld::insert_static(const Body& b) {
   if (b.kinematic) write_kinematic_state(*e->body, b, settings_, steps_done_);
   e->role = Role::Static;
   e->body->setUserPointer(e.get());
-  add_body_with_canonical_proxy(parts_->world, parts_->broadphase, e->body.get(), proxy_bits(b.collision_group),
-                                proxy_bits(b.collision_mask));
+  const auto [group, mask] = collision_filter_before(b, steps_done_, settings_.substeps);
+  add_body_with_canonical_proxy(parts_->world, parts_->broadphase, e->body.get(), proxy_bits(group), proxy_bits(mask));
   Entry* raw = e.get();
   if (!entries_.emplace(b.id, std::move(e)).second)
     throw PartitionError("TerritoryWorld: duplicate body id " + std::to_string(b.id));

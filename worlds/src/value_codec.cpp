@@ -197,7 +197,8 @@ std::string body_format_loss(const Body& d, BodyFormat format) {
   if (format < BodyFormat::WithoutMeshes && d.user_data != 0) return "its user data";
   if (format < BodyFormat::WithoutSensor && d.shape.is_concave()) return std::string("its ") + shape_kind_name(d.shape.kind);
   if (format < BodyFormat::WithoutKinematic && d.sensor) return "its sensor flag";
-  if (format < BodyFormat::Current && d.kinematic) return "its kinematic motion";
+  if (format < BodyFormat::WithoutFilterCommands && d.kinematic) return "its kinematic motion";
+  if (format < BodyFormat::Current && !d.filter_commands.empty()) return "its collision filter inputs";
   return "";
 }
 
@@ -223,6 +224,10 @@ void write_body(ByteWriter& w, const BodySnapshot& b, BodyFormat format) {
       const Quat& q = c.pose.orientation;
       w.put(q.w()), w.put(q.x()), w.put(q.y()), w.put(q.z());
     }
+    if (format >= BodyFormat::Current) {
+      w.count(d.filter_commands.size());
+      for (const FilterCommand& c : d.filter_commands) w.put(c.step), w.put(c.group), w.put(c.mask);
+    }
   }
   write_shape(w, d.shape, format);
   w.put(d.mass), w.put(d.friction), w.put(d.restitution);
@@ -243,7 +248,7 @@ BodySnapshot read_body(ByteReader& r, BodyFormat format) {
   d.id = r.get<BodyId>();
   if (d.id > kMaxBodyId) r.fail("body id above kMaxBodyId");
   const auto is_static = r.get<std::uint8_t>();
-  if (is_static > (format >= BodyFormat::Current ? 2 : 1)) r.fail("bad static flag");
+  if (is_static > (format >= BodyFormat::WithoutFilterCommands ? 2 : 1)) r.fail("bad static flag");
   d.is_static = is_static >= 1;
   d.kinematic = is_static == 2;
   if (d.kinematic) {
@@ -273,6 +278,18 @@ BodySnapshot read_body(ByteReader& r, BodyFormat format) {
     }
     for (std::size_t i = 1; i < d.commands.size(); ++i)
       if (!(d.commands[i].step > d.commands[i - 1].step)) r.fail("kinematic command steps not ascending");
+    if (format >= BodyFormat::Current) {
+      const std::uint32_t nf = r.count(16);  // step, group, mask
+      d.filter_commands.resize(nf);
+      for (FilterCommand& c : d.filter_commands) {
+        c.step = r.get<std::int64_t>();
+        c.group = r.get<std::uint32_t>();
+        c.mask = r.get<std::uint32_t>();
+      }
+      for (std::size_t i = 1; i < d.filter_commands.size(); ++i)
+        if (!(d.filter_commands[i].step > d.filter_commands[i - 1].step))
+          r.fail("kinematic filter command steps not ascending");
+    }
   }
   d.shape = read_shape(r, format, false);
   d.mass = r.finite(), d.friction = r.finite(), d.restitution = r.finite();
@@ -387,6 +404,11 @@ bool same_bits(const Body& a, const Body& b) {
     same_vec(same, x.pose.position, y.pose.position);
     same(x.pose.orientation.w(), y.pose.orientation.w()), same(x.pose.orientation.x(), y.pose.orientation.x());
     same(x.pose.orientation.y(), y.pose.orientation.y()), same(x.pose.orientation.z(), y.pose.orientation.z());
+  }
+  if (a.filter_commands.size() != b.filter_commands.size()) return false;
+  for (std::size_t i = 0; i < a.filter_commands.size(); ++i) {
+    const FilterCommand &x = a.filter_commands[i], &y = b.filter_commands[i];
+    same(x.step, y.step), same(x.group, y.group), same(x.mask, y.mask);
   }
   if (!same_shape(same, a.shape, b.shape)) return false;
   same(a.mass, b.mass), same(a.friction, b.friction), same(a.restitution, b.restitution);

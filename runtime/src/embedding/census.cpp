@@ -4,6 +4,7 @@
 #include <iterator>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 
 #include "soda/scene/kinematic_command.h"
 #include "soda/worlds/bullet_bodies.h"
@@ -48,6 +49,8 @@ void Census::record(const UserInput& in) {
     list.insert(std::upper_bound(list.begin(), list.end(), in,
                                  [&](const UserInput& a, const UserInput& b) { return key(a) < key(b); }),
                 in);
+    if (auto it = kinematic_.find(in.id); it != kinematic_.end())  // as every world does
+      record_filter_command(it->second.filter_commands, FilterCommand{in.step, in.collision_group, in.collision_mask});
   } else if (in.kind == UserInput::Kind::SetPose || in.kind == UserInput::Kind::SetKinematicTarget) {
     auto it = kinematic_.find(in.id);
     if (it == kinematic_.end()) return;  // a dynamic body's set_pose: in its owner's frames
@@ -70,6 +73,11 @@ bool Census::properties(BodyId id, std::int64_t step, Body& out) const {
     auto s = std::lower_bound(statics_.begin(), statics_.end(), id, [](const Body& b, BodyId i) { return b.id < i; });
     if (s == statics_.end() || s->id != id) return false;
     out = *s;
+    if (auto k = kinematic_.find(id); k != kinematic_.end()) {
+      // A kinematic body's filter inputs: in frames after their boundary.
+      out.filter_commands = k->second.filter_commands;
+      std::tie(out.collision_group, out.collision_mask) = collision_filter_before(out, step, 1);
+    }
     return true;
   }
   out = it->second;

@@ -34,7 +34,8 @@ class Census {
   /// Takes an accepted input into account: AddBody and RemoveBody change
   /// presence, SetMass, SetFriction, SetRestitution and SetUserData a body's
   /// properties, SetPose and SetKinematicTarget a kinematic body's commands
-  /// (as every world records them); other kinds are ignored.
+  /// and SetCollisionFilter its filter commands (as every world records
+  /// them); other kinds are ignored.
   void record(const UserInput& input);
   /// Number of dynamic bodies in the frame of `step`.
   std::size_t count_at(std::int64_t step) const;
@@ -54,8 +55,9 @@ class Census {
   /// commands of inputs at boundaries before `step`), ascending id.
   std::vector<BodyState> kinematic_states(std::int64_t step) const;
   /// Body `id` as the frame of `step` holds it: its description with the
-  /// mass, friction, restitution and user data that inputs at boundaries
-  /// before `step` gave it, in (step, sequence) order. Null (false) for an
+  /// mass, friction, restitution, user data and collision filter that
+  /// inputs at boundaries before `step` gave it, in (step, sequence) order
+  /// (a kinematic body: the filter). Null (false) for an
   /// unknown id. Presence at `step` is not checked.
   bool properties(BodyId id, std::int64_t step, Body& out) const;
 

@@ -74,6 +74,10 @@ constexpr std::uint32_t kAddJointVersion = 10;
 // mask after the input record) and retired joint ids (after the joints).
 constexpr std::uint32_t kFilterInputVersion = 11;
 
+// The first version whose kinematic body records carry their collision
+// filter inputs (after their commands).
+constexpr std::uint32_t kKinematicFilterVersion = 12;
+
 // The newest input kind a version knows.
 UserInput::Kind last_kind(std::uint32_t version) {
   if (version >= kFilterInputVersion) return UserInput::Kind::SetCollisionFilter;
@@ -86,16 +90,17 @@ UserInput::Kind last_kind(std::uint32_t version) {
 // How a version writes a body record: 1 without a collision filter, 2
 // without compound children, 3 without user data, 4 without triangle mesh
 // and heightfield data, 5 without the sensor flag, 6 without kinematic
-// bodies.
+// bodies, 7 to 11 without a kinematic body's filter inputs.
 BodyFormat body_format(std::uint32_t version) {
+  if (version >= kKinematicFilterVersion) return BodyFormat::Current;
+  if (version >= kKinematicVersion) return BodyFormat::WithoutFilterCommands;
   switch (version) {
     case 1: return BodyFormat::WithoutFilter;
     case 2: return BodyFormat::WithoutCompounds;
     case 3: return BodyFormat::WithoutUserData;
     case 4: return BodyFormat::WithoutMeshes;
     case 5: return BodyFormat::WithoutSensor;
-    case 6: return BodyFormat::WithoutKinematic;
-    default: return BodyFormat::Current;
+    default: return BodyFormat::WithoutKinematic;
   }
 }
 

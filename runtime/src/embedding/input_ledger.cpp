@@ -216,11 +216,10 @@ void InputLedger::check(const UserInput& in) const {
     throw std::invalid_argument(what + ": body " + std::to_string(in.id) +
                                 " is not kinematic (set_kinematic_target moves kinematic bodies; set_pose puts any "
                                 "body that is not static somewhere)");
-  if (life.kinematic && !moves_kinematic)
+  if (life.kinematic && !moves_kinematic && in.kind != UserInput::Kind::SetCollisionFilter)
     throw std::invalid_argument(what + ": body " + std::to_string(in.id) +
-                                " is kinematic: it is moved by its path, set_kinematic_target and set_pose only" +
-                                (in.kind == UserInput::Kind::SetCollisionFilter ? " (its collision filter is the scene's)"
-                                                                                 : ""));
+                                " is kinematic: it is moved by its path, set_kinematic_target and set_pose only, "
+                                "and its collision filter changes by set_collision_filter");
   if (life.is_static && !life.kinematic) throw std::invalid_argument(what + ": the body is static");
   if (life.retired)
     throw std::invalid_argument(what + ": the body was removed before the snapshot this run was restored from");

@@ -79,7 +79,8 @@ void PartitionedWorld::Process::apply_inputs() {
       case UserInput::Kind::AddJoint: s_.world->add_joint(in.added_joint); break;  // the owner of its bodies
       case UserInput::Kind::SetJointMotor: s_.world->set_joint_motor(in.joint, in.motor); break;  // the same
       case UserInput::Kind::SetCollisionFilter:  // every world (its copies and kept contacts of the body)
-        s_.world->set_collision_filter(in.id, in.collision_group, in.collision_mask);
+        if (!s_.world->filter_kinematic(in.id, FilterCommand{in.step, in.collision_group, in.collision_mask}))
+          s_.world->set_collision_filter(in.id, in.collision_group, in.collision_mask);
         break;
     }
   }

@@ -38,7 +38,7 @@ class CheckpointError : public std::runtime_error {
 
 /// The checkpoint format version this build writes. It reads this one and
 /// every one from kOldestCheckpointVersion on (docs/checkpoints.md, "Versions").
-inline constexpr std::uint32_t kCheckpointVersion = 11;
+inline constexpr std::uint32_t kCheckpointVersion = 12;
 /// Version 1: body records without a collision filter (they read back with
 /// the default one); version 2: without compound children; version 3:
 /// without user data (it reads back as 0), and inputs without the value and
@@ -49,7 +49,8 @@ inline constexpr std::uint32_t kCheckpointVersion = 11;
 /// version 7: without joints; version 8: inputs without a joint id and
 /// kind 11 (remove_joint); version 9: without kinds 12 (add_joint) and 13
 /// (set_joint_motor), and inputs without a motor; version 10: without kind
-/// 14 (set_collision_filter).
+/// 14 (set_collision_filter); version 11: without a kinematic body's
+/// collision filter inputs.
 inline constexpr std::uint32_t kOldestCheckpointVersion = 1;
 
 /// What a checkpoint's fixed header says (docs/checkpoints.md, "Header").
@@ -68,7 +69,8 @@ std::vector<std::uint8_t> encode_checkpoint(const SimulationSnapshot& snapshot);
 /// The same in an older format `version` (kOldestCheckpointVersion ..
 /// kCheckpointVersion), for a tool that must hand a file to an older build.
 /// Throws CheckpointError, naming the body or the input, if the snapshot
-/// holds what that version cannot say (before 10: an add_joint or
+/// holds what that version cannot say (before 12: a kinematic body's
+/// collision filter inputs; before 10: an add_joint or
 /// set_joint_motor input;
 /// before 9: a remove_joint input;
 /// before 8: a joint; before 7: a

@@ -5,6 +5,8 @@
 #pragma once
 
 #include <algorithm>
+#include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "soda/scene/input_file.h"
@@ -26,6 +28,42 @@ inline void record_kinematic_command(std::vector<KinematicCommand>& commands, co
     *at = command;
   else
     commands.insert(at, command);
+}
+
+/// The same for a kinematic body's collision filter inputs.
+inline void record_filter_command(std::vector<FilterCommand>& commands, const FilterCommand& command) {
+  auto at = std::lower_bound(commands.begin(), commands.end(), command.step,
+                             [](const FilterCommand& x, std::int64_t step) { return x.step < step; });
+  if (at != commands.end() && at->step == command.step)
+    *at = command;
+  else
+    commands.insert(at, command);
+}
+
+/// Merges `from` into `into` (both ascending step): a command of a step
+/// `into` has is kept. Commands are keyed by step and never change, so
+/// two worlds' lists never disagree on a step both hold.
+template <typename Command>
+void merge_commands(std::vector<Command>& into, const std::vector<Command>& from) {
+  for (const Command& c : from) {
+    auto at = std::lower_bound(into.begin(), into.end(), c.step,
+                               [](const Command& x, std::int64_t step) { return x.step < step; });
+    if (at == into.end() || at->step != c.step) into.insert(at, c);
+  }
+}
+
+/// A body's collision filter (group, mask) at internal step n, before the
+/// inputs of that boundary, with `substeps` internal steps a scene step: a
+/// kinematic body's last filter command of a boundary below n (step *
+/// substeps < n), else the body's own. (A world built at internal step n
+/// takes these; those of boundary n are its inputs there, applied when it
+/// steps on.)
+inline std::pair<std::uint32_t, std::uint32_t> collision_filter_before(const Body& body, std::int64_t n,
+                                                                        std::int64_t substeps) {
+  const auto after = std::partition_point(body.filter_commands.begin(), body.filter_commands.end(),
+                                          [&](const FilterCommand& c) { return c.step * substeps < n; });
+  if (after == body.filter_commands.begin()) return {body.collision_group, body.collision_mask};
+  return {(after - 1)->group, (after - 1)->mask};
 }
 
 }  // namespace soda

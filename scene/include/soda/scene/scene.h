@@ -159,6 +159,16 @@ struct KinematicCommand {
   Pose pose;
 };
 
+/// A collision filter input of a kinematic body
+/// (Simulation::set_collision_filter; docs/scene-format.md, "Kinematic
+/// bodies"), at the boundary after scene step `step`: from the next step on
+/// the body's filter is this one.
+struct FilterCommand {
+  std::int64_t step = 0;
+  std::uint32_t group = 0;
+  std::uint32_t mask = 0;
+};
+
 /// One rigid body. Static bodies have mass 0 and never move, but for
 /// kinematic ones.
 struct Body {
@@ -179,6 +189,12 @@ struct Body {
   /// then on the body holds the pose of the last command it reached.
   /// Written to snapshots and checkpoints, never to scene files.
   std::vector<KinematicCommand> commands;
+  /// Kinematic bodies only: the collision filter inputs it got, ascending
+  /// step, one per step (the last input of a step). Its filter at a step is
+  /// the last command's before it, else collision_group / collision_mask
+  /// (which stay the scene's). Written to snapshots and checkpoints, never
+  /// to scene files.
+  std::vector<FilterCommand> filter_commands;
   Shape shape;
   double mass = 1.0;         // kg; > 0 for dynamic bodies, ignored for statics
   double friction = 0.5;     // Bullet's friction coefficient

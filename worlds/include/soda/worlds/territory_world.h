@@ -304,6 +304,9 @@ class TerritoryWorld {
   /// body's command (docs/scene-format.md, "Kinematic bodies"), kept in its
   /// description, one per step (the later replaces). False if not kinematic.
   bool command_kinematic(BodyId id, const KinematicCommand& command);
+  /// A kinematic body's collision filter input at this boundary (every
+  /// world): false if `id` is not a kinematic body here.
+  bool filter_kinematic(BodyId id, const FilterCommand& command);
   /// Input at a step boundary, set_pose of a dynamic body: its owner puts it
   /// at `pose` (transform and interpolation transform, inertia tensor),
   /// keeps its velocities and wakes it; the next steps ghost and migrate it

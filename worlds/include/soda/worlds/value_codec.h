@@ -100,13 +100,23 @@ inline constexpr std::size_t kMinChildBytes = 1 + 8 * 5 + 4 + 4 + 8 * 7;
 /// children: such shapes cannot be written), WithoutSensor (no sensor flag
 /// after the user data: not a sensor), WithoutKinematic (no kinematic
 /// bodies: static byte 2 and its path and commands), Current.
-enum class BodyFormat { WithoutFilter, WithoutCompounds, WithoutUserData, WithoutMeshes, WithoutSensor, WithoutKinematic, Current };
+enum class BodyFormat {
+  WithoutFilter,
+  WithoutCompounds,
+  WithoutUserData,
+  WithoutMeshes,
+  WithoutSensor,
+  WithoutKinematic,
+  WithoutFilterCommands,
+  Current
+};
 /// A body: description (shape, mass, friction, ..., collision filter, user
 /// data) and raw state. An older `format` leaves out what it has no field
 /// for; the caller checks that the body needs none of it (body_format_loss).
 void write_body(ByteWriter& w, const BodySnapshot& body, BodyFormat format = BodyFormat::Current);
 /// What of `body` `format` cannot hold ("" if nothing): a collision filter
-/// other than the default, a compound shape, user data other than 0, a sensor.
+/// other than the default, a compound shape, user data other than 0, a sensor,
+/// a kinematic body, a kinematic body's collision filter inputs.
 std::string body_format_loss(const Body& body, BodyFormat format);
 /// Checks ids, flags, shape kind, finite description numbers, activation state.
 BodySnapshot read_body(ByteReader& r, BodyFormat format = BodyFormat::Current);
