@@ -35,7 +35,7 @@ struct DefaultsRun {
   const char* name;
   SolverDefaults defaults;
   WorldKind world;
-  std::vector<double> cpu, wall;
+  std::vector<double> cpu{}, wall{};
   std::uint64_t hash = 0;
   std::size_t sleeping = 0;
   double mean_height = 0;
