@@ -4,10 +4,12 @@
 // cube joins a group of its own (queued), takes its scene filter back at the
 // frame on screen, and one cube is set to touch nothing at the frame on
 // screen. Every frame and the final hash equal the one-territory run with
-// every input queued, for K = 1, 2 and 4, lockstep and speculating. Bad
+// every input queued, for K = 1, 2 and 4, lockstep and speculating; a
+// kinematic pallet's and elevator's filters the same on the conveyor. Bad
 // inputs are refused naming the body, with nothing applied; input files,
-// readbacks and checkpoints (version 11; older versions refuse the input by
-// name) carry the filter. Label "concurrency" (ThreadSanitizer in CI).
+// readbacks and checkpoints (version 11, a kinematic body's filter commands
+// version 12; older versions refuse them by name) carry the filter. Label
+// "concurrency" (ThreadSanitizer in CI).
 #include <gtest/gtest.h>
 
 #include <algorithm>
