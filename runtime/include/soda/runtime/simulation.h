@@ -285,10 +285,9 @@ class Simulation {
   /// Sets a dynamic body's user data (Body::user_data): frames from the next
   /// step on read it (SceneReader::body_at); no physics reads it.
   void set_user_data(double time, BodyId id, std::uint64_t user_data);
-  /// Sets a dynamic or kinematic body's collision filter (Body::collision_group, collision_mask) from the next
-  /// step on: its contacts end there and begin again where the filter passes, alike for every K
-  /// (docs/embedding.md, "Setters and readbacks"); a kinematic body keeps it as a command of its step
-  /// (Body::filter_commands). Does not wake it. Refused for a static body, naming it.
+  /// Sets a dynamic or kinematic body's collision filter (Body::collision_group, collision_mask; a kinematic
+  /// body's: Body::filter_commands) from the next step on: its contacts end there and begin again where the
+  /// filter passes, alike for every K (docs/embedding.md, "Setters and readbacks"). Does not wake it.
   void set_collision_filter(double time, BodyId id, std::uint32_t group, std::uint32_t mask);
   /// Moves a kinematic body (Body::kinematic) to `pose` over the next step:
   /// it reaches the pose at the end of that step, its velocity from the move

@@ -278,15 +278,14 @@ class TerritoryWorld {
   /// contacts held here; empty when all is well. Valid after integrate() (the
   /// runtime calls it before migrate()).
   std::vector<WatchdogFinding> watchdog_findings(const WatchdogLimits& limits) const;
-  /// Sets an owned body's velocities and wakes it (activation state active,
-  /// sleep timer 0), as user input or a test's injected fault does at a step
-  /// boundary or after integrate(). False if the body is not owned here.
+  /// Sets an owned body's velocities and wakes it (active, sleep timer 0), as
+  /// input or a test's fault does. False if the body is not owned here.
   bool set_velocity(BodyId id, const Vec3& linear, const Vec3& angular);
   /// Input at a step boundary: gives an owned body an impulse at its centre
   /// and wakes it. False if the body is not owned here.
   bool apply_impulse(BodyId id, const Vec3& impulse);
   /// Input at a step boundary, in every world: the scene's gravity from the
-  /// next step on (every body here, parked ones included, and snapshots).
+  /// next step on (every body here, parked ones too, and snapshots).
   void set_gravity(const Vec3& gravity);
   /// Input at a step boundary: an owned body's mass (its inertia from its
   /// shape), friction, restitution or user data, in its description (what
@@ -301,11 +300,10 @@ class TerritoryWorld {
   /// its pairs and contacts end, kept ones too. False if no copy is here.
   bool set_collision_filter(BodyId id, std::uint32_t group, std::uint32_t mask);
   /// Input after scene step `command.step`, in every world: a kinematic
-  /// body's command (docs/scene-format.md, "Kinematic bodies"), kept in its
-  /// description, one per step (the later replaces). False if not kinematic.
+  /// body's command (docs/scene-format.md, "Kinematic bodies"), pose or
+  /// collision filter, kept in its description, one per step (the later
+  /// replaces). False if not kinematic.
   bool command_kinematic(BodyId id, const KinematicCommand& command);
-  /// A kinematic body's collision filter input at this boundary (every
-  /// world): false if `id` is not a kinematic body here.
   bool filter_kinematic(BodyId id, const FilterCommand& command);
   /// Input at a step boundary, set_pose of a dynamic body: its owner puts it
   /// at `pose` (transform and interpolation transform, inertia tensor),
@@ -388,8 +386,7 @@ class TerritoryWorld {
   void park_settled_islands();
   void wake_parked();
   void unpark_for_input(Entry& e);
-  /// The owned entry of `id` for a property input, back from parking; null
-  /// if not owned here.
+  /// The owned entry of `id` for a property input, back from parking (or null).
   Entry* owned_for_input(BodyId id);
   void return_parked(btRigidBody* body);  // ParkingLink
   void forget_parked();                   // ParkingLink
