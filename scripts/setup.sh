@@ -30,6 +30,7 @@ if [ "$mode" = all ]; then
   packages+=(
     python3-matplotlib   # bench/plot_accuracy.py (plots only; the C++ never needs it)
     universal-ctags      # scripts/room-sizes.py (function lengths; scripts/test.sh's size check)
+    libtbb-dev           # oneTBB: -DSODA_SOLVER_POOL_TBB=ON, the coloured solve's pool measured (docs/scheduler.md)
     libjs-three          # three.js for the browser viewer (served from /usr/share/javascript/three)
     chromium             # the browser tests (headless, WebGL on SwiftShader)
   )

@@ -8,6 +8,12 @@
 #include <immintrin.h>
 #endif
 
+#if defined(SODA_SOLVER_POOL_TBB)
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+#endif
+
 namespace soda {
 namespace {
 
@@ -49,10 +55,36 @@ std::int64_t now_ns() {
 
 }  // namespace
 
-SolverPool::SolverPool(int threads, int guest_slots) : guest_slots_(guest_slots) {
+// The oneTBB build (cmake -DSODA_SOLVER_POOL_TBB=ON; docs/scheduler.md,
+// "oneTBB for the coloured solve"): a job is a tbb::parallel_for over its
+// tasks in an arena of `threads` slots (the caller's included), no helper
+// of the pool's own and no guests. Measurement only: the TSan build never
+// sets it (libtbb is not built with ThreadSanitizer).
+#if defined(SODA_SOLVER_POOL_TBB)
+struct SolverPool::Tbb {
+  explicit Tbb(int threads) : arena(threads) {}
+  tbb::task_arena arena;
+};
+#else
+struct SolverPool::Tbb {};
+#endif
+
+#if defined(SODA_SOLVER_POOL_TBB)
+constexpr bool kTbb = true;
+#else
+constexpr bool kTbb = false;
+#endif
+
+// The oneTBB build takes no guests (serve() returns at once).
+SolverPool::SolverPool(int threads, int guest_slots) : guest_slots_(kTbb ? 0 : guest_slots) {
   if (threads < 1) throw std::invalid_argument("SolverPool: threads must be >= 1");
   if (guest_slots < 0) throw std::invalid_argument("SolverPool: guest_slots must be >= 0");
   block_ = std::make_unique<Block[]>(static_cast<std::size_t>(threads + guest_slots));
+#if defined(SODA_SOLVER_POOL_TBB)
+  tbb_ = std::make_unique<Tbb>(threads);
+  tbb_threads_ = threads;
+  return;
+#endif
   helpers_.reserve(static_cast<std::size_t>(threads - 1));
   for (int i = 0; i + 1 < threads; ++i) helpers_.emplace_back([this, i] { helper_loop(i + 1); });
 }
@@ -82,6 +114,18 @@ int SolverPool::work(int home) {
 
 int SolverPool::run(int count, const std::function<void(int)>& task) {
   std::unique_lock<std::mutex> lock(submit_, std::try_to_lock);
+#if defined(SODA_SOLVER_POOL_TBB)
+  if (!lock.owns_lock() || count <= 1 || tbb_threads_ == 1) {
+    for (int i = 0; i < count; ++i) task(i);
+    return 1;
+  }
+  tbb_->arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<int>(0, count), [&](const tbb::blocked_range<int>& r) {
+      for (int i = r.begin(); i != r.end(); ++i) task(i);
+    });
+  });
+  return tbb_threads_;
+#endif
   if (!lock.owns_lock() || count <= 1 || (helpers_.empty() && guests_.load(std::memory_order_seq_cst) == 0)) {
     for (int i = 0; i < count; ++i) task(i);
     return 1;

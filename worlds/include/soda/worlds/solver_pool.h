@@ -54,7 +54,7 @@ class SolverPool {
   SolverPool& operator=(const SolverPool&) = delete;
 
   /// The threads a job can use (the caller included, guests' slots too).
-  int threads() const { return static_cast<int>(helpers_.size()) + 1 + guest_slots_; }
+  int threads() const { return (tbb_threads_ > 0 ? tbb_threads_ : static_cast<int>(helpers_.size()) + 1) + guest_slots_; }
   int guest_slots() const { return guest_slots_; }
   /// Guests inside serve() now (a moment's figure; for tests and reports).
   int guests() const { return guests_.load(std::memory_order_acquire); }
@@ -105,6 +105,10 @@ class SolverPool {
   alignas(64) std::atomic<int> finished_{0};   // tasks of the current job finished
   alignas(64) std::atomic<int> inside_{0};     // helpers inside the current job
   std::vector<std::thread> helpers_;
+  // The oneTBB build's arena (SODA_SOLVER_POOL_TBB; null otherwise).
+  struct Tbb;
+  std::unique_ptr<Tbb> tbb_;
+  int tbb_threads_ = 0;
   const int guest_slots_;
   alignas(64) std::atomic<int> guests_{0};          // threads inside serve()
   std::atomic<std::uint32_t> guest_epoch_{0};       // guests sleep on it: one more per job (when guests) and wake
