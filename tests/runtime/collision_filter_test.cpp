@@ -223,31 +223,36 @@ TEST(FilterInputDecomposition, TheInputsChangeTheRunAsTheSimulationDoes) {
 }
 
 // Cells ceded every 10 steps (churn) while speculating, with the fuzzer's
-// pauses, on each schedule: the inputs' filters reach every copy of their
-// bodies wherever the bodies are owned then.
-TEST(FilterInputDecomposition, ChurnFuzzedOnEverySchedule) {
-  std::uint64_t seed = 3;
+// pauses, on each schedule (fuzz seeds from `seed` on), K 4: the inputs'
+// filters reach every copy of their bodies wherever the bodies are owned
+// then, and the run ends on `reference`.
+void expect_churn_fuzzed_equal(const Scene& s, const char* label, const std::vector<UserInput>& inputs, int steps,
+                               std::uint64_t reference, std::uint64_t seed) {
   for (Schedule schedule : {Schedule::Sequential, Schedule::Pool, Schedule::ThreadPerWorld}) {
     PartitionedOptions o;
     o.schedule = schedule;
     o.threads = schedule == Schedule::Pool ? 2 : 0;
-    o.inputs = filter_inputs();
+    o.inputs = inputs;
     o.runtime.anticipation = 8;
     o.runtime.balance.policy = "churn";
     o.runtime.balance.period = 10;
     o.runtime.balance.seed = seed;
     detail::edit_testing_hooks(o).fuzz_seed = seed++;
-    PartitionedWorld w(pile(), make_partition("kmeans", pile(), 4, GridOptions{}), o);
-    w.step(kSteps);
+    PartitionedWorld w(s, make_partition("kmeans", s, 4, GridOptions{}), o);
+    w.step(steps);
     const BalanceTotals t = balance_totals(w.balance_log());
-    std::printf("[ filtered cube-pile 150 %s, filters by input, K 4, churn, fuzz %llu, schedule %d ] %lld bodies "
-                "moved; %s, one world %s\n",
+    std::printf("[ %s %s, K 4, churn, fuzz %llu, schedule %d ] %lld bodies moved; %s, one world %s\n", label,
                 kPrecisionName, static_cast<unsigned long long>(seed - 1), static_cast<int>(schedule),
                 static_cast<long long>(t.bodies_moved), hash_hex(w.state_hash()).c_str(),
-                hash_hex(input_reference()).c_str());
+                hash_hex(reference).c_str());
     EXPECT_GT(t.bodies_moved, 0);
-    EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(input_reference())) << "schedule " << static_cast<int>(schedule);
+    EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(reference)) << "schedule " << static_cast<int>(schedule);
   }
+}
+
+TEST(FilterInputDecomposition, ChurnFuzzedOnEverySchedule) {
+  expect_churn_fuzzed_equal(pile(), "filtered cube-pile 150, filters by input", filter_inputs(), kSteps,
+                            input_reference(), 3);
 }
 
 // A kinematic body's filter by input (kept as a command of its step in
@@ -316,29 +321,8 @@ INSTANTIATE_TEST_SUITE_P(
     [](const auto& info) { return test::matrix_case_name(info.param); });
 
 TEST(KinematicFilterInputDecomposition, ChurnFuzzedOnEverySchedule) {
-  std::uint64_t seed = 11;
-  for (Schedule schedule : {Schedule::Sequential, Schedule::Pool, Schedule::ThreadPerWorld}) {
-    PartitionedOptions o;
-    o.schedule = schedule;
-    o.threads = schedule == Schedule::Pool ? 2 : 0;
-    o.inputs = kinematic_filter_inputs();
-    o.runtime.anticipation = 8;
-    o.runtime.balance.policy = "churn";
-    o.runtime.balance.period = 10;
-    o.runtime.balance.seed = seed;
-    detail::edit_testing_hooks(o).fuzz_seed = seed++;
-    PartitionedWorld w(conveyor(), make_partition("kmeans", conveyor(), 4, GridOptions{}), o);
-    w.step(kConveyorSteps);
-    const BalanceTotals t = balance_totals(w.balance_log());
-    std::printf("[ conveyor 48 %s, kinematic filters by input, K 4, churn, fuzz %llu, schedule %d ] %lld bodies "
-                "moved; %s, one world %s\n",
-                kPrecisionName, static_cast<unsigned long long>(seed - 1), static_cast<int>(schedule),
-                static_cast<long long>(t.bodies_moved), hash_hex(w.state_hash()).c_str(),
-                hash_hex(kinematic_input_reference()).c_str());
-    EXPECT_GT(t.bodies_moved, 0);
-    EXPECT_EQ(hash_hex(w.state_hash()), hash_hex(kinematic_input_reference()))
-        << "schedule " << static_cast<int>(schedule);
-  }
+  expect_churn_fuzzed_equal(conveyor(), "conveyor 48, kinematic filters by input", kinematic_filter_inputs(),
+                            kConveyorSteps, kinematic_input_reference(), 11);
 }
 
 }  // namespace

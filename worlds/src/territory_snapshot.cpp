@@ -190,7 +190,7 @@ void TerritoryWorld::set_gravity(const Vec3& gravity) {
 bool TerritoryWorld::command_kinematic(BodyId id, const KinematicCommand& command) {
   auto it = entries_.find(id);
   if (it == entries_.end() || !it->second->description.kinematic) return false;
-  record_kinematic_command(it->second->description.commands, command);
+  record_command(it->second->description.commands, command);
   quiet_ = -1;
   return true;
 }
@@ -280,7 +280,7 @@ bool TerritoryWorld::filter_kinematic(BodyId id, const FilterCommand& command) {
   auto found = entries_.find(id);
   if (found == entries_.end() || !found->second->description.kinematic) return false;
   Entry& e = *found->second;
-  record_filter_command(e.description.filter_commands, command);
+  record_command(e.description.filter_commands, command);
   erase_pairs_of(kept_, id);
   if (parking_ && parts_->parking.parked_islands() > 0) {
     // As unpark_for_input, for every island: bodies and contacts back now,

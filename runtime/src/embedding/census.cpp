@@ -50,11 +50,11 @@ void Census::record(const UserInput& in) {
                                  [&](const UserInput& a, const UserInput& b) { return key(a) < key(b); }),
                 in);
     if (auto it = kinematic_.find(in.id); it != kinematic_.end())  // as every world does
-      record_filter_command(it->second.filter_commands, FilterCommand{in.step, in.collision_group, in.collision_mask});
+      record_command(it->second.filter_commands, FilterCommand{in.step, in.collision_group, in.collision_mask});
   } else if (in.kind == UserInput::Kind::SetPose || in.kind == UserInput::Kind::SetKinematicTarget) {
     auto it = kinematic_.find(in.id);
     if (it == kinematic_.end()) return;  // a dynamic body's set_pose: in its owner's frames
-    record_kinematic_command(it->second.commands, kinematic_command(in));  // as every world does
+    record_command(it->second.commands, kinematic_command(in));  // as every world does
   }
 }
 

@@ -19,21 +19,13 @@ inline KinematicCommand kinematic_command(const UserInput& in) {
   return KinematicCommand{in.step, in.kind == UserInput::Kind::SetPose, Pose{in.linear, in.orientation}};
 }
 
-/// Adds `command` to `commands` (ascending step): one command per step, a
-/// later one at the same step replacing the earlier.
-inline void record_kinematic_command(std::vector<KinematicCommand>& commands, const KinematicCommand& command) {
+/// Adds `command` (a KinematicCommand or a FilterCommand) to `commands`
+/// (ascending step): one command per step, a later one at the same step
+/// replacing the earlier.
+template <typename Command>
+void record_command(std::vector<Command>& commands, const Command& command) {
   auto at = std::lower_bound(commands.begin(), commands.end(), command.step,
-                             [](const KinematicCommand& x, std::int64_t step) { return x.step < step; });
-  if (at != commands.end() && at->step == command.step)
-    *at = command;
-  else
-    commands.insert(at, command);
-}
-
-/// The same for a kinematic body's collision filter inputs.
-inline void record_filter_command(std::vector<FilterCommand>& commands, const FilterCommand& command) {
-  auto at = std::lower_bound(commands.begin(), commands.end(), command.step,
-                             [](const FilterCommand& x, std::int64_t step) { return x.step < step; });
+                             [](const Command& x, std::int64_t step) { return x.step < step; });
   if (at != commands.end() && at->step == command.step)
     *at = command;
   else
