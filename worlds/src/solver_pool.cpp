@@ -65,13 +65,9 @@ struct SolverPool::Tbb {
   explicit Tbb(int threads) : arena(threads) {}
   tbb::task_arena arena;
 };
-#else
-struct SolverPool::Tbb {};
-#endif
-
-#if defined(SODA_SOLVER_POOL_TBB)
 constexpr bool kTbb = true;
 #else
+struct SolverPool::Tbb {};
 constexpr bool kTbb = false;
 #endif
 

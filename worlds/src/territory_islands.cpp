@@ -16,6 +16,7 @@
 #include "canonical_dynamics_world.h"
 #include "island_solver_settings.h"
 #include "island_substeps.h"
+#include "soda/scene/kinematic_command.h"
 #include "soda/worlds/value_codec.h"
 #include "territory_world_parts.h"
 
@@ -225,8 +226,7 @@ bool TerritoryWorld::touches_commanded_kinematic(int island) const {
   for (int i = parts_->held.begin(island); i < parts_->held.begin(island + 1); ++i)
     for (const btCollisionObject* o : {ms[static_cast<std::size_t>(i)]->getBody0(), ms[static_cast<std::size_t>(i)]->getBody1()}) {
       const Entry& e = entry_of(o);
-      if (e.description.kinematic && (!e.description.commands.empty() || !e.description.filter_commands.empty()))
-        return true;
+      if (e.description.kinematic && commanded(e.description)) return true;
     }
   return false;
 }

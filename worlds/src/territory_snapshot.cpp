@@ -47,7 +47,7 @@ TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, Territ
       const Entry* old = nullptr;
       if (d.kinematic && share_pools_of)
         if (auto it = share_pools_of->entries_.find(d.id); it != share_pools_of->entries_.end()) old = it->second.get();
-      if (old && (!old->description.commands.empty() || !old->description.filter_commands.empty())) {
+      if (old && commanded(old->description)) {
         Body merged = d;
         merge_commands(merged.commands, old->description.commands);
         merge_commands(merged.filter_commands, old->description.filter_commands);

@@ -19,13 +19,19 @@ inline KinematicCommand kinematic_command(const UserInput& in) {
   return KinematicCommand{in.step, in.kind == UserInput::Kind::SetPose, Pose{in.linear, in.orientation}};
 }
 
+/// The first command of `commands` (ascending step) at or after `step`.
+template <typename Command>
+typename std::vector<Command>::iterator command_at(std::vector<Command>& commands, std::int64_t step) {
+  return std::lower_bound(commands.begin(), commands.end(), step,
+                          [](const Command& x, std::int64_t s) { return x.step < s; });
+}
+
 /// Adds `command` (a KinematicCommand or a FilterCommand) to `commands`
 /// (ascending step): one command per step, a later one at the same step
 /// replacing the earlier.
 template <typename Command>
 void record_command(std::vector<Command>& commands, const Command& command) {
-  auto at = std::lower_bound(commands.begin(), commands.end(), command.step,
-                             [](const Command& x, std::int64_t step) { return x.step < step; });
+  auto at = command_at(commands, command.step);
   if (at != commands.end() && at->step == command.step)
     *at = command;
   else
@@ -38,11 +44,14 @@ void record_command(std::vector<Command>& commands, const Command& command) {
 template <typename Command>
 void merge_commands(std::vector<Command>& into, const std::vector<Command>& from) {
   for (const Command& c : from) {
-    auto at = std::lower_bound(into.begin(), into.end(), c.step,
-                               [](const Command& x, std::int64_t step) { return x.step < step; });
+    auto at = command_at(into, c.step);
     if (at == into.end() || at->step != c.step) into.insert(at, c);
   }
 }
+
+/// True if inputs gave kinematic body `body` a command, pose or filter: its
+/// state at a step is no longer the scene's alone.
+inline bool commanded(const Body& body) { return !body.commands.empty() || !body.filter_commands.empty(); }
 
 /// A body's collision filter (group, mask) at internal step n, before the
 /// inputs of that boundary, with `substeps` internal steps a scene step: a
