@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "../runtime/partitioned_test_util.h"
+#include "../runtime/tiled_floor.h"
 #include "soda/mpi/mpi_group.h"
 #include "soda/mpi/mpi_session.h"
 #include "soda/worlds/watchdog.h"
@@ -36,8 +37,7 @@ struct SpeculationSums {
 
 // The partitioned run over the ranks; rank 0 checks its gathered hash
 // against the one-world run (also the threaded 1-territory run's hash).
-SpeculationSums expect_reference_hash(const Case& c, PartitionedOptions options = {}) {
-  const Scene s = test::scene(c.scene, c.n);
+SpeculationSums expect_scene_hash(const Scene& s, const Case& c, PartitionedOptions options) {
   const TerritoryMap map =
       make_partition(c.partition, s, c.territories, c.border_grid ? test::border_grid() : GridOptions{});
   options.group = g_group;
@@ -61,6 +61,10 @@ SpeculationSums expect_reference_hash(const Case& c, PartitionedOptions options 
                              << g_group->size() << " ranks: " << hash_hex(hash) << " vs one world "
                              << hash_hex(reference);
   return sums;
+}
+
+SpeculationSums expect_reference_hash(const Case& c, PartitionedOptions options = {}) {
+  return expect_scene_hash(test::scene(c.scene, c.n), c, options);
 }
 
 PartitionedOptions threads_per_world() {
@@ -194,6 +198,29 @@ TEST(Mpi, LevelGeometryJointsAndKinematicBodiesGiveTheOneWorldHash) {
     expect_reference_hash({"chain-bridge", 12, "grid:4x1x1", 4, 80}, o);
     expect_reference_hash({"ragdolls", 6, "kmeans", 4, 80}, o);
     expect_reference_hash({"conveyor", 48, "kmeans", 4, 80}, o);
+  }
+}
+
+// A floor of 361 static tiles under a pile: each world, on whichever rank,
+// holds the tiles near its cells (docs/partitioned-step.md, §2a), and the
+// gathered hash is the one world's.
+TEST(Mpi, TiledFloorGivesTheOneWorldHashWithEachWorldsTiles) {
+  const Scene s = test::tiled_floor(test::scene("cube-pile", 160), 1.5);
+  for (const PartitionedOptions& o : {threads_per_world(), speculating()}) {
+    const Case c{"tiled cube-pile", 160, "kmeans", 4, 80};
+    expect_scene_hash(s, c, o);
+    PartitionedOptions again = o;
+    again.group = g_group;
+    PartitionedWorld world(s, make_partition("kmeans", s, 4, GridOptions{}), again);
+    world.step(20);
+    std::size_t held = 0;
+    for (const WorldMetrics& m : world.metrics()) held += m.statics_held;  // collective
+    if (g_group->rank() == 0) {
+      std::printf("[ tiled cube-pile 160, K 4 on %d ranks ] %zu tiles, %zu held over the worlds\n", g_group->size(),
+                  s.static_count(), held);
+      EXPECT_LT(held, 4 * s.static_count());
+      EXPECT_GE(held, s.static_count());
+    }
   }
 }
 

@@ -76,16 +76,7 @@ TEST(KinematicDecomposition, EverySchedule) {
 TEST(KinematicDecomposition, ChurnSpeculatingUnderSyncTest) {
   const std::string ref = hash_hex(test::reference_hash(conveyor(), kSteps));
   for (int k : {2, 4}) {
-    PartitionedOptions o;
-    o.schedule = Schedule::ThreadPerWorld;
-    o.runtime.validate = true;
-    o.runtime.anticipation = 8;
-    o.runtime.parking = true;
-    o.sync_test = 1;
-    o.runtime.balance.policy = "churn";
-    o.runtime.balance.period = 10;
-    o.runtime.balance.seed = 7;
-    PartitionedWorld w(conveyor(), make_partition("kmeans", conveyor(), k, GridOptions{}), o);
+    PartitionedWorld w(conveyor(), make_partition("kmeans", conveyor(), k, GridOptions{}), test::churn_options(7));
     w.step(kSteps);
     const BalanceTotals t = balance_totals(w.balance_log());
     std::printf("[ conveyor 144 %s, churn K=%d anticipation 8 sync-test 1 ] %lld bodies moved, %llu sync rollbacks; "

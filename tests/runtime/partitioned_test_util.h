@@ -118,6 +118,21 @@ inline std::string summary(const WorldMetrics& t) {
   return s.str();
 }
 
+/// Churn (random cessions every 10 steps, seeded) on a thread per world,
+/// speculating (anticipation 8) under SyncTest, validated: the load-balance
+/// case of the scene feature suites.
+inline PartitionedOptions churn_options(std::uint64_t seed) {
+  PartitionedOptions o;
+  o.runtime.validate = true;
+  o.runtime.anticipation = 8;
+  o.sync_test = 1;
+  o.schedule = Schedule::ThreadPerWorld;
+  o.runtime.balance.policy = "churn";
+  o.runtime.balance.period = 10;
+  o.runtime.balance.seed = seed;
+  return o;
+}
+
 /// A case of a feature's decomposition matrix: K territories (kmeans; a pool
 /// of 2 threads above one), anticipation, SyncTest, parking.
 struct MatrixCase {

@@ -102,15 +102,7 @@ INSTANTIATE_TEST_SUITE_P(Partitioned, TriangleMeshDecomposition, kMatrix,
 // every 10 steps, seeded) on 4 territories, speculating, under SyncTest.
 TEST(TerrainBalance, ChurnEqualsTheOneWorldHash) {
   for (const Scene* s : {&valley(), &mesh_valley()}) {
-    PartitionedOptions o;
-    o.runtime.validate = true;
-    o.runtime.anticipation = 8;
-    o.sync_test = 1;
-    o.schedule = Schedule::ThreadPerWorld;
-    o.runtime.balance.policy = "churn";
-    o.runtime.balance.period = 10;
-    o.runtime.balance.seed = 3;
-    PartitionedWorld w(*s, make_partition("grid:4x1x1", *s, 4, GridOptions{}), o);
+    PartitionedWorld w(*s, make_partition("grid:4x1x1", *s, 4, GridOptions{}), test::churn_options(3));
     w.step(kSteps);
     const BalanceTotals t = balance_totals(w.balance_log());
     std::printf("[ terrain 40 %s %s, churn K 4 ] %lld cells and %lld bodies moved; %s, one world %s\n",

@@ -26,11 +26,9 @@
 namespace soda {
 
 BodyId TerritoryWorld::key_of(BodyId id0, BodyId id1) const {
-  // Statics are present in every world; a body that is absent is dynamic.
-  auto it = entries_.find(id0);
-  if (it != entries_.end() && it->second->role == Role::Static) return id1;
-  it = entries_.find(id1);
-  if (it != entries_.end() && it->second->role == Role::Static) return id0;
+  // Every world knows every static (held or not): any other body is dynamic.
+  if (parts_->statics.is_static(id0)) return id1;
+  if (parts_->statics.is_static(id1)) return id0;
   return id0;
 }
 

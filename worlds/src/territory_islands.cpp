@@ -279,8 +279,7 @@ bool TerritoryWorld::BorderLink::owns_body(const btCollisionObject* body) const 
 }
 
 btCollisionObject* TerritoryWorld::BorderLink::static_body(BodyId id) const {
-  auto it = world->entries_.find(id);
-  return it == world->entries_.end() || it->second->role != Role::Static ? nullptr : it->second->body.get();
+  return world->parts_->statics.object(id);  // a fixed static not held here: a detached copy
 }
 
 btRigidBody* TerritoryWorld::BorderLink::owned_body(BodyId id) const {

@@ -70,14 +70,14 @@ void TerritoryWorld::insert_owned_and_joints(const std::vector<const Body*>& bod
   std::vector<const Joint*> descriptions;
   for (const JointSnapshot& j : joints) {
     for (BodyId b : {j.description.body_a, j.description.body_b})
-      if (!index.count(b) && !entries_.count(b))
+      if (!index.count(b) && !parts_->statics.is_static(b))
         throw std::invalid_argument("TerritoryWorld: joint " + std::to_string(j.description.id) + " joins body " +
                                     std::to_string(b) + ", which is not in the scene");
     descriptions.push_back(&j.description);
   }
-  // Statics are in entries_ already; every other body is dynamic.
+  // The statics are known (held or in the catalog); every other body is dynamic.
   const std::unordered_map<BodyId, BodyId> anchors =
-      joint_anchors(descriptions, [&](BodyId b) { return entries_.count(b) != 0; });
+      joint_anchors(descriptions, [&](BodyId b) { return parts_->statics.is_static(b); });
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     auto a = anchors.find(bodies[i]->id);
     const std::size_t home = a == anchors.end() ? i : index.at(a->second);
@@ -87,10 +87,8 @@ void TerritoryWorld::insert_owned_and_joints(const std::vector<const Body*>& bod
     if (a != anchors.end()) anchor_.emplace(a->first, a->second);
   }
   for (const JointSnapshot& j : joints) {
-    const BodyId dynamic = entries_.count(j.description.body_a) &&
-                                   entries_.at(j.description.body_a)->role == Role::Static
-                               ? j.description.body_b
-                               : j.description.body_a;
+    const BodyId dynamic =
+        parts_->statics.is_static(j.description.body_a) ? j.description.body_b : j.description.body_a;
     if (owns(dynamic)) hold_joint(j.description, j.broken);
   }
 }
@@ -99,6 +97,7 @@ void TerritoryWorld::hold_joint(const Joint& joint, bool broken) {
   Entry* ends[2] = {nullptr, nullptr};
   int i = 0;
   for (BodyId b : {joint.body_a, joint.body_b}) {
+    parts_->statics.hold(b);  // a fixed static it ends on is held from now on
     auto it = entries_.find(b);
     if (it == entries_.end() || it->second->role == Role::Ghost)
       throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) + ": joint " +
@@ -149,7 +148,7 @@ void TerritoryWorld::drop_joints(BodyId member, JointId joint, bool all_of_membe
   }
   for (auto it = anchor_.begin(); it != anchor_.end();)
     it = it->second == old_anchor ? anchor_.erase(it) : std::next(it);
-  for (const auto& [body, anchor] : joint_anchors(kept, [&](BodyId b) { return entries_.at(b)->role == Role::Static; }))
+  for (const auto& [body, anchor] : joint_anchors(kept, [&](BodyId b) { return parts_->statics.is_static(b); }))
     anchor_.emplace(body, anchor);
   quiet_ = -1;
 }
@@ -181,8 +180,8 @@ bool TerritoryWorld::add_joint(const Joint& joint) {
   std::vector<Entry*> ends;
   bool elsewhere = false;
   for (BodyId body : {joint.body_a, joint.body_b}) {
+    if (parts_->statics.is_static(body)) continue;
     auto it = entries_.find(body);
-    if (it != entries_.end() && it->second->role == Role::Static) continue;
     if (it != entries_.end() && it->second->role == Role::Owned)
       ends.push_back(it->second.get());
     else
@@ -267,7 +266,7 @@ void TerritoryWorld::export_joints(const std::map<BodyId, WorldId>& destination,
     const WorldId to = a != destination.end() ? a->second : b->second;
     for (BodyId body : {j.body_a, j.body_b}) {
       auto d = destination.find(body);
-      if (d == destination.end() ? entries_.at(body)->role != Role::Static : d->second != to)
+      if (d == destination.end() ? !parts_->statics.is_static(body) : d->second != to)
         throw std::logic_error("world " + std::to_string(id_) + ": joint " + std::to_string(j.id) +
                                " would be split by a migration");
     }
@@ -289,10 +288,7 @@ void TerritoryWorld::absorb_joints(const std::vector<std::pair<WorldId, MigrantB
     std::vector<const Joint*> descriptions;
     for (const JointSnapshot& j : batch.joints) descriptions.push_back(&j.description);
     for (const auto& [body, anchor] :
-         joint_anchors(descriptions, [&](BodyId b) {
-           auto it = entries_.find(b);
-           return it != entries_.end() && it->second->role == Role::Static;
-         }))
+         joint_anchors(descriptions, [&](BodyId b) { return parts_->statics.is_static(b); }))
       anchor_[body] = anchor;
     for (const JointSnapshot& j : batch.joints) hold_joint(j.description, j.broken);
   }

@@ -103,6 +103,7 @@ void TerritoryWorld::find_ghost_targets(Entry& e, bool cull) {
     set_safe_box(e, grid, mid);
     return;
   }
+  parts_->statics.load(cells);  // a halo beyond the reach of the own cells: its statics
   // Owners read straight from the map's array when the cells are in its box.
   const bool in_box = box.contains(cells.lo) && box.contains(cells.hi);
   for (int x = cells.lo.x; x <= cells.hi.x; ++x)

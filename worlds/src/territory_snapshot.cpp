@@ -36,9 +36,14 @@ TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, Territ
   steps_done_ = internal_steps_done >= 0 ? internal_steps_done : snapshot.steps_done * settings_.substeps;
   std::vector<const Body*> dynamic;
   std::vector<const BodyDynamicState*> states;
+  std::vector<Body> fixed;
   for (const BodySnapshot& b : snapshot.bodies) {
     const Body& d = b.description;
     if (d.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
+    if (d.is_static && !d.kinematic) {
+      fixed.push_back(d);
+      continue;
+    }
     if (d.is_static) {
       // A rollback's rebuild: the world it replaces has every command of
       // its kinematic bodies applied so far, pose and filter (the
@@ -60,6 +65,12 @@ TerritoryWorld::TerritoryWorld(const WorldSnapshot& snapshot, WorldId id, Territ
     dynamic.push_back(&d);
     states.push_back(&b.state);
   }
+  // A rollback's rebuild keeps the catalog of the world it replaces: the
+  // fixed statics of a scene never change.
+  std::shared_ptr<const StaticCatalog> catalog;
+  if (share_pools_of && share_pools_of->parts_->statics.catalog->size() == fixed.size())
+    catalog = share_pools_of->parts_->statics.catalog;
+  parts_->statics.init(catalog ? std::move(catalog) : std::make_shared<const StaticCatalog>(std::move(fixed)));
   insert_owned_and_joints(dynamic, states, snapshot.joints);
   for (const ManifoldState& m : snapshot.manifolds) {
     if (!entries_.count(m.id0) && !entries_.count(m.id1)) continue;  // neither body here
@@ -134,7 +145,10 @@ void TerritoryWorld::snapshot_into(WorldSnapshot& out, bool with_kept) const {
 
 std::vector<BodySnapshot> TerritoryWorld::static_snapshots() const {
   std::vector<BodySnapshot> out;
-  for (const Entry* e : statics_) out.push_back(BodySnapshot{e->description, read_dynamic_state(*e->body)});
+  const StaticCatalog& catalog = *parts_->statics.catalog;
+  for (std::size_t i = 0; i < catalog.size(); ++i) out.push_back(BodySnapshot{catalog.body(i), catalog.state(i)});
+  for (const Entry* e : statics_)
+    if (e->description.kinematic) out.push_back(BodySnapshot{e->description, read_dynamic_state(*e->body)});
   std::sort(out.begin(), out.end(), [](const BodySnapshot& a, const BodySnapshot& b) {
     return a.description.id < b.description.id;
   });
@@ -301,7 +315,7 @@ bool TerritoryWorld::add_body(const Body& body, const Vec3* home) {
   if (body.is_static) throw PartitionError("TerritoryWorld::add_body: static bodies cannot be added to a running scene");
   if (body.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
   if (owner_of_origin(to_bt(home ? *home : body.position)) != id_) return false;
-  if (entries_.count(body.id))
+  if (entries_.count(body.id) || parts_->statics.is_static(body.id))
     throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) + ": body " +
                          std::to_string(body.id) + " added, but that id is present");
   insert_dynamic(body, nullptr, true, id_);

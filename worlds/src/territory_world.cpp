@@ -34,13 +34,17 @@ TerritoryWorld::TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map)
     : id_(id), map_(std::move(map)), settings_(scene.settings) {
   init_world();
   std::vector<const Body*> dynamic;
+  std::vector<Body> fixed;
   for (const Body& b : scene.bodies) {
     if (b.id > kMaxBodyId) throw PartitionError("TerritoryWorld: body id above kMaxBodyId");
-    if (b.is_static)
+    if (b.kinematic)
       insert_static(b);
+    else if (b.is_static)
+      fixed.push_back(b);
     else
       dynamic.push_back(&b);
   }
+  parts_->statics.init(std::make_shared<const StaticCatalog>(std::move(fixed)));
   std::vector<JointSnapshot> joints;
   joints.reserve(scene.joints.size());
   for (const Joint& j : scene.joints) joints.push_back(JointSnapshot{j, false});
@@ -186,7 +190,19 @@ std::vector<BodyState> TerritoryWorld::owned_states() const {
 
 std::vector<BodyState> TerritoryWorld::static_states() const {
   std::vector<BodyState> out;
-  for (const Entry* e : statics_) out.push_back(read_body_state(*e->body));
+  const StaticCatalog& catalog = *parts_->statics.catalog;
+  for (std::size_t i = 0; i < catalog.size(); ++i) {  // as read_body_state reads a held one
+    const BodyDynamicState& d = catalog.state(i);
+    BodyState& b = out.emplace_back();
+    b.id = catalog.body(i).id;
+    std::copy(std::begin(d.basis), std::end(d.basis), b.basis);
+    std::copy(std::begin(d.origin), std::end(d.origin), b.origin);
+    std::copy(std::begin(d.linear_velocity), std::end(d.linear_velocity), b.linear_velocity);
+    std::copy(std::begin(d.angular_velocity), std::end(d.angular_velocity), b.angular_velocity);
+    b.activation_state = d.activation_state;
+  }
+  for (const Entry* e : statics_)
+    if (e->description.kinematic) out.push_back(read_body_state(*e->body));
   std::sort(out.begin(), out.end(), [](const BodyState& a, const BodyState& b) { return a.id < b.id; });
   return out;
 }
@@ -199,7 +215,10 @@ std::vector<BodyId> TerritoryWorld::owned_ids() const {
 
 std::size_t TerritoryWorld::owned_count() const { return owned_.size() + parked_.size(); }
 std::size_t TerritoryWorld::ghost_count() const { return ghosts_.size(); }
-std::size_t TerritoryWorld::static_count() const { return statics_.size(); }
+std::size_t TerritoryWorld::static_count() const {
+  return parts_->statics.catalog->size() + statics_.size() - parts_->statics.held_count;
+}
+std::size_t TerritoryWorld::held_static_count() const { return statics_.size(); }
 std::size_t TerritoryWorld::bullet_object_count() const {
   return static_cast<std::size_t>(parts_->world.getNumCollisionObjects());
 }

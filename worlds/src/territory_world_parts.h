@@ -26,6 +26,7 @@
 #include "parking.h"
 #include "coloured_solver.h"
 #include "soda/worlds/territory_world.h"
+#include "static_catalog.h"
 #include "world_teardown.h"
 
 namespace soda {
@@ -109,6 +110,44 @@ struct TerritoryWorld::BorderLink final : BorderIslandHost {
   TerritoryWorld* world;
 };
 
+/// The fixed statics this world knows (static_catalog.h) and which of them
+/// it holds in its Bullet world.
+struct TerritoryWorld::Statics {
+  explicit Statics(TerritoryWorld* w) : world(w) {}
+  /// At construction: holds the statics that overlap the world's own cells
+  /// dilated by the map's reach.
+  void init(std::shared_ptr<const StaticCatalog> c);
+  /// Before collide: holds every static that the halo's `cells` may meet.
+  void load(const CellBox& cells) {
+    const CellBox c = clamp_cells(cells, world->map_.box());
+    if (!all_loaded(c)) load_slow(c);
+  }
+  /// The static `id`, held from now on (a joint ends on it); null if `id`
+  /// is not a fixed static.
+  Entry* hold(BodyId id);
+  /// The static `id` for a solve on copies: held, or a detached copy (null
+  /// if `id` is no static). The stepping thread only.
+  btCollisionObject* object(BodyId id);
+  /// True if `id` is a static body of the scene (fixed or kinematic).
+  bool is_static(BodyId id) const;
+
+  TerritoryWorld* world;
+  std::shared_ptr<const StaticCatalog> catalog;
+  std::vector<std::uint64_t> loaded;  // bit per box cell: every static overlapping it is held
+  std::vector<char> held;             // per catalog index
+  std::size_t held_count = 0;
+  struct Detached {
+    std::shared_ptr<btCollisionShape> shape;
+    std::unique_ptr<btRigidBody> body;
+  };
+  std::unordered_map<BodyId, Detached> detached;
+
+ private:
+  bool all_loaded(const CellBox& c) const;
+  void load_slow(const CellBox& c);
+  void hold_index(std::size_t i);
+};
+
 /// Every Bullet object of one territory world is its own (pool allocators
 /// are not thread-safe), except that a world rebuilt from a snapshot may
 /// share the collision configuration (its pools) of the world it replaces.
@@ -120,7 +159,8 @@ struct TerritoryWorld::Parts {
         dispatcher(config.get(), owner),
         parking_link(owner),
         border_link(owner),
-        border(owner->id(), border_link) {
+        border(owner->id(), border_link),
+        statics(owner) {
     pairs.setOverlapFilterCallback(&filter);
   }
   ~Parts() { release_all_pairs(broadphase, dispatcher); }
@@ -147,6 +187,7 @@ struct TerritoryWorld::Parts {
   BorderLink border_link;
   BorderIslandSolver border;  // the merged-island path (solve_border_island)
   IslandReplay replay;        // set_replay
+  Statics statics;            // after the world: its detached copies are no Bullet objects
 };
 
 /// A component of this world's contact graph that waits for glue (it holds

@@ -30,7 +30,7 @@ struct WorldStepReport {
   std::int64_t step = 0;                // internal steps done
   std::vector<BodyId> owned;            // ascending
   std::size_t ghosts = 0;
-  std::size_t statics = 0;
+  std::size_t statics = 0;               // held in the Bullet world (at most the scene's)
   std::size_t bullet_objects = 0;
   std::vector<std::pair<BodyId, BodyId>> held_pairs;  // ascending
   std::size_t parked = 0;               // owned bodies parked outside the Bullet world

@@ -428,7 +428,7 @@ void PartitionedWorld::Process::end_step() {
   if (validator_) {
     WorldStepReport report{s_.world->id(),           s_.step,
                            s_.world->owned_ids(),    s_.world->ghost_count(),
-                           s_.world->static_count(), s_.world->bullet_object_count(),
+                           s_.world->held_static_count(), s_.world->bullet_object_count(),
                            s_.world->held_contact_pairs(), s_.world->parked_count()};
     spec_->report(std::move(report));
   }

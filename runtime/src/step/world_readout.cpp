@@ -120,6 +120,7 @@ WorldMetrics PartitionedWorld::Process::metrics() const {
   m.entries_dropped = entries_dropped_;
   m.owned_bodies = s_.world->owned_count();
   m.ghosts = s_.world->ghost_count();
+  m.statics_held = s_.world->held_static_count();
   m.kept_states_max = kept_.max();
   spec_->metrics(m);
   m.rollback_cpu_seconds += static_cast<double>(t.cpu_ns[static_cast<std::size_t>(Stage::Rollback)]) * 1e-9;

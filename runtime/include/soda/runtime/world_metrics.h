@@ -38,6 +38,7 @@ namespace soda {
   X(std::uint64_t, entries_dropped, Sum, "Simulation only: entries that found the buffer full while stopping") \
   X(std::size_t, owned_bodies, Now, "owned bodies at the end")                                                 \
   X(std::size_t, ghosts, Now, "ghosts at the end")                                                             \
+  X(std::size_t, statics_held, Now, "static bodies held in the Bullet world at the end (kinematic ones too)")     \
   X(std::size_t, neighbours, Now, "worlds this one exchanges messages with")                                   \
   X(std::uint64_t, merged_islands, Sum, "merged islands this world took part in")                              \
   X(std::uint64_t, merged_island_worlds_sum, Sum, "worlds per merged island, summed")                          \

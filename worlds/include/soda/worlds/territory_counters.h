@@ -48,6 +48,8 @@ enum class CounterFold {
   X(std::uint64_t, merged_island_joints_in_place, Sum, "of them, this world's own solved in place (no copy)")  \
   X(std::uint64_t, coloured_islands, Sum, "islands solved coloured here (docs/coloured-solve.md)")              \
   X(std::uint64_t, substepped_islands, Sum, "islands solved in substeps here, re-solves included")             \
+  X(std::uint64_t, statics_loaded, Sum, "fixed statics held from this step on: a halo or a joint beyond the reach") \
+  X(std::uint64_t, static_copies, Sum, "copies made of statics not held here, for merged islands solved here") \
   X(int, solver_threads, Max, "most threads a coloured island here could use")
 
 /// Declares one counter of a list as a field.

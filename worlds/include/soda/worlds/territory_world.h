@@ -1,9 +1,8 @@
 // worlds/ — one territory's physics. This header: the territory world, one
 // Bullet world holding the dynamic bodies one world owns, read-only ghosts of
-// its neighbours' border bodies and every static body of the scene, stepped
-// in stages between which the runtime exchanges messages. The protocol, the
-// rules and why they give results bit-identical to one CanonicalWorld on the
-// whole scene: docs/partitioned-step.md.
+// its neighbours' border bodies and the static bodies its pairs may meet,
+// stepped in stages between which the runtime exchanges messages. Why results
+// are bit-identical to one CanonicalWorld: docs/partitioned-step.md.
 //
 // Stages of one step, in order (each is one member function; the runtime
 // calls them, waiting for neighbours' values where marked <-):
@@ -36,12 +35,11 @@
 //     id's) home cell, so one owner holds its joints and they migrate together; a merged island gets
 //     them from that owner's fragment (docs/partitioned-step.md, "Joints").
 //
-// The world keeps the territory's state and the stage entry points; three
-// rooms of its own do the island work (worlds/src): IslandBuilder
-// (island_builder.h, islands and their canonical order, shared with the
-// canonical world), BorderIslandSolver (border_island_solver.h, the merged
-// island path: own fragment, solve, apply) and IslandReplay
-// (island_replay.h, what set_replay installs).
+// The world keeps the territory's state and the stage entry points; rooms of
+// its own (worlds/src) do the island work: IslandBuilder (island_builder.h,
+// islands in canonical order, shared with the canonical world),
+// BorderIslandSolver (border_island_solver.h, the merged island path) and
+// IslandReplay (island_replay.h, what set_replay installs).
 //
 // Thread safety: none; one world is used by one thread at a time. Distinct
 // worlds share no writable state (each owns its Bullet objects).
@@ -75,11 +73,12 @@ namespace soda {
 
 class TerritoryWorld {
  public:
-  /// Builds world `id` of `map` for a scene: every static body, and the
-  /// dynamic bodies whose home cell the map gives to `id`.
+  /// Builds world `id` of `map` for a scene: the dynamic bodies whose home cell
+  /// the map gives to `id`; of the statics, every kinematic body and the fixed
+  /// ones its pairs may meet (worlds/src/static_catalog.h).
   TerritoryWorld(const Scene& scene, WorldId id, TerritoryMap map);
   /// Builds world `id` of `map` from the whole scene's state at a step boundary
-  /// (PartitionedWorld::snapshot, CanonicalWorld::snapshot): every static body,
+  /// (PartitionedWorld::snapshot, CanonicalWorld::snapshot): statics as above,
   /// the dynamic bodies whose home cell (origin as held) the map gives to `id`,
   /// each with its raw state, and the contact state of every pair whose key
   /// body it owns (kept, seeded into whichever world holds the pair at the next
@@ -232,13 +231,14 @@ class TerritoryWorld {
   const TerritoryCounters& counters() const { return counters_; }
   /// Raw states of the owned dynamic bodies, ascending id.
   std::vector<BodyState> owned_states() const;
-  /// Raw states of the static bodies, ascending id.
-  std::vector<BodyState> static_states() const;
+  std::vector<BodyState> static_states() const;  // every static, ascending id
   std::vector<BodyId> owned_ids() const;
   std::size_t owned_count() const;
   std::size_t ghost_count() const;
+  /// The scene's statics, and those held in the Bullet world here.
   std::size_t static_count() const;
-  /// Collision objects in the Bullet world (owned + ghosts + statics).
+  std::size_t held_static_count() const;
+  /// Collision objects in the Bullet world (owned + ghosts + held statics).
   std::size_t bullet_object_count() const;
   /// (id0, id1) of every live manifold with points, ascending: after a step,
   /// the pairs this world held.
@@ -269,8 +269,7 @@ class TerritoryWorld {
   /// the step replays islands from an old run's end-of-step states, which
   /// integrate() has not written yet.
   bool solved_state(LocalIslands& islands, WorldSnapshot& out) const;
-  /// Every static body (description + raw state), by id.
-  std::vector<BodySnapshot> static_snapshots() const;
+  std::vector<BodySnapshot> static_snapshots() const;  // every static (raw state), by id
 
   // --- watchdog and input --------------------------------------------------
 
@@ -326,6 +325,7 @@ class TerritoryWorld {
   struct Parts;
   struct Component;
   struct BorderLink;
+  struct Statics;
   class Dispatcher;
   struct ParkingLink;
   struct HeldJoint;
@@ -400,7 +400,7 @@ class TerritoryWorld {
   std::unique_ptr<Parts> parts_;  // after entries_: destroyed first, while its bodies are alive
   std::vector<Entry*> owned_;    // ascending id once sort_lists() ran
   std::vector<Entry*> ghosts_;   // ascending id once sort_lists() ran
-  std::vector<Entry*> statics_;  // ascending id once sort_lists() ran
+  std::vector<Entry*> statics_;  // held; ascending id once sort_lists() ran
   // Owned bodies parked outside the Bullet world (not in owned_), any order;
   // each Entry holds its index here.
   std::vector<Entry*> parked_;

@@ -1,0 +1,100 @@
+// TerritoryWorld::Statics (territory_world_parts.h): which fixed statics a
+// territory world holds, loaded by cells (static_catalog.h).
+#include <algorithm>
+
+#include "soda/worlds/bullet_bodies.h"
+#include "territory_world_parts.h"
+
+namespace soda {
+namespace {
+
+bool bit(const std::vector<std::uint64_t>& bits, std::size_t i) { return (bits[i / 64] >> (i % 64)) & 1; }
+void set_bit(std::vector<std::uint64_t>& bits, std::size_t i) { bits[i / 64] |= std::uint64_t{1} << (i % 64); }
+
+bool intersect(const CellBox& a, const CellBox& b) {
+  return a.lo.x <= b.hi.x && b.lo.x <= a.hi.x && a.lo.y <= b.hi.y && b.lo.y <= a.hi.y && a.lo.z <= b.hi.z &&
+         b.lo.z <= a.hi.z;
+}
+
+template <class F>
+bool any_cell(const CellBox& c, F&& f) {
+  for (int x = c.lo.x; x <= c.hi.x; ++x)
+    for (int y = c.lo.y; y <= c.hi.y; ++y)
+      for (int z = c.lo.z; z <= c.hi.z; ++z)
+        if (f(CellCoord{x, y, z})) return true;
+  return false;
+}
+
+}  // namespace
+
+void TerritoryWorld::Statics::init(std::shared_ptr<const StaticCatalog> c) {
+  catalog = std::move(c);
+  held.assign(catalog->size(), 0);
+  const TerritoryMap& map = world->map_;
+  const CellBox& box = map.box();
+  loaded.assign(static_cast<std::size_t>((box.count() + 63) / 64), 0);
+  const int r = map.reach();
+  for (const CellCoord& own : map.cells_of(world->id_)) {
+    const CellBox ring = clamp_cells({{own.x - r, own.y - r, own.z - r}, {own.x + r, own.y + r, own.z + r}}, box);
+    any_cell(ring, [&](const CellCoord& cell) {
+      set_bit(loaded, box.index(cell));
+      return false;
+    });
+  }
+  for (std::size_t i = 0; i < catalog->size(); ++i)
+    if (any_cell(catalog->cells(i, map.grid(), box), [&](const CellCoord& cell) { return bit(loaded, box.index(cell)); }))
+      hold_index(i);
+}
+
+bool TerritoryWorld::Statics::all_loaded(const CellBox& c) const {
+  const CellBox& box = world->map_.box();
+  return !any_cell(c, [&](const CellCoord& cell) { return !bit(loaded, box.index(cell)); });
+}
+
+void TerritoryWorld::Statics::load_slow(const CellBox& c) {
+  const TerritoryMap& map = world->map_;
+  for (std::size_t i = 0; i < catalog->size(); ++i)
+    if (!held[i] && intersect(catalog->cells(i, map.grid(), map.box()), c)) hold_index(i);
+  any_cell(c, [&](const CellCoord& cell) {
+    set_bit(loaded, map.box().index(cell));
+    return false;
+  });
+}
+
+void TerritoryWorld::Statics::hold_index(std::size_t i) {
+  if (held[i]) return;
+  held[i] = 1;
+  ++held_count;
+  ++world->counters_.statics_loaded;  // reset by predict: what init holds is not counted
+  world->insert_static(catalog->body(i));
+}
+
+TerritoryWorld::Entry* TerritoryWorld::Statics::hold(BodyId id) {
+  const std::size_t i = catalog->find(id);
+  if (i == catalog->size()) return nullptr;
+  hold_index(i);
+  return world->entries_.at(id).get();
+}
+
+btCollisionObject* TerritoryWorld::Statics::object(BodyId id) {
+  if (auto it = world->entries_.find(id); it != world->entries_.end())
+    return it->second->role == Role::Static ? it->second->body.get() : nullptr;
+  const std::size_t i = catalog->find(id);
+  if (i == catalog->size()) return nullptr;
+  Detached& d = detached[id];
+  if (!d.body) {
+    ++world->counters_.static_copies;
+    d.shape = make_collision_shape(catalog->body(i).shape);
+    d.body = make_rigid_body(catalog->body(i), *d.shape);
+    d.body->setActivationState(ISLAND_SLEEPING);  // as a held static (addRigidBody)
+  }
+  return d.body.get();
+}
+
+bool TerritoryWorld::Statics::is_static(BodyId id) const {
+  if (catalog->find(id) != catalog->size()) return true;
+  auto it = world->entries_.find(id);
+  return it != world->entries_.end() && it->second->role == Role::Static;  // a kinematic body
+}
+
+}  // namespace soda
