@@ -202,19 +202,29 @@ TEST(Mpi, LevelGeometryJointsAndKinematicBodiesGiveTheOneWorldHash) {
 }
 
 // A floor of 361 static tiles under a pile: each world, on whichever rank,
-// holds the tiles near its cells (docs/partitioned-step.md, §2a), and the
+// holds the tiles near its cells (docs/partitioned-step.md, §2a), the other
+// ranks' worlds that a rank builds but never steps hold none, and the
 // gathered hash is the one world's.
 TEST(Mpi, TiledFloorGivesTheOneWorldHashWithEachWorldsTiles) {
   const Scene s = test::tiled_floor(test::scene("cube-pile", 160), 1.5);
   for (const PartitionedOptions& o : {threads_per_world(), speculating()}) {
-    const Case c{"tiled cube-pile", 160, "kmeans", 4, 80};
+    const Case c{"tiled cube-pile", 160, "grid:2x1x2", 4, 80};
     expect_scene_hash(s, c, o);
     PartitionedOptions again = o;
     again.group = g_group;
-    PartitionedWorld world(s, make_partition("kmeans", s, 4, GridOptions{}), again);
+    PartitionedWorld world(s, make_partition("grid:2x1x2", s, 4, GridOptions{}), again);
     world.step(20);
     std::size_t held = 0;
     for (const WorldMetrics& m : world.metrics()) held += m.statics_held;  // collective
+    std::size_t mine = 0;
+    for (WorldId w = 0; w < world.world_count(); ++w) {
+      if (g_group->rank_of(w, world.world_count()) == g_group->rank())
+        mine += world.world(w).held_static_count();
+      else
+        EXPECT_EQ(world.world(w).held_static_count(), 0u) << "rank " << g_group->rank() << ", world " << w;
+    }
+    std::printf("[ tiled cube-pile 160, K 4, rank %d ] its worlds hold %zu tiles\n", g_group->rank(), mine);
+    if (g_group->size() == 4) EXPECT_LT(mine, s.static_count());  // a quarter of the floor and its ring
     if (g_group->rank() == 0) {
       std::printf("[ tiled cube-pile 160, K 4 on %d ranks ] %zu tiles, %zu held over the worlds\n", g_group->size(),
                   s.static_count(), held);

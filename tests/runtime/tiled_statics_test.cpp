@@ -124,7 +124,7 @@ namespace soda {
 namespace {
 
 // Faster than the run's reach speed, the ball's halo reaches beyond the
-// cells its world loaded at construction (its own, dilated by the reach):
+// cells its world loaded at its first step (its own, dilated by the reach):
 // starting 0.1 to 0.4 m before the border of a strip of 2 territories, its
 // world loads the wall (and tiles) its halo reaches, so that its
 // speculative contact with the wall (docs/ccd.md) is made a step before it

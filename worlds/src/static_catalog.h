@@ -2,9 +2,11 @@
 // territory world knows them, and which of them it holds.
 //
 // A world holds a fixed static in its Bullet world only where one of its
-// pairs may need it: the statics that overlap its own cells dilated by the
-// map's reach, and any other that the halo of one of its owned bodies
-// reaches (find_ghost_targets asks), or that a joint it holds ends on. The
+// pairs may need it: from its first step on, the statics that overlap its
+// own cells dilated by the map's reach, and any other that the halo of one
+// of its owned bodies reaches (find_ghost_targets asks), or that a joint it
+// holds ends on (a world that never steps, another rank's, holds only the
+// last). The
 // rest it knows by description and state only, for readout (the state hash,
 // snapshots, checkpoints) and for the root of a merged island, which builds
 // a detached copy of a static a fragment's manifold names (statics are

@@ -36,6 +36,7 @@ void TerritoryWorld::predict() {
   local_islands_.clear();
   if (parts_->replay.armed()) mark_clean();
   const btScalar h = btScalar(settings_.dt / settings_.substeps);
+  parts_->statics.prepare();
   move_kinematic_bodies();
   outgoing_.clear();
   attachments_.clear();

@@ -30,9 +30,14 @@ bool any_cell(const CellBox& c, F&& f) {
 void TerritoryWorld::Statics::init(std::shared_ptr<const StaticCatalog> c) {
   catalog = std::move(c);
   held.assign(catalog->size(), 0);
+  loaded.assign(static_cast<std::size_t>((world->map_.box().count() + 63) / 64), 0);
+}
+
+void TerritoryWorld::Statics::load_own_cells() {
+  own_cells_loaded = true;
+  const std::uint64_t loaded_before = world->counters_.statics_loaded;  // counts only what comes later
   const TerritoryMap& map = world->map_;
   const CellBox& box = map.box();
-  loaded.assign(static_cast<std::size_t>((box.count() + 63) / 64), 0);
   const int r = map.reach();
   for (const CellCoord& own : map.cells_of(world->id_)) {
     const CellBox ring = clamp_cells({{own.x - r, own.y - r, own.z - r}, {own.x + r, own.y + r, own.z + r}}, box);
@@ -44,6 +49,7 @@ void TerritoryWorld::Statics::init(std::shared_ptr<const StaticCatalog> c) {
   for (std::size_t i = 0; i < catalog->size(); ++i)
     if (any_cell(catalog->cells(i, map.grid(), box), [&](const CellCoord& cell) { return bit(loaded, box.index(cell)); }))
       hold_index(i);
+  world->counters_.statics_loaded = loaded_before;
 }
 
 bool TerritoryWorld::Statics::all_loaded(const CellBox& c) const {
@@ -65,7 +71,7 @@ void TerritoryWorld::Statics::hold_index(std::size_t i) {
   if (held[i]) return;
   held[i] = 1;
   ++held_count;
-  ++world->counters_.statics_loaded;  // reset by predict: what init holds is not counted
+  ++world->counters_.statics_loaded;
   world->insert_static(catalog->body(i));
 }
 

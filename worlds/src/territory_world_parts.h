@@ -114,9 +114,14 @@ struct TerritoryWorld::BorderLink final : BorderIslandHost {
 /// it holds in its Bullet world.
 struct TerritoryWorld::Statics {
   explicit Statics(TerritoryWorld* w) : world(w) {}
-  /// At construction: holds the statics that overlap the world's own cells
-  /// dilated by the map's reach.
+  /// At construction: the catalog; nothing held yet.
   void init(std::shared_ptr<const StaticCatalog> c);
+  /// At the start of every predict: the first time, holds the statics that
+  /// overlap the world's own cells dilated by the map's reach (a world that
+  /// is never stepped, another rank's, holds none).
+  void prepare() {
+    if (!own_cells_loaded) load_own_cells();
+  }
   /// Before collide: holds every static that the halo's `cells` may meet.
   void load(const CellBox& cells) {
     const CellBox c = clamp_cells(cells, world->map_.box());
@@ -136,6 +141,7 @@ struct TerritoryWorld::Statics {
   std::vector<std::uint64_t> loaded;  // bit per box cell: every static overlapping it is held
   std::vector<char> held;             // per catalog index
   std::size_t held_count = 0;
+  bool own_cells_loaded = false;
   struct Detached {
     std::shared_ptr<btCollisionShape> shape;
     std::unique_ptr<btRigidBody> body;
@@ -143,6 +149,7 @@ struct TerritoryWorld::Statics {
   std::unordered_map<BodyId, Detached> detached;
 
  private:
+  void load_own_cells();
   bool all_loaded(const CellBox& c) const;
   void load_slow(const CellBox& c);
   void hold_index(std::size_t i);
