@@ -71,13 +71,19 @@ struct Growth {
   std::size_t rest = 0;   // the next seven together
 };
 
+// Each world built and predicted once: a world holds the statics near its
+// cells from its first predict on (docs/partitioned-step.md, §2a).
 Growth build_worlds(const Scene& s, const TerritoryMap& map) {
   std::vector<std::unique_ptr<TerritoryWorld>> worlds;
   Growth g;
   const std::size_t h0 = heap_bytes();
   worlds.push_back(std::make_unique<TerritoryWorld>(s, 0, map));
+  worlds.back()->predict();
   const std::size_t h1 = heap_bytes();
-  for (WorldId w = 1; w < map.world_count(); ++w) worlds.push_back(std::make_unique<TerritoryWorld>(s, w, map));
+  for (WorldId w = 1; w < map.world_count(); ++w) {
+    worlds.push_back(std::make_unique<TerritoryWorld>(s, w, map));
+    worlds.back()->predict();
+  }
   g.first = h1 - h0;
   g.rest = heap_bytes() - h1;
   return g;
