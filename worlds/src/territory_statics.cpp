@@ -2,6 +2,7 @@
 // territory world holds, loaded by cells (static_catalog.h).
 #include <algorithm>
 
+#include "body_factory.h"
 #include "soda/worlds/bullet_bodies.h"
 #include "territory_world_parts.h"
 
@@ -25,6 +26,14 @@ bool any_cell(const CellBox& c, F&& f) {
   return false;
 }
 
+// Sets the bits of the cells of `c`, a range inside `box`.
+void mark_cells(std::vector<std::uint64_t>& bits, const CellBox& box, const CellBox& c) {
+  any_cell(c, [&](const CellCoord& cell) {
+    set_bit(bits, box.index(cell));
+    return false;
+  });
+}
+
 }  // namespace
 
 void TerritoryWorld::Statics::init(std::shared_ptr<const StaticCatalog> c) {
@@ -38,16 +47,10 @@ void TerritoryWorld::Statics::load_own_cells() {
   const std::uint64_t loaded_before = world->counters_.statics_loaded;  // counts only what comes later
   const TerritoryMap& map = world->map_;
   const CellBox& box = map.box();
-  const int r = map.reach();
-  for (const CellCoord& own : map.cells_of(world->id_)) {
-    const CellBox ring = clamp_cells({{own.x - r, own.y - r, own.z - r}, {own.x + r, own.y + r, own.z + r}}, box);
-    any_cell(ring, [&](const CellCoord& cell) {
-      set_bit(loaded, box.index(cell));
-      return false;
-    });
-  }
+  for (const CellCoord& own : map.cells_of(world->id_))
+    mark_cells(loaded, box, clamp_cells(CellBox{own, own}.grown(map.reach()), box));
   for (std::size_t i = 0; i < catalog->size(); ++i)
-    if (any_cell(catalog->cells(i, map.grid(), box), [&](const CellCoord& cell) { return bit(loaded, box.index(cell)); }))
+    if (any_cell(catalog->cells(i, map.grid(), box), [&](const CellCoord& c) { return bit(loaded, box.index(c)); }))
       hold_index(i);
   world->counters_.statics_loaded = loaded_before;
 }
@@ -61,10 +64,7 @@ void TerritoryWorld::Statics::load_slow(const CellBox& c) {
   const TerritoryMap& map = world->map_;
   for (std::size_t i = 0; i < catalog->size(); ++i)
     if (!held[i] && intersect(catalog->cells(i, map.grid(), map.box()), c)) hold_index(i);
-  any_cell(c, [&](const CellCoord& cell) {
-    set_bit(loaded, map.box().index(cell));
-    return false;
-  });
+  mark_cells(loaded, map.box(), c);
 }
 
 void TerritoryWorld::Statics::hold_index(std::size_t i) {
@@ -75,11 +75,8 @@ void TerritoryWorld::Statics::hold_index(std::size_t i) {
   world->insert_static(catalog->body(i));
 }
 
-TerritoryWorld::Entry* TerritoryWorld::Statics::hold(BodyId id) {
-  const std::size_t i = catalog->find(id);
-  if (i == catalog->size()) return nullptr;
-  hold_index(i);
-  return world->entries_.at(id).get();
+void TerritoryWorld::Statics::hold(BodyId id) {
+  if (const std::size_t i = catalog->find(id); i != catalog->size()) hold_index(i);
 }
 
 btCollisionObject* TerritoryWorld::Statics::object(BodyId id) {
@@ -91,8 +88,8 @@ btCollisionObject* TerritoryWorld::Statics::object(BodyId id) {
   if (!d.body) {
     ++world->counters_.static_copies;
     d.shape = make_collision_shape(catalog->body(i).shape);
-    d.body = make_rigid_body(catalog->body(i), *d.shape);
-    d.body->setActivationState(ISLAND_SLEEPING);  // as a held static (addRigidBody)
+    d.body = make_body_from_state(catalog->body(i), *d.shape, catalog->state(i));  // the state a held one has
+    d.body->forceActivationState(catalog->state(i).activation_state);
   }
   return d.body.get();
 }

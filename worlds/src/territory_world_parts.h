@@ -127,9 +127,9 @@ struct TerritoryWorld::Statics {
     const CellBox c = clamp_cells(cells, world->map_.box());
     if (!all_loaded(c)) load_slow(c);
   }
-  /// The static `id`, held from now on (a joint ends on it); null if `id`
+  /// Holds the static `id` from now on (a joint ends on it); nothing if `id`
   /// is not a fixed static.
-  Entry* hold(BodyId id);
+  void hold(BodyId id);
   /// The static `id` for a solve on copies: held, or a detached copy (null
   /// if `id` is no static). The stepping thread only.
   btCollisionObject* object(BodyId id);
