@@ -96,9 +96,7 @@ Imbalance imbalance_of(const std::vector<StepLoads>& loads) {
 LbExperimentResult run_lb_experiment(const Scene& scene, const LbExperimentConfig& config) {
   check_config(config);
   LbExperimentResult r;
-  GridOptions grid;
-  if (!config.run.runtime.balance.triangle_cost) grid.triangle_weight = 0;
-  r.first_map = make_partition(config.run.partition, scene, config.run.territories, grid);
+  r.first_map = make_partition(config.run.partition, scene, config.run.territories, grid_options(config.run));
   std::vector<std::optional<RunResult>> best(config.policies.size());
   r.runs.resize(config.policies.size());
   std::optional<RunResult> stock;

@@ -94,6 +94,39 @@ HORIZON_PERIOD = 8
 NETWORKS = [("2 µs, 10 GB/s", 2e-6, 10e9), ("50 µs, 1 GB/s", 50e-6, 1e9)]
 
 
+def model_rows(j, name, scaling, n, k, partition, cmd):
+    """The model's input rows (runs, worlds, links CSV rows) of one `soda run --json`."""
+    steps = j["steps"]
+    if k == 1:  # one world: no per-world rows, its CPU is the slowest world's
+        j["slowest_world_cpu_seconds"], j["messages"], j["message_bytes"], j["worlds"] = j["cpu_seconds"], 0, 0, []
+    run = {"run": name, "scaling": scaling, "scene": j["scene"], "n": n, "territories": k,
+           "partition": partition, "steps": steps, "precision": j["precision"],
+           "state_hash": j["state_hash"], "cpu_seconds": j["cpu_seconds"],
+           "slowest_world_cpu_seconds": j["slowest_world_cpu_seconds"], "messages": j["messages"],
+           "message_bytes": j["message_bytes"], "command": cmd}
+    worlds, links = [], []
+    for w in j["worlds"]:
+        t = w["traffic"]
+        row = {"run": name, "world": w["world"], "internal_steps": t["internal_steps"],
+               "cpu_seconds": w["cpu_seconds"], "cpu_step_max_ms": w["cpu_step_max_ms"],
+               "owned_bodies": w["owned_bodies"], "neighbours": w["neighbours"],
+               "messages_sent": w["messages_sent"],
+               "bytes_sent": sum(f["bytes"] for f in t["flows"]),
+               "island_depth_sum": t["island_depth_sum"], "island_depth_max": t["island_depth_max"]}
+        for kind in KINDS:
+            row["rounds_" + kind] = t["rounds"][kind]
+        for stage in STAGES:
+            row["cpu_" + stage] = w["stages"][stage]["cpu_seconds"]
+        worlds.append(row)
+        per_to = {}
+        for f in t["flows"]:
+            m, b = per_to.get(f["to"], (0, 0))
+            per_to[f["to"]] = (m + f["messages"], b + f["bytes"])
+        for to, (m, b) in sorted(per_to.items()):
+            links.append({"run": name, "from": w["world"], "to": to, "messages": m, "bytes": b})
+    return run, worlds, links
+
+
 def measure(a):
     runs, worlds, links = [], [], []
     for name, scaling, n, k, partition in RUNS:
@@ -101,33 +134,10 @@ def measure(a):
         if k > 1:
             args += ["--partition", partition, "--threads", "1", "--serialise"]
         j, cmd = soda_run(a.soda, args), " ".join(["soda", "run"] + args)
-        steps = j["steps"]
-        if k == 1:  # one world: no per-world rows, its CPU is the slowest world's
-            j["slowest_world_cpu_seconds"], j["messages"], j["message_bytes"], j["worlds"] = j["cpu_seconds"], 0, 0, []
-        runs.append({"run": name, "scaling": scaling, "scene": j["scene"], "n": n, "territories": k,
-                     "partition": partition, "steps": steps, "precision": j["precision"],
-                     "state_hash": j["state_hash"], "cpu_seconds": j["cpu_seconds"],
-                     "slowest_world_cpu_seconds": j["slowest_world_cpu_seconds"], "messages": j["messages"],
-                     "message_bytes": j["message_bytes"], "command": cmd})
-        for w in j["worlds"]:
-            t = w["traffic"]
-            row = {"run": name, "world": w["world"], "internal_steps": t["internal_steps"],
-                   "cpu_seconds": w["cpu_seconds"], "cpu_step_max_ms": w["cpu_step_max_ms"],
-                   "owned_bodies": w["owned_bodies"], "neighbours": w["neighbours"],
-                   "messages_sent": w["messages_sent"],
-                   "bytes_sent": sum(f["bytes"] for f in t["flows"]),
-                   "island_depth_sum": t["island_depth_sum"], "island_depth_max": t["island_depth_max"]}
-            for kind in KINDS:
-                row["rounds_" + kind] = t["rounds"][kind]
-            for stage in STAGES:
-                row["cpu_" + stage] = w["stages"][stage]["cpu_seconds"]
-            worlds.append(row)
-            per_to = {}
-            for f in t["flows"]:
-                m, b = per_to.get(f["to"], (0, 0))
-                per_to[f["to"]] = (m + f["messages"], b + f["bytes"])
-            for to, (m, b) in sorted(per_to.items()):
-                links.append({"run": name, "from": w["world"], "to": to, "messages": m, "bytes": b})
+        run, w, l = model_rows(j, name, scaling, n, k, partition, cmd)
+        runs.append(run)
+        worlds += w
+        links += l
     os.makedirs(a.inputs, exist_ok=True)
     for stem, rows in (("runs", runs), ("worlds", worlds), ("links", links)):
         path = os.path.join(a.inputs, f"mpi-model-{stem}.csv")

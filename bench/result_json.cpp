@@ -169,6 +169,7 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
       {"precision", kPrecisionName},
       {"territories", r.territories},
       {"partition", d.config.partition},
+      {"cell_size", d.config.cell_size ? nlohmann::json(*d.config.cell_size) : nlohmann::json(nullptr)},
       {"threads", d.config.threads == 0 ? r.territories : d.config.threads},
       {"shuffle_seed", d.config.shuffle_seed},
       {"dt", st.dt},
@@ -239,7 +240,9 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
                          {"messages_from_other_ranks", t.messages_in},
                          {"bytes_from_other_ranks", t.bytes_in},
                          {"communication_loop_seconds", t.pump_seconds},
-                         {"communication_loop_idle_seconds", t.pump_idle_seconds}});
+                         {"communication_loop_idle_seconds", t.pump_idle_seconds},
+                         {"bullet_objects", t.bullet_objects},
+                         {"peak_rss_bytes", t.peak_rss_bytes}});
       j["ranks"] = std::move(ranks);
     }
     nlohmann::json worlds = nlohmann::json::array();

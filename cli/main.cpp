@@ -90,6 +90,9 @@ void add_run_options(CLI::App& cmd, Options& o) {
   cmd.add_option("--territories", o.config.territories, "Number of territories (worlds)")->capture_default_str();
   cmd.add_option("--partition", o.config.partition, "kmeans | rcb | grid:AxBxC | territory-map file")
       ->capture_default_str();
+  cmd.add_option("--cell-size", o.config.cell_size,
+                 "Cell edge of the partition's grid in metres (default: the extent 90 % of the dynamic bodies fit "
+                 "in); larger cells for scenes spread too wide for the default");
   cmd.add_option("--threads", o.config.threads,
                  "Threads stepping the worlds: 0 or >= territories: one per world; 1: all worlds round-robin on "
                  "one thread; in between: a pool")
@@ -278,10 +281,12 @@ void print_summary(const soda::RunResult& r) {
   }
   for (const soda::RankTraffic& t : r.ranks)
     std::printf("  rank %d: %d world(s), CPU %.3f s, worlds blocked %.3f s; to other ranks %llu messages %llu bytes, "
-                "from them %llu messages %llu bytes; communication loop %.3f s (%.3f s idle)\n",
+                "from them %llu messages %llu bytes; communication loop %.3f s (%.3f s idle); %llu Bullet objects, "
+                "peak RSS %.1f MB\n",
                 t.rank, t.worlds, t.cpu_seconds, t.blocked_seconds, static_cast<unsigned long long>(t.messages_out),
                 static_cast<unsigned long long>(t.bytes_out), static_cast<unsigned long long>(t.messages_in),
-                static_cast<unsigned long long>(t.bytes_in), t.pump_seconds, t.pump_idle_seconds);
+                static_cast<unsigned long long>(t.bytes_in), t.pump_seconds, t.pump_idle_seconds,
+                static_cast<unsigned long long>(t.bullet_objects), static_cast<double>(t.peak_rss_bytes) * 1e-6);
   if (r.sync_rollbacks)
     std::printf("  SyncTest: %llu rollbacks re-run bit-identical\n", static_cast<unsigned long long>(r.sync_rollbacks));
   for (std::int64_t step : r.healed_steps)
@@ -324,7 +329,7 @@ int cmd_resume(Options& o) {
 
 int cmd_run(Options& o) {
   if (!o.resume_path.empty()) return cmd_resume(o);
-  const soda::Scene scene = resolve_scene(o);
+  soda::Scene scene = resolve_scene(o);
   // A registry scene's own inputs (rain's later waves) are part of the
   // scene; an input file on top of them is refused rather than merged (the
   // two lists' ids and orders are nobody's to reconcile; write the scene's
@@ -348,7 +353,10 @@ int cmd_run(Options& o) {
   if (o.serve_port && !o.config.checkpoint_path.empty())
     throw std::invalid_argument("--serve cannot be combined with --checkpoint");
   if (o.serve_port) return soda::cli::serve_run(scene, o.config, {*o.serve_port, o.serve_linger, o.serve_wait});
-  const soda::RunResult r = soda::run_scene(scene, o.config);
+  soda::Scene about;  // what the JSON row reads of the scene (its settings): run_scene takes the scene
+  about.name = scene.name;
+  about.settings = scene.settings;
+  const soda::RunResult r = soda::run_scene(std::move(scene), o.config);
   if (o.config.group && o.config.group->rank() != 0) return 0;  // rank 0 prints the whole scene's result
   print_summary(r);
   print_checkpoints(o, r);
@@ -357,7 +365,7 @@ int cmd_run(Options& o) {
                 static_cast<unsigned long long>(r.record_frames), static_cast<unsigned long long>(r.record_bytes),
                 o.config.record_path.c_str(), r.record_cpu_seconds);
   if (!o.json_path.empty())
-    soda::write_json(soda::run_json({o.scene, o.params, &scene, o.config}, r), o.json_path);
+    soda::write_json(soda::run_json({o.scene, o.params, &about, o.config}, r), o.json_path);
   return 0;
 }
 

@@ -1,6 +1,7 @@
 # `mpirun -np 2 soda run ... --territories K` prints the hash of the
 # threaded 1-territory run, writes the JSON (with its per-rank traffic) from
-# rank 0 only, gives it with speculation and SyncTest too, also for a scene
+# rank 0 only (each rank's Bullet objects its share, not the scene), gives
+# it with speculation and SyncTest too, also for a scene
 # with joints, with a solver pool and with inputs from a file, and refuses a
 # bad --ranks-worlds or --validate with exit 2.
 # Run by ctest: cmake -DSODA=... -DMPIEXEC=... -P mpi_cli_test.cmake
@@ -51,6 +52,17 @@ if(NOT ranks EQUAL 2 OR NOT worlds1 EQUAL 2)
   message(FATAL_ERROR "JSON: expected 2 ranks, rank 1 with 2 worlds:\n${j}")
 endif()
 message(STATUS "one territory ${reference}; 3 territories on 2 ranks: the same (JSON ${hash_json})")
+# Each rank builds its worlds from its share of the scene: fewer Bullet
+# objects than the scene's 120 cubes on either rank (each rank held every
+# world's bodies, more than 120, before), and its peak memory is reported.
+foreach(rank 0 1)
+  string(JSON objects GET "${j}" ranks ${rank} bullet_objects)
+  string(JSON rss GET "${j}" ranks ${rank} peak_rss_bytes)
+  if(NOT objects LESS 120 OR NOT objects GREATER 0 OR NOT rss GREATER 0)
+    message(FATAL_ERROR "JSON: rank ${rank} holds ${objects} Bullet objects (expected 1 .. 119), peak RSS ${rss}:\n${j}")
+  endif()
+  message(STATUS "rank ${rank}: ${objects} Bullet objects, peak RSS ${rss} bytes")
+endforeach()
 
 # Speculation and SyncTest over ranks: the same hash.
 ranked_run(spec --anticipation 8 --eager-bets --sync-test 2)

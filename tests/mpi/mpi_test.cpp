@@ -234,6 +234,35 @@ TEST(Mpi, TiledFloorGivesTheOneWorldHashWithEachWorldsTiles) {
   }
 }
 
+// A rank builds its worlds from its share of the scene (scene_share.h): the
+// worlds it steps own what the threaded run's do, the others no body (the
+// kinematic ones aside, which every world holds); the hash is one world's.
+TEST(Mpi, ARankBuildsItsWorldsFromItsShareOfTheScene) {
+  for (const char* name : {"falling-cubes", "ragdolls", "conveyor"}) {
+    const Scene s = test::scene(name, 120);
+    const TerritoryMap map = make_partition("kmeans", s, 4, GridOptions{});
+    PartitionedOptions o = threads_per_world();
+    o.group = g_group;
+    const PartitionedWorld ranked(s, map, o);
+    const PartitionedWorld threaded(s, map, threads_per_world());
+    std::size_t kinematic = 0;
+    for (const Body& b : s.bodies) kinematic += b.kinematic;
+    std::size_t mine = 0;
+    for (WorldId w = 0; w < ranked.world_count(); ++w) {
+      if (g_group->rank_of(w, ranked.world_count()) == g_group->rank()) {
+        EXPECT_EQ(ranked.world(w).owned_ids(), threaded.world(w).owned_ids()) << name << ", world " << w;
+        mine += ranked.world(w).owned_count();
+      } else {
+        EXPECT_EQ(ranked.world(w).owned_count(), 0u) << name << ", world " << w;
+        EXPECT_EQ(ranked.world(w).bullet_object_count(), kinematic) << name << ", world " << w;
+      }
+    }
+    std::printf("[ %s 120, K 4, rank %d of %d ] its worlds own %zu of %zu dynamic bodies\n", name, g_group->rank(),
+                g_group->size(), mine, s.dynamic_count());
+    expect_scene_hash(s, Case{name, 120, "kmeans", 4, 40}, threads_per_world());
+  }
+}
+
 // A world that throws on one rank stops the run on every rank, each with the
 // failing world's error; nobody hangs (ctest's timeout would say so).
 void expect_failure_stops_every_rank(PartitionedOptions o) {

@@ -12,6 +12,7 @@
 
 #include <LinearMath/btScalar.h>
 
+#include "soda/runtime/process_group.h"
 #include "soda/worlds/world_snapshot.h"
 
 namespace soda {
@@ -161,6 +162,27 @@ MemoryEstimate estimate_run_memory(const Scene& scene, const RunConfig& config, 
   }
   e.thread_bytes = static_cast<std::uint64_t>(std::max(0, threads)) * thread_stack_bytes();
   e.level_geometry_bytes = level_geometry_bytes(scene);
+  return e;
+}
+
+MemoryEstimate check_run_memory(const Scene& scene, const RunConfig& config) {
+  const int k = config.territories;
+  const int threads = k <= 1 || config.threads == 1 ? 0 : (config.threads == 0 || config.threads >= k ? k : config.threads);
+  MemoryEstimate e = estimate_run_memory(scene, config, threads);
+  if (config.group && k > 1) {
+    // A rank builds its worlds' share of the scene (docs/mpi.md, "What a rank
+    // holds"): its part of the worlds and kept states, in proportion to the
+    // worlds it steps (territories taken as equal), and their threads.
+    std::uint64_t own = 0;
+    for (WorldId w = 0; w < k; ++w) own += config.group->rank_of(w, k) == config.group->rank();
+    e.world_bytes = e.world_bytes * own / static_cast<std::uint64_t>(k);
+    e.kept_state_bytes = e.kept_state_bytes * own / static_cast<std::uint64_t>(k);
+    e.world_body_count = e.world_body_count * own / static_cast<std::uint64_t>(k);
+    if (threads > 0) e.thread_bytes = e.thread_bytes * own / static_cast<std::uint64_t>(k);
+  }
+  check_memory(e, current_memory_budget(),
+               "scene '" + scene.name + "' (" + std::to_string(scene.bodies.size()) + " bodies, " +
+                   std::to_string(k) + (k == 1 ? " territory)" : " territories)"));
   return e;
 }
 

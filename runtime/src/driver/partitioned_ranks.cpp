@@ -3,9 +3,9 @@
 // group's communication loop on the caller's thread, and the whole-scene
 // readouts gathered to rank 0.
 //
-// Every rank builds every TerritoryWorld (the same scene, map and options),
-// but steps only its own; the others stay at their first state and are
-// never read. With speculation the group computes the commit horizon over
+// Every rank builds every TerritoryWorld (the same map and options) from
+// its share of the scene (scene_share.h), and steps only its own; the
+// others hold no dynamic body and are never read. With speculation the group computes the commit horizon over
 // the ranks and carries the rollback board's posts (docs/mpi.md).
 #include <algorithm>
 #include <stdexcept>

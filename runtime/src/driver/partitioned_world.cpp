@@ -15,6 +15,7 @@
 #include "driver/metrics_sums.h"
 #include "driver/partitioned_internals.h"
 #include "soda/runtime/process_group.h"
+#include "soda/worlds/scene_share.h"
 #include "soda/worlds/world_snapshot.h"
 #include "driver/testing_hooks.h"
 
@@ -75,10 +76,32 @@ ProcessSafety process_safety(const PartitionedOptions& o, const detail::TestingH
 
 PartitionedWorld::PartitionedWorld(const Scene& scene, TerritoryMap map, PartitionedOptions options)
     : options_(std::move(options)), substeps_(scene.settings.substeps), base_substeps_(substeps_) {
+  init_from_scene(scene, std::move(map), nullptr);
+}
+
+PartitionedWorld::PartitionedWorld(Scene&& scene, TerritoryMap map, PartitionedOptions options)
+    : options_(std::move(options)), substeps_(scene.settings.substeps), base_substeps_(substeps_) {
+  init_from_scene(scene, std::move(map), &scene);
+}
+
+// The map's reach and the inputs' checks come from the whole scene, the
+// same on every rank; over ranks the worlds are then built from the rank's
+// share, and `owned` (the caller's scene, if it gave it up) is freed first;
+// on one process it is freed once the worlds are built.
+void PartitionedWorld::init_from_scene(const Scene& scene, TerritoryMap map, Scene* owned) {
   init_balance();
   init_inputs(scene);
   map = map_for_run(scene, map);
-  build(&scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(scene, w, map); });
+  if (!options_.group) {
+    build(&scene, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(scene, w, map); });
+    if (owned) *owned = Scene{};  // the worlds hold their own copies
+    return;
+  }
+  const ProcessGroup& group = *options_.group;
+  const int k = map.world_count();
+  const Scene share = scene_share(scene, map, [&](WorldId w) { return group.rank_of(w, k) == group.rank(); });
+  if (owned) *owned = Scene{};
+  build(&share, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(share, w, map); });
 }
 
 PartitionedWorld::PartitionedWorld(const WorldSnapshot& state, TerritoryMap map, PartitionedOptions options)

@@ -4,11 +4,13 @@
 #include <chrono>
 #include <memory>
 #include <numeric>
-#include <thread>
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <type_traits>
+
+#include <sys/resource.h>
 
 #include <BulletDynamics/Dynamics/btRigidBody.h>
 #include <spdlog/spdlog.h>
@@ -158,7 +160,11 @@ void gather_rank_traffic(ProcessGroup& group, const PartitionedWorld& world, Run
   mine.messages = world.messages_sent();
   mine.bytes = world.bytes_sent();
   mine.worlds = 0;
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  mine.peak_rss_bytes = static_cast<std::uint64_t>(usage.ru_maxrss) * 1024;  // Linux: kilobytes
   for (WorldId w = 0; w < world.world_count(); ++w) {
+    mine.bullet_objects += world.world(w).bullet_object_count();
     if (group.rank_of(w, world.world_count()) != group.rank()) continue;
     ++mine.worlds;
     const WorldMetrics& m = r.world_metrics[static_cast<std::size_t>(w)];
@@ -205,7 +211,8 @@ PartitionedOptions partitioned_options(const RunConfig& config, int k, RunResult
 }
 
 // What a partitioned run measured and ended with, into `r`.
-void collect_partitioned(const PartitionedWorld& world, const Scene& scene, const RunConfig& config, RunResult& r) {
+void collect_partitioned(const PartitionedWorld& world, std::size_t scene_statics, const RunConfig& config,
+                         RunResult& r) {
   r.world_metrics = world.metrics();
   for (const WorldMetrics& m : r.world_metrics) r.cpu_seconds += m.cpu_seconds;
   r.messages = world.messages_sent();
@@ -216,7 +223,7 @@ void collect_partitioned(const PartitionedWorld& world, const Scene& scene, cons
   r.sleeping_bodies = world.sleeping_count();
   if (config.inputs) {  // at the end: the inputs added and removed bodies
     r.bodies = world.body_count();
-    r.dynamic_bodies = r.bodies - (scene.bodies.size() - scene.dynamic_count());
+    r.dynamic_bodies = r.bodies - scene_statics;
   }
   r.healed_steps = world.healed_steps();
   r.sync_rollbacks = world.sync_rollbacks();
@@ -232,8 +239,8 @@ void collect_partitioned(const PartitionedWorld& world, const Scene& scene, cons
 // steps); progress and step times come from world 0's thread. Every world
 // inserts its bodies in the order of config.shuffle_seed. Inputs (when not
 // through a Simulation: inputs_through_simulation) go to the PartitionedWorld.
-RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
-  const Scene scene = in_insertion_order(scene_in, config.shuffle_seed);
+RunResult run_partitioned(Scene scene, const RunConfig& config) {
+  if (config.shuffle_seed != 0) scene = in_insertion_order(scene, config.shuffle_seed);
   if (config.world != WorldKind::Canonical)
     throw std::invalid_argument(config.territories > 1
                                     ? "--territories > 1 runs the canonical world only (not --world stock)"
@@ -245,14 +252,14 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.world = config.world;
   r.bodies = scene.bodies.size();
   r.dynamic_bodies = scene.dynamic_count();
+  const std::size_t scene_statics = r.bodies - r.dynamic_bodies;
+  const std::string scene_name = scene.name;
   r.steps = config.steps;
   r.territories = config.territories;
   r.partition = config.partition;
   r.anticipation = config.runtime.anticipation;
   r.rollback = config.runtime.rollback;
-  GridOptions grid;
-  if (!config.runtime.balance.triangle_cost) grid.triangle_weight = 0;
-  const TerritoryMap map = make_partition(config.partition, scene, config.territories, grid);
+  const TerritoryMap map = make_partition(config.partition, scene, config.territories, grid_options(config));
   const int k = map.world_count();
   PartitionedOptions options = partitioned_options(config, k, r);
   r.solver_threads = config.runtime.solver_threads;
@@ -270,7 +277,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
       const double eta = elapsed / static_cast<double>(done) * static_cast<double>(config.steps - done);
       spdlog::info("{} partitioned ({} worlds, {}): world 0 at step {}/{} ({:.0f} %), {:.1f} s elapsed, about "
                    "{:.1f} s to go",
-                   scene.name, k, r.schedule, done, config.steps, 100.0 * static_cast<double>(done) / config.steps,
+                   scene_name, k, r.schedule, done, config.steps, 100.0 * static_cast<double>(done) / config.steps,
                    elapsed, eta);
       next_progress = now + static_cast<std::int64_t>(config.progress_seconds * 1e9);
     }
@@ -278,7 +285,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   const Stamp start;
   std::unique_ptr<PartitionedWorld> owned_world;
   try {
-    owned_world = std::make_unique<PartitionedWorld>(scene, map, options);
+    owned_world = std::make_unique<PartitionedWorld>(std::move(scene), map, options);
   } catch (const std::invalid_argument& e) {
     // A bad input (PartitionedOptions::inputs): name where the inputs came from.
     if (config.inputs && std::string(e.what()).starts_with("PartitionedOptions::inputs"))
@@ -303,7 +310,7 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   std::vector<std::int64_t> step_ns;
   for (std::size_t i = 0; i < step_ends.size(); ++i) step_ns.push_back(step_ends[i] - (i ? step_ends[i - 1] : t0));
   r.step_time = StepTimeStats::from_ns(std::move(step_ns));
-  collect_partitioned(world, scene, config, r);
+  collect_partitioned(world, scene_statics, config, r);
   if (config.runtime.validate) {
     const WorldSnapshot s = world.snapshot();
     r.bodies_at_end = s.bodies.size();
@@ -315,18 +322,6 @@ RunResult run_partitioned(const Scene& scene_in, const RunConfig& config) {
   r.teardown_seconds = gone.wall_since(stepped);
   r.teardown_cpu_seconds = gone.cpu_since(stepped);
   return r;
-}
-
-// Refuses a run whose worlds cannot fit (docs/memory.md) before building
-// any; returns the estimate.
-MemoryEstimate check_run_memory(const Scene& scene, const RunConfig& config) {
-  const int k = config.territories;
-  const int threads = k <= 1 || config.threads == 1 ? 0 : (config.threads == 0 || config.threads >= k ? k : config.threads);
-  const MemoryEstimate e = estimate_run_memory(scene, config, threads);
-  check_memory(e, current_memory_budget(),
-               "scene '" + scene.name + "' (" + std::to_string(scene.bodies.size()) + " bodies, " +
-                   std::to_string(k) + (k == 1 ? " territory)" : " territories)"));
-  return e;
 }
 
 }  // namespace
@@ -361,29 +356,12 @@ StepTimeStats StepTimeStats::from_ns(std::vector<std::int64_t> ns) {
   return s;
 }
 
-std::vector<std::size_t> insertion_order(std::size_t body_count, std::uint64_t shuffle_seed) {
-  std::vector<std::size_t> order(body_count);
-  std::iota(order.begin(), order.end(), std::size_t{0});
-  if (shuffle_seed == 0) return order;
-  // Fisher-Yates with an explicit bounded draw: std::shuffle's use of the
-  // engine is implementation-defined, this is the same everywhere.
-  std::mt19937_64 rng(shuffle_seed);
-  for (std::size_t i = body_count; i > 1; --i) {
-    const std::size_t j = static_cast<std::size_t>(rng() % i);
-    std::swap(order[i - 1], order[j]);
-  }
-  return order;
-}
+namespace {
 
-Scene in_insertion_order(const Scene& scene, std::uint64_t shuffle_seed) {
-  Scene out = scene;
-  if (shuffle_seed == 0) return out;
-  const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), shuffle_seed);
-  for (std::size_t i = 0; i < order.size(); ++i) out.bodies[i] = scene.bodies[order[i]];
-  return out;
-}
-
-RunResult run_scene(const Scene& scene, const RunConfig& config) {
+// run_scene for a scene it may take (S = Scene) or only read (const Scene&):
+// a partitioned run over ranks frees what its rank does not hold.
+template <class S>
+RunResult run_any(S&& scene, const RunConfig& config) {
   if (config.steps < 0) throw std::invalid_argument("--steps must be >= 0");
   if (config.territories < 1) throw std::invalid_argument("--territories must be >= 1");
   if (config.threads < 0) throw std::invalid_argument("--threads must be >= 0");
@@ -424,13 +402,13 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
       throw std::invalid_argument("over MPI ranks: --record is not supported yet (docs/mpi.md)");
     if (!config.checkpoint_path.empty() || config.resume)
       throw std::invalid_argument("over MPI ranks: --checkpoint and --resume are not supported yet (docs/mpi.md)");
-    return with_estimate(run_partitioned(scene, config));
+    return with_estimate(run_partitioned(std::forward<S>(scene), config));
   }
   if (through_simulation_only(config) || (config.inputs && inputs_through_simulation(config)))
     return with_estimate(run_with_inputs(scene, config));
   if (config.territories > 1 || config.runtime.watchdog.response == WatchdogResponse::Heal || config.sync_test > 0 ||
       config.inputs)
-    return with_estimate(run_partitioned(scene, config));
+    return with_estimate(run_partitioned(std::forward<S>(scene), config));
   const std::vector<std::size_t> order = insertion_order(scene.bodies.size(), config.shuffle_seed);
   switch (config.world) {
     case WorldKind::Stock: return with_estimate(build_run_destroy<StockWorld>(scene, config, start, scene, order));
@@ -438,5 +416,11 @@ RunResult run_scene(const Scene& scene, const RunConfig& config) {
   }
   throw std::invalid_argument("unknown world kind");
 }
+
+}  // namespace
+
+RunResult run_scene(const Scene& scene, const RunConfig& config) { return run_any(scene, config); }
+
+RunResult run_scene(Scene&& scene, const RunConfig& config) { return run_any(std::move(scene), config); }
 
 }  // namespace soda

@@ -92,7 +92,7 @@ SimulationConfig simulation_config(const RunConfig& config) {
   sc.threads = config.threads;
   sc.serialise = config.serialise;
   sc.runtime = config.runtime;  // a Simulation refuses load balancing and heal
-  if (!config.runtime.balance.triangle_cost) sc.grid.triangle_weight = 0;
+  sc.grid = grid_options(config);
   // The worlds' reach has room for the largest body the inputs add.
   if (config.inputs)
     for (const UserInput& in : *config.inputs)

@@ -74,6 +74,12 @@ std::uint64_t level_geometry_bytes(const Scene& scene);
 /// worlds (0: only the caller's). Pure; thread-safe.
 MemoryEstimate estimate_run_memory(const Scene& scene, const RunConfig& config, int threads);
 
+/// run_scene's estimate for `scene` run as `config` says, with the threads
+/// it will start, checked against current_memory_budget(): throws
+/// MemoryLimitError naming the scene when it does not fit; returns the
+/// estimate. Over ranks (config.group) it is this rank's: the worlds' and
+/// kept states' bytes in proportion to the worlds the rank steps.
+MemoryEstimate check_run_memory(const Scene& scene, const RunConfig& config);
 /// What the process may get now (reads getrlimit, /proc/self/statm,
 /// /proc/meminfo and the cgroup v2 memory files; a source that cannot be
 /// read imposes no limit). Thread-safe.

@@ -117,8 +117,18 @@ class ValidationError : public std::runtime_error {
 class PartitionedWorld {
  public:
   /// One TerritoryWorld per world of `map`. Throws PartitionError (see
-  /// territory_world.h) or std::invalid_argument for bad options.
+  /// territory_world.h) or std::invalid_argument for bad options. Over the
+  /// ranks of a process group (options.group) each rank's worlds are built
+  /// from its share of the scene (scene_share.h): the worlds it does not
+  /// step hold no dynamic body.
   PartitionedWorld(const Scene& scene, TerritoryMap map, PartitionedOptions options = {});
+  /// The same, taking the scene, which is freed once the worlds are built
+  /// (they hold their own copies of what they need). Over ranks the rest of
+  /// the scene is freed as soon as the rank's share is taken, before any
+  /// world is built, so that a rank's peak memory is the whole scene's
+  /// description or its share of the built worlds, whichever is larger
+  /// (docs/mpi.md, "What a rank holds").
+  PartitionedWorld(Scene&& scene, TerritoryMap map, PartitionedOptions options = {});
   /// From the whole scene's state at a step boundary (snapshot() of a
   /// PartitionedWorld with any map, or CanonicalWorld::snapshot()): steps
   /// exactly as the run the snapshot was taken from; steps_done() starts at
@@ -192,6 +202,7 @@ class PartitionedWorld {
   void build(const Scene* scene, const TerritoryMap& map,
              const std::function<std::unique_ptr<TerritoryWorld>(WorldId)>& make_world);
   void restore(WorldSnapshot state);
+  void init_from_scene(const Scene& scene, TerritoryMap map, Scene* owned);
   void init_inputs(const Scene& scene);
   TerritoryMap map_for_run(const Scene& scene, const TerritoryMap& map);
   void run_to(std::int64_t scene_step);

@@ -40,6 +40,7 @@ struct RunConfig {
   int steps = 600;                   // steps to run
   int territories = 1;               // K; > 1: partitioned runtime (canonical world only)
   std::string partition = "kmeans";  // kmeans | rcb | grid:AxBxC | FILE
+  std::optional<double> cell_size;   // the partition's cell edge, metres (unset: GridOptions' default)
   int threads = 0;                   // K > 1: 0 or >= K: one thread per world; 1: one thread
                                      // (round-robin); 2 .. K-1: a pool of that many threads
   bool serialise = false;            // K > 1: messages through bytes (as the tests do)
@@ -205,6 +206,10 @@ struct RunResult {
 /// Deterministic: a function of (body count, seed) only.
 std::vector<std::size_t> insertion_order(std::size_t body_count, std::uint64_t shuffle_seed);
 
+/// The grid of config's partition: its cell size, and no triangle weight
+/// when the balance's triangle cost is off.
+GridOptions grid_options(const RunConfig& config);
+
 /// A copy of `scene` whose bodies are listed in insertion_order(bodies,
 /// shuffle_seed): what the territory worlds of a shuffled run are built from.
 Scene in_insertion_order(const Scene& scene, std::uint64_t shuffle_seed);
@@ -219,6 +224,11 @@ Scene in_insertion_order(const Scene& scene, std::uint64_t shuffle_seed);
 /// std::bad_alloc when an allocation fails anyway. Blocks the calling thread; logs a progress line through spdlog
 /// every config.progress_seconds.
 RunResult run_scene(const Scene& scene, const RunConfig& config);
+/// The same, taking the scene: a partitioned run builds its worlds from it
+/// without a copy, and over ranks (config.group) each rank keeps only its
+/// share and frees the rest before building (docs/mpi.md, "What a rank
+/// holds"). The scene may be empty afterwards.
+RunResult run_scene(Scene&& scene, const RunConfig& config);
 
 /// The Simulation settings of a run: territories, partition, threads, pin,
 /// serialise, validate, anticipation, solver_threads, rollback,
