@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "soda/runtime/process_group.h"
+
 #include <spdlog/fmt/fmt.h>
 #include <spdlog/spdlog.h>
 
@@ -19,9 +21,15 @@ BenchSet bench_set(const Scene& scene, const RunConfig& run_config, int repeat) 
   baseline_config.shuffle_seed = 0;
   baseline_config.runtime.solver_threads = 1;  // stock Bullet has no coloured solve
   baseline_config.solver_defaults = SolverDefaults::Soda;  // the stock world has its own
+  baseline_config.group = nullptr;
   RunConfig one_config = run_config;
   one_config.territories = 1;
+  one_config.group = nullptr;
   const bool partitioned = run_config.territories > 1;
+  // Over ranks (mpirun) the tested run is every rank's, collective; the
+  // baseline and the one-territory run are rank 0's alone, while the other
+  // ranks wait for it in the next tested run's set-up.
+  const bool rank0 = !run_config.group || run_config.group->rank() == 0;
   const char* sleeping = run_config.sleeping ? "sleeping on" : "sleeping off";
   BenchSet out;
   auto keep_fastest = [](RunResult r, RunResult& best, std::vector<double>& walls) {
@@ -29,10 +37,13 @@ BenchSet bench_set(const Scene& scene, const RunConfig& run_config, int repeat) 
     if (walls.size() == 1 || r.wall_seconds < best.wall_seconds) best = std::move(r);
   };
   for (int i = 0; i < repeat; ++i) {
-    auto run_baseline = [&] { keep_fastest(run_scene(scene, baseline_config), out.baseline, out.baseline_walls); };
+    auto run_baseline = [&] {
+      if (rank0) keep_fastest(run_scene(scene, baseline_config), out.baseline, out.baseline_walls);
+    };
     auto run_tested = [&] { keep_fastest(run_scene(scene, run_config), out.run, out.run_walls); };
     auto run_one = [&] {
-      if (partitioned) keep_fastest(run_scene(scene, one_config), out.one_territory, out.one_territory_walls);
+      if (partitioned && rank0)
+        keep_fastest(run_scene(scene, one_config), out.one_territory, out.one_territory_walls);
     };
     if (i % 2 == 0) {
       run_baseline();
@@ -43,6 +54,7 @@ BenchSet bench_set(const Scene& scene, const RunConfig& run_config, int repeat) 
       run_one();
       run_baseline();
     }
+    if (!rank0) continue;
     spdlog::info("{}, repeat {}/{}: baseline {:.3f} s, {} {:.3f} s{}", sleeping, i + 1, repeat,
                  out.baseline_walls.back(), world_kind_name(run_config.world), out.run_walls.back(),
                  partitioned ? fmt::format(" ({} territories; one territory {:.3f} s)", run_config.territories,

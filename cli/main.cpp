@@ -373,6 +373,7 @@ int cmd_bench(Options& o) {
   const soda::Scene scene = resolve_scene(o);
   soda::BenchConfig bc{o.config, o.repeat, !o.no_awake};
   const soda::BenchResult b = soda::bench_scene(scene, bc);
+  if (o.config.group && o.config.group->rank() != 0) return 0;  // rank 0 prints and judges the whole scene's
   print_summary(b.run);
   std::printf("\n%s, %zu dynamic bodies, %d steps, %s; wall seconds of stepping, min of %d interleaved repeats\n",
               o.scene.c_str(), b.run.dynamic_bodies, b.run.steps, soda::kPrecisionName, o.repeat);
@@ -549,6 +550,9 @@ int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
   add_run_options(*bench, bench_o);
   bench->add_option("--repeat", bench_o.repeat, "Interleaved repeats; the minimum of each side is kept")
       ->capture_default_str();
+  bench->add_option("--ranks-worlds", bench_o.ranks_worlds,
+                    "Under mpirun: the rank that steps each world of the tested run, by world id (as `soda run`'s); "
+                    "the baseline and the one-territory run are rank 0's; docs/mpi.md");
   bench->add_flag("--no-awake", bench_o.no_awake,
                   "Skip the second set of runs with sleeping off in every world (ratio_vs_baseline_awake)");
   std::string export_path;
@@ -606,15 +610,17 @@ int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
   try {
 #ifdef SODA_HAVE_MPI
     if (under_mpi) {
-      if (!*run)
-        throw std::invalid_argument("under mpirun only `soda run` spreads its worlds over the ranks (docs/mpi.md)");
-      run_o.config.group =
-          soda::make_mpi_group(run_o.ranks_worlds.empty() ? std::vector<int>{}
-                                                          : soda::parse_ranks_worlds(run_o.ranks_worlds));
+      if (!*run && !(*bench && bench->get_subcommands().empty()))  // not bench's own subcommands
+        throw std::invalid_argument(
+            "under mpirun only `soda run` and `soda bench` spread their worlds over the ranks (docs/mpi.md)");
+      Options& o = *run ? run_o : bench_o;
+      o.config.group =
+          soda::make_mpi_group(o.ranks_worlds.empty() ? std::vector<int>{} : soda::parse_ranks_worlds(o.ranks_worlds));
     }
 #endif
-    if (!run_o.ranks_worlds.empty() && !run_o.config.group)
-      throw std::invalid_argument("--ranks-worlds needs the run to be started by mpirun (docs/mpi.md)");
+    for (const Options* o : {&run_o, &bench_o})
+      if (!o->ranks_worlds.empty() && !o->config.group)
+        throw std::invalid_argument("--ranks-worlds needs the run to be started by mpirun (docs/mpi.md)");
     for (const soda::cli::Command& c : more)
       if (*c.app) return c.run();  // before `bench`: these are its subcommands
     if (*run) return cmd_run(run_o);

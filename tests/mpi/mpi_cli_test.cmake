@@ -120,3 +120,36 @@ hash_of(reference "${one}")
 ranked_run(inputs)
 ranked_run(inputs_spec --anticipation 8)
 message(STATUS "cube-pile 100 with 6 inputs: one territory ${reference}; 3 territories on 2 ranks: the same")
+
+# `soda bench` under mpirun: the tested run (3 territories) on 2 ranks, the
+# stock baseline and the one-territory run on rank 0 alone; rank 0 prints
+# one table, its JSON has a ratio against the baseline and the K run's hash
+# equals the one-territory run's (sleeping on and off); exit 0. Another
+# command (not run, not bench) is refused with exit 2.
+set(bench_json ${CMAKE_CURRENT_BINARY_DIR}/mpi_cli_bench.json)
+file(REMOVE ${bench_json})
+execute_process(COMMAND ${MPIEXEC} --oversubscribe -np 2 ${SODA} bench --scene falling-cubes --n 120 --steps 30
+                        --territories 3 --repeat 2 --json ${bench_json}
+                OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 120)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "mpirun -np 2 soda bench failed (${rc}):\n${out}\n${err}")
+endif()
+string(REGEX MATCHALL "state hash, 3 territories vs 1: identical" tables "${out}")
+list(LENGTH tables n)
+if(NOT n EQUAL 1)
+  message(FATAL_ERROR "soda bench on 2 ranks: expected one table (rank 0's) saying identical, got ${n}:\n${out}")
+endif()
+file(READ ${bench_json} j)
+string(JSON equal GET "${j}" state_hash_equals_one_territory)
+string(JSON equal_awake GET "${j}" state_hash_equals_one_territory_awake)
+string(JSON ratio GET "${j}" ratio_vs_baseline)
+string(JSON ranks LENGTH "${j}" ranks)
+if(NOT equal OR NOT equal_awake OR NOT ranks EQUAL 2 OR NOT ratio GREATER 0)
+  message(FATAL_ERROR "soda bench on 2 ranks: JSON equal ${equal}/${equal_awake}, ranks ${ranks}, ratio ${ratio}:\n${j}")
+endif()
+message(STATUS "soda bench on 2 ranks: ratio vs stock ${ratio}, hashes equal to one territory")
+execute_process(COMMAND ${MPIEXEC} --oversubscribe -np 2 ${SODA} scenes
+                OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 60)
+if(NOT rc EQUAL 2 OR NOT err MATCHES "only `soda run` and `soda bench`")
+  message(FATAL_ERROR "soda scenes under mpirun: expected exit 2 naming run and bench, got ${rc}:\n${out}\n${err}")
+endif()
