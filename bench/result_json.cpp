@@ -241,6 +241,7 @@ nlohmann::json run_json(const RunDescription& d, const RunResult& r) {
                          {"bytes_from_other_ranks", t.bytes_in},
                          {"communication_loop_seconds", t.pump_seconds},
                          {"communication_loop_idle_seconds", t.pump_idle_seconds},
+                         {"gvt_rounds", t.gvt_rounds},
                          {"bullet_objects", t.bullet_objects},
                          {"peak_rss_bytes", t.peak_rss_bytes}});
       j["ranks"] = std::move(ranks);

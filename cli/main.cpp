@@ -281,11 +281,12 @@ void print_summary(const soda::RunResult& r) {
   }
   for (const soda::RankTraffic& t : r.ranks)
     std::printf("  rank %d: %d world(s), CPU %.3f s, worlds blocked %.3f s; to other ranks %llu messages %llu bytes, "
-                "from them %llu messages %llu bytes; communication loop %.3f s (%.3f s idle); %llu Bullet objects, "
-                "peak RSS %.1f MB\n",
+                "from them %llu messages %llu bytes; communication loop %.3f s (%.3f s idle, %llu GVT rounds); "
+                "%llu Bullet objects, peak RSS %.1f MB\n",
                 t.rank, t.worlds, t.cpu_seconds, t.blocked_seconds, static_cast<unsigned long long>(t.messages_out),
                 static_cast<unsigned long long>(t.bytes_out), static_cast<unsigned long long>(t.messages_in),
                 static_cast<unsigned long long>(t.bytes_in), t.pump_seconds, t.pump_idle_seconds,
+                static_cast<unsigned long long>(t.gvt_rounds),
                 static_cast<unsigned long long>(t.bullet_objects), static_cast<double>(t.peak_rss_bytes) * 1e-6);
   if (r.sync_rollbacks)
     std::printf("  SyncTest: %llu rollbacks re-run bit-identical\n", static_cast<unsigned long long>(r.sync_rollbacks));

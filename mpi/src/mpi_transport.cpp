@@ -248,6 +248,7 @@ void MpiTransport::add_traffic(RankTraffic& t) const {
   t.bytes_out += out_bytes_.load();
   t.messages_in += in_messages_.load();
   t.bytes_in += in_bytes_.load();
+  t.gvt_rounds += rounds_.rounds();  // the MPI thread's: the caller is the thread that pumps
 }
 
 }  // namespace soda::mpi

@@ -64,8 +64,20 @@ foreach(rank 0 1)
   message(STATUS "rank ${rank}: ${objects} Bullet objects, peak RSS ${rss} bytes")
 endforeach()
 
-# Speculation and SyncTest over ranks: the same hash.
-ranked_run(spec --anticipation 8 --eager-bets --sync-test 2)
+# Speculation and SyncTest over ranks: the same hash. The ranks compute the
+# commit horizon in rounds (GVT) while speculating, none in lockstep.
+set(spec_json ${CMAKE_CURRENT_BINARY_DIR}/mpi_cli_spec.json)
+file(REMOVE ${spec_json})
+ranked_run(spec --anticipation 8 --eager-bets --sync-test 2 --json ${spec_json})
+file(READ ${spec_json} spec)
+foreach(rank 0 1)
+  string(JSON lockstep_rounds GET "${j}" ranks ${rank} gvt_rounds)
+  string(JSON spec_rounds GET "${spec}" ranks ${rank} gvt_rounds)
+  if(NOT lockstep_rounds EQUAL 0 OR NOT spec_rounds GREATER 0)
+    message(FATAL_ERROR "rank ${rank}: ${lockstep_rounds} GVT rounds in lockstep (expected 0), ${spec_rounds} speculating (expected > 0)")
+  endif()
+  message(STATUS "rank ${rank}: ${spec_rounds} GVT rounds speculating, none in lockstep")
+endforeach()
 
 foreach(bad "--ranks-worlds;0,2,1" "--ranks-worlds;0,1" "--validate")
   execute_process(COMMAND ${MPIEXEC} --oversubscribe -np 2 ${SODA} run ${scene} --territories 3 ${bad}

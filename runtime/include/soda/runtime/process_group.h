@@ -39,6 +39,7 @@ struct RankTraffic {
   double pump_idle_seconds = 0;        // ... of which sleeping with nothing to move
   double blocked_seconds = 0;          // this rank's worlds waiting for messages (WorldMetrics::blocked_seconds)
   double cpu_seconds = 0;              // this rank's worlds' CPU time stepping
+  std::uint64_t gvt_rounds = 0;        // commit-horizon rounds completed (speculation; docs/mpi.md)
   std::uint64_t bullet_objects = 0;    // Bullet objects in all the worlds this rank built, at the end
   std::uint64_t peak_rss_bytes = 0;    // this process's peak resident memory (getrusage), at the end
 };
