@@ -114,7 +114,15 @@ std::vector<Fragment> TerritoryWorld::border_fragments(const std::vector<std::pa
   for (const auto& [from, batch] : glue)
     for (const GlueEntry& g : batch.entries) {
       auto it = entries_.find(g.body);
-      if (it == entries_.end() || it->second->role != Role::Owned)
+      // Running ahead, a neighbour that rejoined its old run may glue from
+      // ghosts of that run (a body since removed or moved here, a component
+      // this run solves alone): left out, as apply_ghosts leaves its ghosts;
+      // the neighbour's Notice rolls this step back.
+      const bool owned = it != entries_.end() && it->second->role == Role::Owned;
+      if (parts_->step_runs_ahead &&
+          (!owned || pending_of_[static_cast<std::size_t>(parts_->islands.island_of(it->second->node))] < 0))
+        continue;
+      if (!owned)
         throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) +
                              ": world " + std::to_string(from) + " glued body " + std::to_string(g.body) +
                              ", which this world does not own");

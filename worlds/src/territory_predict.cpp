@@ -192,6 +192,7 @@ GhostBatch TerritoryWorld::ghost_batch_for(WorldId neighbour) const {
 
 void TerritoryWorld::apply_ghosts(const std::vector<std::pair<WorldId, GhostBatch>>& batches, bool speculative) {
   for (Entry* e : ghosts_) e->refreshed = false;
+  parts_->step_runs_ahead = speculative;
   seeds_ = kept_;
   ghost_senders_.clear();
   for (const auto& [from, batch] : batches) {

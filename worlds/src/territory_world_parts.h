@@ -184,6 +184,9 @@ struct TerritoryWorld::Parts {
   Parking parking{parking_link, world, broadphase, dispatcher};  // idle unless TerritoryWorld::set_parking(true)
   btManifoldArray scratch;  // near callback
   std::vector<btPersistentManifold*> speculative;  // held manifolds given a speculative point this step
+  // The step runs ahead of the commit horizon (apply_ghosts' `speculative`):
+  // a neighbour's messages may come from a run it will take back.
+  bool step_runs_ahead = false;
   btContactSolverInfo island_info;  // an island's own settings (island_solver_settings.h)
   // The step's islands (build_islands): nodes are the owned bodies and
   // ghosts in id order (TerritoryWorld::nodes_), edges the manifolds with
