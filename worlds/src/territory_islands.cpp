@@ -119,15 +119,12 @@ std::vector<Fragment> TerritoryWorld::border_fragments(const std::vector<std::pa
       // this run solves alone): left out, as apply_ghosts leaves its ghosts;
       // the neighbour's Notice rolls this step back.
       const bool owned = it != entries_.end() && it->second->role == Role::Owned;
-      if (parts_->step_runs_ahead &&
-          (!owned || pending_of_[static_cast<std::size_t>(parts_->islands.island_of(it->second->node))] < 0))
-        continue;
+      const int p = owned ? pending_of_[static_cast<std::size_t>(parts_->islands.island_of(it->second->node))] : -1;
+      if (p < 0 && parts_->step_runs_ahead) continue;
       if (!owned)
         throw PartitionError("world " + std::to_string(id_) + ", step " + std::to_string(steps_done_) +
                              ": world " + std::to_string(from) + " glued body " + std::to_string(g.body) +
                              ", which this world does not own");
-      const int k = parts_->islands.island_of(it->second->node);
-      const int p = pending_of_[static_cast<std::size_t>(k)];
       if (p < 0) throw std::logic_error("TerritoryWorld: a glued body in a component solved as local");
       components_[static_cast<std::size_t>(p)].links_in.push_back(LinkIn{from, g.fragment_root, g.body});
     }
