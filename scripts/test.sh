@@ -3,33 +3,28 @@
 # (both precisions), then the concurrency tests under ThreadSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Where the time goes: each stage's start, in seconds since this script's.
+stage() { echo "== scripts/test.sh at ${SECONDS} s: $1"; }
 scripts/setup.sh
 # worlds/ and runtime/: no library file over 450 lines, no function over 100
 # (exit 1 naming each one over).
 scripts/room-sizes.py
-scripts/build.sh Release build
+# Each library and the CLI compiled as one unit (SODA_UNITY_BUILD,
+# CMakeLists.txt), as scripts/bench.sh builds them: a third of the CPU of
+# compiling file by file, which the ThreadSanitizer build below does. The
+# two give the same bits (checked at the end).
+stage "build (Release)"
+scripts/build.sh Release build -DSODA_UNITY_BUILD=ON
+stage "tests (Release)"
 (cd build && ctest --output-on-failure -j "$(nproc)" --timeout 900)
 # Committed result files older than the code they measure (docs/results/sources.tsv):
 # printed as a warning, never a failure.
 scripts/stale-results.py || true
-# The build scripts/bench.sh makes (each library and the CLI compiled as one
-# unit, SODA_UNITY_BUILD in CMakeLists.txt): it must compile, and give the same
-# bits as the build above.
-cmake -S . -B build/unity-check -G Ninja -DCMAKE_BUILD_TYPE=Release -DSODA_UNITY_BUILD=ON \
-  -DSODA_BUILD_DOUBLE=OFF -DSODA_BUILD_TESTS=OFF
-cmake --build build/unity-check -j "$(nproc)" --target soda
-for args in "falling-cubes --n 500 --steps 100" "cube-pile --n 300 --steps 100 --territories 2"; do
-  # shellcheck disable=SC2086  # $args is a list of arguments
-  a=$(build/bin/soda run --scene $args --log-level warn | grep -o 'state_hash [0-9a-f]*')
-  # shellcheck disable=SC2086
-  b=$(build/unity-check/bin/soda run --scene $args --log-level warn | grep -o 'state_hash [0-9a-f]*')
-  echo "unity check, soda run --scene $args: $a, as one unit $b"
-  [ -n "$a" ] && [ "$a" = "$b" ] || { echo "unity check: the hashes differ" >&2; exit 1; }
-done
 # The installed package (docs/embedding.md, "Using SODA from CMake"): install
 # to a prefix inside build/, compile every public header alone against it
 # (tests/install/), then build and run the find_package(soda) consumer
 # (examples/consumer/: 2 territories == 1, float and double).
+stage "installed package and examples"
 prefix="$PWD/build/install-prefix"
 rm -rf "$prefix" build/install-check build/consumer
 cmake --install build --prefix "$prefix"
@@ -61,9 +56,25 @@ if [ -x build/consumer/ranked_cubes ]; then
 fi
 # ThreadSanitizer cannot see inside Debian's (uninstrumented) Bullet; see
 # docs/bullet-globals.md for how its shared state is handled.
+stage "build (ThreadSanitizer)"
 cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSODA_SANITIZE=thread -DSODA_BUILD_DOUBLE=OFF
-cmake --build build-tsan --target concurrency_tests -j "$(nproc)"
+cmake --build build-tsan --target concurrency_tests soda -j "$(nproc)"
 # Two suites at a time: each is threads already, and more threads than cores
 # shakes out more interleavings (300 s instead of 470 s on 2 cores).
+stage "tests (ThreadSanitizer)"
 (cd build-tsan && TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
    ctest --output-on-failure -j "$(nproc)" -L concurrency --timeout 900)
+# The same bits from both builds: the libraries compiled as one unit at -O3
+# (build/) and file by file at -O1 under ThreadSanitizer (build-tsan/).
+# IEEE arithmetic under -ffp-contract=off and without fast-math does not
+# depend on what is inlined or optimised where (docs/architecture.md).
+stage "the same bits from both builds"
+for args in "falling-cubes --n 500 --steps 100" "cube-pile --n 300 --steps 100 --territories 2"; do
+  # shellcheck disable=SC2086  # $args is a list of arguments
+  a=$(build/bin/soda run --scene $args --log-level warn | grep -o 'state_hash [0-9a-f]*')
+  # shellcheck disable=SC2086
+  b=$(TSAN_OPTIONS="halt_on_error=1" build-tsan/bin/soda run --scene $args --log-level warn | grep -o 'state_hash [0-9a-f]*')
+  echo "build check, soda run --scene $args: as one unit $a, file by file $b"
+  [ -n "$a" ] && [ "$a" = "$b" ] || { echo "build check: the hashes differ" >&2; exit 1; }
+done
+stage "done"

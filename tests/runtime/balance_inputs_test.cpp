@@ -180,7 +180,7 @@ TEST(PartitionedInputs, SettersUnderSyncTestAndChurnGiveTheApiHash) {
   const std::string none = hash_hex(simulation_hash(s, {}, steps, 1));
   EXPECT_NE(api, none);
   for (int k : {2, 4})
-    for (int anticipation : {0, 8}) {
+    for (int anticipation : test::sync_test_anticipations()) {
       PartitionedOptions o;
       o.schedule = Schedule::ThreadPerWorld;
       o.runtime.validate = true;

@@ -187,7 +187,7 @@ TEST(JointInputScenes, FromTheInputFileUnderSyncTestAndValidation) {
       EXPECT_EQ(inputs[i].kind, planned[i].kind);
       EXPECT_EQ(inputs[i].joint, planned[i].joint);
     }
-    for (int anticipation : {0, 8}) {
+    for (int anticipation : test::sync_test_anticipations()) {
       PartitionedOptions o;
       o.runtime.validate = true;
       o.runtime.anticipation = anticipation;
@@ -482,7 +482,7 @@ TEST(JointAddScenes, FromTheInputFileUnderSyncTestAndValidation) {
                   a.frame_b.orientation.coeffs() == b.frame_b.orientation.coeffs())
           << j.name << " input " << i;
     }
-    for (int anticipation : {0, 8}) {
+    for (int anticipation : test::sync_test_anticipations()) {
       PartitionedOptions o;
       o.runtime.validate = true;
       o.runtime.anticipation = anticipation;

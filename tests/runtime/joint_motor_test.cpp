@@ -381,7 +381,7 @@ TEST(JointMotorScenes, TheSetterLeavesTheConstraintAFreshDescriptionMakes) {
       EXPECT_EQ(back[i].motor.max_impulse, planned[i].motor.max_impulse);
       EXPECT_EQ(back[i].motor.axis, planned[i].motor.axis);
     }
-    for (int anticipation : {0, 8}) {
+    for (int anticipation : test::sync_test_anticipations()) {
       PartitionedOptions o;
       o.runtime.validate = true;
       o.runtime.anticipation = anticipation;

@@ -110,7 +110,7 @@ TEST(KinematicInputs, TheInputsMoveThePlatforms) {
 // PartitionedWorld under SyncTest (every step restored and re-run).
 TEST(KinematicInputs, EveryTerritoryCountGivesTheOneTerritoryHash) {
   for (int k : {2, 4}) EXPECT_EQ(hash_hex(api_hash(plan(), k)), reference()) << "K=" << k;
-  for (int anticipation : {0, 8}) {
+  for (int anticipation : test::sync_test_anticipations()) {
     PartitionedOptions o;
     o.runtime.validate = true;
     o.runtime.anticipation = anticipation;

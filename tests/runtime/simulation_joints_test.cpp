@@ -168,7 +168,7 @@ TEST(SimulationJointScenes, InputsUnderSyncTestAndValidationGiveTheSameHash) {
     std::vector<UserInput> inputs;
     for (const test::PlannedInput& i : plan(j)) inputs.push_back(i.input);
     for (std::size_t i = 0; i < inputs.size(); ++i) inputs[i].sequence = i;
-    for (int anticipation : {0, 8}) {
+    for (int anticipation : test::sync_test_anticipations()) {
       PartitionedOptions o;
       o.runtime.validate = true;
       o.runtime.anticipation = anticipation;
