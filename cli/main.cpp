@@ -508,7 +508,8 @@ int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
                   "count");
   run->add_option("--record", run_o.config.record_path,
                   "Write a replay file of every committed frame (docs/replay-format.md), read through a SceneReader "
-                  "while the worlds run; the state hash is unchanged. Inspect it with 'soda replay-info FILE'");
+                  "while the worlds run (under mpirun: rank 0 writes it from every rank's poses, docs/mpi.md); the "
+                  "state hash is unchanged. Inspect it with 'soda replay-info FILE'");
   run->add_option("--record-keyframes", run_o.config.record_keyframe_every,
                   "--record: frames from one keyframe to the next")
       ->check(CLI::Range(1, 1 << 20))

@@ -2,8 +2,8 @@
 # threaded 1-territory run, writes the JSON (with its per-rank traffic) from
 # rank 0 only (each rank's Bullet objects its share, not the scene), gives
 # it with speculation and SyncTest too, also for a scene
-# with joints, with a solver pool and with inputs from a file, and refuses a
-# bad --ranks-worlds or --validate with exit 2.
+# with joints, with a solver pool, with inputs from a file and recording a
+# replay, and refuses a bad --ranks-worlds or --validate with exit 2.
 # Run by ctest: cmake -DSODA=... -DMPIEXEC=... -P mpi_cli_test.cmake
 set(scene --scene falling-cubes --n 120 --steps 60)
 
@@ -137,6 +137,19 @@ hash_of(reference "${one}")
 ranked_run(inputs)
 ranked_run(inputs_spec --anticipation 8)
 message(STATUS "cube-pile 100 with 6 inputs: one territory ${reference}; 3 territories on 2 ranks: the same")
+
+# --record over ranks: rank 0 writes the replay from every rank's poses;
+# its last frame carries the one-territory hash (the mpi_tests compare every
+# frame with the threaded recording's).
+set(replay ${CMAKE_CURRENT_BINARY_DIR}/mpi_cli_record.replay)
+file(REMOVE ${replay})
+ranked_run(record --anticipation 8 --record ${replay})
+execute_process(COMMAND ${SODA} replay-info ${replay} OUTPUT_VARIABLE info ERROR_VARIABLE err RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0 OR NOT info MATCHES "frames: 81 \\(steps 0 \\.\\. 80\\)" OR
+   NOT info MATCHES "last frame: step 80, [0-9]+ bodies, [0-9]+ asleep, state_hash ${reference}")
+  message(FATAL_ERROR "the replay recorded on 2 ranks: expected 81 frames ending on ${reference} (${rc}):\n${info}\n${err}")
+endif()
+message(STATUS "--record on 2 ranks: 81 frames, the last frame's hash ${reference}")
 
 # `soda bench` under mpirun: the tested run (3 territories) on 2 ranks, the
 # stock baseline and the one-territory run on rank 0 alone; rank 0 prints

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,8 @@
 #include "../runtime/tiled_floor.h"
 #include "soda/mpi/mpi_group.h"
 #include "soda/mpi/mpi_session.h"
+#include "soda/replay/replay_reader.h"
+#include "soda/runtime/run.h"
 #include "soda/worlds/watchdog.h"
 #include "driver/testing_hooks.h"
 
@@ -334,7 +337,9 @@ UserInput input(UserInput::Kind kind, std::int64_t step, BodyId id) {
   return in;
 }
 
-TEST(Mpi, InputsGiveTheOneTerritoryHash) {
+// Inputs of every kind a body takes, cube-pile 100: a push, a mass, a
+// velocity, a filter, the gravity, a pose, a removal and an addition.
+std::vector<UserInput> body_inputs() {
   std::vector<UserInput> bodies;
   UserInput push = input(UserInput::Kind::ApplyImpulse, 10, 5);
   push.linear = Vec3(0, 30, 0);
@@ -354,7 +359,11 @@ TEST(Mpi, InputsGiveTheOneTerritoryHash) {
   added.body.position = Vec3(0, 8, 0);
   bodies = {push, heavy, fast, ghost, tilt, moved, input(UserInput::Kind::RemoveBody, 35, 9), added};
   for (std::size_t i = 0; i < bodies.size(); ++i) bodies[i].sequence = i;
-  expect_inputs_give_the_one_territory_hash({"cube-pile", 100, "kmeans", 4, 80}, bodies);
+  return bodies;
+}
+
+TEST(Mpi, InputsGiveTheOneTerritoryHash) {
+  expect_inputs_give_the_one_territory_hash({"cube-pile", 100, "kmeans", 4, 80}, body_inputs());
 
   const Scene pendulums = test::scene("pendulums", 8);
   UserInput cut;
@@ -370,6 +379,66 @@ TEST(Mpi, InputsGiveTheOneTerritoryHash) {
   UserInput closed = input(UserInput::Kind::SetCollisionFilter, 40, 2);
   closed.sequence = 1;
   expect_inputs_give_the_one_territory_hash({"conveyor", 48, "kmeans", 4, 80}, {open, closed});
+}
+
+// --record over ranks: rank 0 writes, from the poses every rank sends it
+// after each step, the replay the threaded run of the same configuration
+// records: every frame's bodies, poses, sleep flags and owners, the map,
+// and on the last frame the state hash (busy times aside: they are
+// measured). With inputs (a body added and one removed: frames with ids),
+// lockstep and speculating.
+void expect_recording_as_on_threads(const std::string& scene, int n, const std::vector<UserInput>& inputs,
+                                    int anticipation) {
+  const Scene s = test::scene(scene, n);
+  RunConfig config;
+  config.territories = 4;
+  config.steps = 70;
+  config.progress_seconds = 0;
+  config.runtime.anticipation = anticipation;
+  if (!inputs.empty()) config.inputs = inputs;
+  const std::string stem = ::testing::TempDir() + "mpi_record_" + scene + "_np" + std::to_string(g_group->size()) +
+                           "_a" + std::to_string(anticipation) + "_" + std::to_string(sizeof(btScalar));
+  RunConfig on_ranks = config;
+  on_ranks.record_path = stem + "_ranks.replay";
+  on_ranks.group = g_group;
+  const RunResult r = run_scene(s, on_ranks);  // collective
+  if (g_group->rank() != 0) return;
+  RunConfig on_threads = config;
+  on_threads.record_path = stem + "_threads.replay";
+  const RunResult t = run_scene(s, on_threads);
+  EXPECT_EQ(hash_hex(r.state_hash), hash_hex(t.state_hash));
+  EXPECT_EQ(r.record_frames, static_cast<std::uint64_t>(config.steps + 1));
+  replay::ReplayReader a(on_ranks.record_path), b(on_threads.record_path);
+  ASSERT_EQ(a.frame_count(), b.frame_count());
+  ASSERT_EQ(a.added_bodies().size(), b.added_bodies().size());
+  int with_ids = 0;
+  for (std::int64_t k = 0; k <= config.steps; ++k) {
+    const std::optional<replay::ViewFrame> x = a.frame_at(k), y = b.frame_at(k);
+    ASSERT_TRUE(x && y) << "step " << k;
+    with_ids += x->ids.has_value();
+    EXPECT_EQ(x->ids, y->ids) << "step " << k;
+    EXPECT_EQ(x->position, y->position) << "step " << k;
+    EXPECT_EQ(x->orientation, y->orientation) << "step " << k;
+    EXPECT_EQ(x->sleeping, y->sleeping) << "step " << k;
+    EXPECT_EQ(x->owner, y->owner) << "step " << k;
+    EXPECT_EQ(x->cell_owner, y->cell_owner) << "step " << k;
+    EXPECT_EQ(x->state_hash, y->state_hash) << "step " << k;
+    EXPECT_EQ(x->world_busy_ms.size(), k == 0 ? 0u : 4u) << "step " << k;
+  }
+  const std::optional<replay::ViewFrame> last = a.frame_at(config.steps);
+  ASSERT_TRUE(last && last->state_hash);
+  std::printf("[ %s %d with %zu inputs, K 4 on %d ranks, anticipation %d, --record ] %zu frames (%d with ids), "
+              "last frame %s, threaded %s\n",
+              scene.c_str(), n, inputs.size(), g_group->size(), anticipation, a.frame_count(), with_ids,
+              hash_hex(*last->state_hash).c_str(), hash_hex(t.state_hash).c_str());
+  EXPECT_EQ(hash_hex(*last->state_hash), hash_hex(t.state_hash));
+  EXPECT_EQ(with_ids > 0, !inputs.empty());
+}
+
+TEST(Mpi, RecordingGivesTheThreadedReplay) {
+  expect_recording_as_on_threads("falling-cubes", 120, {}, 0);
+  expect_recording_as_on_threads("cube-pile", 100, body_inputs(), 0);
+  expect_recording_as_on_threads("cube-pile", 100, body_inputs(), 8);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <memory>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -16,10 +17,12 @@
 #include <spdlog/spdlog.h>
 
 #include "execution/plain_bytes.h"
+#include "driver/rank_record.h"
 #include "driver/run_inputs.h"
 #include "soda/grid/partition.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/runtime/memory_estimate.h"
+#include "soda/runtime/view_adapter.h"
 #include "soda/scene/validate.h"
 #include "soda/worlds/canonical_world.h"
 #include "soda/worlds/solver_pool.h"
@@ -282,6 +285,10 @@ RunResult run_partitioned(Scene scene, const RunConfig& config) {
       next_progress = now + static_cast<std::int64_t>(config.progress_seconds * 1e9);
     }
   };
+  // --record over ranks: rank 0 writes the file (on threads a Simulation
+  // records: run_with_inputs).
+  std::optional<replay::ViewHeader> header;
+  if (config.group && !config.record_path.empty() && config.group->rank() == 0) header = view_header(scene, map);
   const Stamp start;
   std::unique_ptr<PartitionedWorld> owned_world;
   try {
@@ -304,7 +311,10 @@ RunResult run_partitioned(Scene scene, const RunConfig& config) {
   const std::int64_t process_cpu0 = process_cpu_ns();
   t0 = wall_ns();
   next_progress = t0 + static_cast<std::int64_t>(config.progress_seconds * 1e9);
-  world.step(config.steps);
+  if (config.group && !config.record_path.empty())
+    record_on_ranks(world, header ? &*header : nullptr, map, config, r);
+  else
+    world.step(config.steps);
   r.wall_seconds = static_cast<double>(wall_ns() - t0) * 1e-9;
   r.process_cpu_seconds = static_cast<double>(process_cpu_ns() - process_cpu0) * 1e-9;
   std::vector<std::int64_t> step_ns;
@@ -398,8 +408,9 @@ RunResult run_any(S&& scene, const RunConfig& config) {
   };
   if (config.group) {
     if (config.world != WorldKind::Canonical) throw std::invalid_argument("over MPI ranks: the canonical world only");
-    if (!config.record_path.empty())
-      throw std::invalid_argument("over MPI ranks: --record is not supported yet (docs/mpi.md)");
+    if (const std::string why = simulation_unsupported(config); !config.record_path.empty() && !why.empty())
+      throw std::invalid_argument("--record " + config.record_path + ": over MPI ranks as on threads, a recorded "
+                                  "run is one a Simulation runs, " + why);
     if (!config.checkpoint_path.empty() || config.resume)
       throw std::invalid_argument("over MPI ranks: --checkpoint and --resume are not supported yet (docs/mpi.md)");
     return with_estimate(run_partitioned(std::forward<S>(scene), config));

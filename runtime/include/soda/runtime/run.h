@@ -94,8 +94,11 @@ struct RunConfig {
   /// Not empty: write a replay file there (docs/replay-format.md) of every
   /// committed frame, steps 0 .. steps, read through a SceneReader while
   /// the worlds run: the run goes through a Simulation (canonical world; not
-  /// with load balancing, SyncTest, heal, a shuffle seed or inputs, which
-  /// add or remove bodies). The state hash is the same as without.
+  /// with load balancing, SyncTest, heal or a shuffle seed; bodies the
+  /// inputs add and remove come and go in its frames). Over ranks (group)
+  /// rank 0 writes the same frames from every step's poses gathered from
+  /// the ranks (docs/mpi.md, "Recording"). The state hash is the same as
+  /// without.
   std::string record_path;
   /// The replay's keyframe interval and zlib level (ReplayWriterOptions).
   int record_keyframe_every = 60;
@@ -118,8 +121,9 @@ struct RunConfig {
   /// spread over the group's processes, every rank running run_scene with
   /// the same config; rank 0's result is the whole scene's (state hash,
   /// bodies, per-world metrics, `ranks`), the other ranks' hold their own
-  /// worlds only. Lockstep partitioned runs only (not with --record, a
-  /// Simulation's inputs, the stock world). Null: one process.
+  /// worlds only. The canonical world only; not with load balancing, heal,
+  /// validation, checkpoints (docs/mpi.md, "What is not done"). Null: one
+  /// process.
   std::shared_ptr<ProcessGroup> group;
 };
 
