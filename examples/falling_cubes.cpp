@@ -1,5 +1,5 @@
 // The smallest embedding of SODA: generate the falling-cubes scene, run it,
-// print the state hash. Usage: falling_cubes [N] [STEPS]
+// print the state hash. Usage: falling_cubes [N] [STEPS] [TERRITORIES]
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
     const soda::Scene scene = soda::make_scene("falling-cubes", params);
     soda::RunConfig config;
     config.steps = argc > 2 ? std::atoi(argv[2]) : 300;
+    config.territories = argc > 3 ? std::atoi(argv[3]) : 1;  // > 1: a world per territory, each on its thread
     const soda::RunResult r = soda::run_scene(scene, config);
     std::printf("%zu bodies, %d steps, %.3f s, %zu asleep, state_hash %016llx\n", r.bodies, r.steps,
                 r.wall_seconds, r.sleeping_bodies, static_cast<unsigned long long>(r.state_hash));

@@ -369,6 +369,7 @@ TEST(JointMotorScenes, TheSetterLeavesTheConstraintAFreshDescriptionMakes) {
     EXPECT_NE(hash_hex(with_inputs.state_hash()), hash_hex(plain.state_hash())) << "K=" << k;
   }
   for (const MotorCase& m : motor_cases()) {
+    if (test::kThreadSanitizer && &m != &motor_cases()[1]) continue;  // one case under TSan: the row
     std::vector<UserInput> planned;
     for (const test::PlannedInput& i : m.plan) planned.push_back(i.input);
     const std::vector<UserInput> back = parse_inputs_json(inputs_to_json(planned), "log");

@@ -33,15 +33,21 @@ inline Scene scene(const std::string& name, int n, std::uint64_t seed = 1) {
   return make_scene(name, SceneParams{n, seed, false});
 }
 
+/// Under ThreadSanitizer (10-20x slower), sweeps over scenes that check
+/// the same paths for each run one of them: TSan looks for races, and the
+/// Release suite runs every scene.
+#if defined(__SANITIZE_THREAD__)
+inline constexpr bool kThreadSanitizer = true;
+#else
+inline constexpr bool kThreadSanitizer = false;
+#endif
+
 /// The anticipations a SyncTest sweep runs: lockstep and 8 steps ahead.
 /// Under ThreadSanitizer, where such a sweep runs 10-20x slower, only 8:
 /// the run in which worlds race each other (the Release suite runs both).
 inline std::vector<int> sync_test_anticipations() {
-#if defined(__SANITIZE_THREAD__)
-  return {8};
-#else
+  if (kThreadSanitizer) return {8};
   return {0, 8};
-#endif
 }
 
 /// state_hash of the one-world reference after `steps` steps (parking off,

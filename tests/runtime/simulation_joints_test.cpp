@@ -165,6 +165,7 @@ TEST(SimulationJointScenes, WithoutInputsEqualTheOneWorld) {
 // snapshot and re-run): the Simulation's one-territory hash.
 TEST(SimulationJointScenes, InputsUnderSyncTestAndValidationGiveTheSameHash) {
   for (const JointScene& j : joint_scenes()) {
+    if (test::kThreadSanitizer && std::string(j.name) != "ragdolls") continue;  // one scene under TSan
     std::vector<UserInput> inputs;
     for (const test::PlannedInput& i : plan(j)) inputs.push_back(i.input);
     for (std::size_t i = 0; i < inputs.size(); ++i) inputs[i].sequence = i;
