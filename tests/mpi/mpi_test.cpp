@@ -381,6 +381,41 @@ TEST(Mpi, InputsGiveTheOneTerritoryHash) {
   expect_inputs_give_the_one_territory_hash({"conveyor", 48, "kmeans", 4, 80}, {open, closed});
 }
 
+// snapshot() over ranks: every rank gets the whole scene's state, the bits
+// of the threaded run's snapshot at that step (bodies, contact state,
+// joints; the kinematic bodies as the rank stepping world 0 has them), and
+// a run restored from it goes on as the threaded run does.
+TEST(Mpi, SnapshotGathersTheWholeSceneOnEveryRank) {
+  for (const Case& c : {Case{"cube-pile", 100, "kmeans", 4, 50}, Case{"ragdolls", 6, "kmeans", 4, 60},
+                        Case{"conveyor", 48, "kmeans", 4, 40}})
+    for (PartitionedOptions o : {threads_per_world(), speculating()}) {
+      const Scene s = test::scene(c.scene, c.n);
+      const TerritoryMap map = make_partition(c.partition, s, c.territories, GridOptions{});
+      PartitionedWorld threaded(s, map);
+      threaded.step(c.steps);
+      o.group = g_group;
+      PartitionedWorld ranked(s, map, o);
+      ranked.step(c.steps);
+      const WorldSnapshot gathered = ranked.snapshot();  // collective
+      const WorldSnapshot expected = threaded.snapshot();
+      EXPECT_TRUE(same_bits(gathered, expected))
+          << c.scene << " on rank " << g_group->rank() << ", anticipation " << o.runtime.anticipation << ": "
+          << gathered.bodies.size() << " bodies, " << gathered.manifolds.size() << " manifolds, "
+          << gathered.joints.size() << " joints (threaded " << expected.bodies.size() << ", "
+          << expected.manifolds.size() << ", " << expected.joints.size() << ")";
+      EXPECT_FALSE(gathered.manifolds.empty()) << c.scene;
+      PartitionedWorld restored(gathered, map);
+      restored.step(20);
+      threaded.step(20);
+      EXPECT_EQ(hash_hex(restored.state_hash()), hash_hex(threaded.state_hash())) << c.scene;
+      if (g_group->rank() == 0)
+        std::printf("[ %s %d, K 4 on %d ranks, anticipation %d ] snapshot at step %d: %zu bodies, %zu manifolds, "
+                    "%zu joints, the threaded run's bits; restored, 20 steps on: %s\n",
+                    c.scene.c_str(), c.n, g_group->size(), o.runtime.anticipation, c.steps, gathered.bodies.size(),
+                    gathered.manifolds.size(), gathered.joints.size(), hash_hex(restored.state_hash()).c_str());
+    }
+}
+
 // --record over ranks: rank 0 writes, from the poses every rank sends it
 // after each step, the replay the threaded run of the same configuration
 // records: every frame's bodies, poses, sleep flags and owners, the map,

@@ -16,6 +16,7 @@
 
 #include "soda/scene/fnv1a.h"
 #include "soda/worlds/value_codec.h"
+#include "soda/worlds/snapshot_parts.h"
 #include "soda/worlds/world_snapshot.h"
 
 namespace soda {
@@ -74,8 +75,12 @@ std::vector<std::uint8_t> serialize(const WorldSnapshot& s) {
   return std::move(w.bytes);
 }
 
-WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes) {
-  ByteReader r(bytes, "deserialize_snapshot", raise_snapshot_error);
+namespace {
+
+// whole: every manifold and joint names bodies the snapshot holds, and
+// manifolds are strictly ordered; else a world's part (snapshot_parts.h).
+WorldSnapshot read_snapshot(const std::vector<std::uint8_t>& bytes, bool whole, const char* what) {
+  ByteReader r(bytes, what, raise_snapshot_error);
   // The header, kVersion or kJointsVersion (read_header takes one version).
   char magic[8];
   r.get(magic);
@@ -109,9 +114,12 @@ WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes) {
   s.manifolds.reserve(nm);
   for (std::uint32_t i = 0; i < nm; ++i) {
     ManifoldState m = read_manifold(r);
-    if (!has_body(m.id0) || !has_body(m.id1)) r.fail("manifold with bad body ids");
-    if (i > 0 && !(std::make_pair(s.manifolds.back().id0, s.manifolds.back().id1) < std::make_pair(m.id0, m.id1)))
-      r.fail("manifolds not sorted by (id0, id1)");
+    if (whole && (!has_body(m.id0) || !has_body(m.id1))) r.fail("manifold with bad body ids");
+    if (i > 0) {
+      const auto before = std::make_pair(s.manifolds.back().id0, s.manifolds.back().id1);
+      const auto here = std::make_pair(m.id0, m.id1);
+      if (whole ? !(before < here) : here < before) r.fail("manifolds not sorted by (id0, id1)");
+    }
     s.manifolds.push_back(std::move(m));
   }
   if (version == kJointsVersion) {
@@ -120,13 +128,24 @@ WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes) {
     s.joints.reserve(nj);
     for (std::uint32_t i = 0; i < nj; ++i) {
       JointSnapshot j = read_joint(r);
-      if (!has_body(j.description.body_a) || !has_body(j.description.body_b)) r.fail("joint with bad body ids");
+      if (whole && (!has_body(j.description.body_a) || !has_body(j.description.body_b)))
+        r.fail("joint with bad body ids");
       if (i > 0 && !(s.joints.back().description.id < j.description.id)) r.fail("joints not sorted by id");
       s.joints.push_back(std::move(j));
     }
   }
   if (!r.done()) r.fail("trailing bytes");
   return s;
+}
+
+}  // namespace
+
+WorldSnapshot deserialize_snapshot(const std::vector<std::uint8_t>& bytes) {
+  return read_snapshot(bytes, true, "deserialize_snapshot");
+}
+
+WorldSnapshot deserialize_part_snapshot(const std::vector<std::uint8_t>& bytes) {
+  return read_snapshot(bytes, false, "deserialize_part_snapshot");
 }
 
 Scene scene_of(const WorldSnapshot& snapshot) {

@@ -63,10 +63,15 @@ std::optional<WorldSnapshot> PartitionedWorld::Internals::kept_snapshot(std::int
 // Bodies by id (one owner each); a pair's contact state may be held by one
 // world and kept by its key body's owner, and the copies must be identical.
 WorldSnapshot PartitionedWorld::Internals::assemble(std::int64_t scene_step, std::vector<WorldSnapshot> parts) const {
+  return assemble(scene_step, std::move(parts), worlds.front()->static_snapshots());
+}
+
+WorldSnapshot PartitionedWorld::Internals::assemble(std::int64_t scene_step, std::vector<WorldSnapshot> parts,
+                                                    std::vector<BodySnapshot> statics) {
   WorldSnapshot s;
   s.settings = parts.front().settings;
   s.steps_done = scene_step;
-  s.bodies = worlds.front()->static_snapshots();
+  s.bodies = std::move(statics);
   std::vector<ManifoldState> manifolds;
   for (WorldSnapshot& part : parts) {
     s.bodies.insert(s.bodies.end(), std::make_move_iterator(part.bodies.begin()),

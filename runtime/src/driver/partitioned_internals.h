@@ -48,6 +48,10 @@ struct PartitionedWorld::Internals {
   /// std::logic_error if two worlds own one body or hold different copies of
   /// one pair's contact state.
   WorldSnapshot assemble(std::int64_t scene_step, std::vector<WorldSnapshot> parts) const;
+  /// The same with the statics and kinematic bodies given (over ranks: as
+  /// the rank that steps world 0 has them) instead of world 0's.
+  static WorldSnapshot assemble(std::int64_t scene_step, std::vector<WorldSnapshot> parts,
+                                std::vector<BodySnapshot> statics);
   /// The whole scene's state at `scene_step` from the states every world
   /// keeps (PartitionedOptions::keep_states), with `substeps` as its
   /// settings' substeps; nullopt if some world no longer (or not yet) keeps

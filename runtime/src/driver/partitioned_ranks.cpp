@@ -1,19 +1,23 @@
 // PartitionedWorld over the ranks of a ProcessGroup (process_group.h,
 // docs/mpi.md): which options a run over ranks supports, the step with the
 // group's communication loop on the caller's thread, and the whole-scene
-// readouts gathered to rank 0.
+// readouts gathered to rank 0 (the snapshot to every rank).
 //
 // Every rank builds every TerritoryWorld (the same map and options) from
 // its share of the scene (scene_share.h), and steps only its own; the
 // others hold no dynamic body and are never read. With speculation the group computes the commit horizon over
 // the ranks and carries the rollback board's posts (docs/mpi.md).
 #include <algorithm>
+#include <cstddef>
+#include <optional>
 #include <stdexcept>
+#include <string>
 #include <type_traits>
 
 #include "driver/partitioned_internals.h"
 #include "execution/plain_bytes.h"
 #include "soda/runtime/process_group.h"
+#include "soda/worlds/snapshot_parts.h"
 
 namespace soda {
 
@@ -120,12 +124,48 @@ std::vector<BodyState> PartitionedWorld::gathered_states() const {
   return out;
 }
 
-// The whole scene's state on every rank (for SyncTest, heal, cession): not
-// done yet. A world's part_snapshot() holds manifolds with bodies outside
-// the part (ghosts, statics), which deserialize_snapshot refuses on its own;
-// parts need a codec of their own first (docs/mpi.md, "What is not done").
+// The whole scene's state on every rank: each rank's worlds' parts, as
+// bytes (deserialize_part_snapshot: a part names ghosts and statics it does
+// not hold), and the statics and kinematic bodies from the rank that steps
+// world 0 (a world of another rank is never stepped here: its kinematic
+// bodies stand where the scene put them), assembled as on threads.
 WorldSnapshot PartitionedWorld::gathered_snapshot() const {
-  throw std::logic_error("PartitionedWorld::snapshot() over ranks is not supported yet (docs/mpi.md)");
+  enum Kind : std::uint8_t { kPart = 0, kStatics = 1 };
+  std::vector<std::uint8_t> mine;
+  const auto put_bytes = [&mine](Kind kind, const WorldSnapshot& s) {
+    const std::vector<std::uint8_t> bytes = serialize(s);
+    put(mine, kind);
+    put(mine, static_cast<std::uint64_t>(bytes.size()));
+    mine.insert(mine.end(), bytes.begin(), bytes.end());
+  };
+  for (WorldId w = 0; w < world_count(); ++w) {
+    if (!steps_world(w)) continue;
+    WorldSnapshot part = world(w).part_snapshot();
+    put_bytes(kPart, part);
+    if (w != 0) continue;
+    part.bodies = world(0).static_snapshots();
+    part.manifolds.clear();
+    part.joints.clear();
+    put_bytes(kStatics, part);
+  }
+  std::vector<WorldSnapshot> parts;
+  std::optional<std::vector<BodySnapshot>> statics;
+  for (const std::vector<std::uint8_t>& bytes : options_.group->all_gather(mine))
+    for (std::size_t at = 0; at < bytes.size();) {
+      const auto kind = take<Kind>(bytes, at);
+      const auto n = take<std::uint64_t>(bytes, at);
+      if (n > bytes.size() - at) throw std::logic_error("PartitionedWorld::snapshot: a rank's part is truncated");
+      WorldSnapshot s = deserialize_part_snapshot(
+          std::vector<std::uint8_t>(bytes.begin() + static_cast<std::ptrdiff_t>(at),
+                                    bytes.begin() + static_cast<std::ptrdiff_t>(at + n)));
+      at += n;
+      if (kind == kStatics) statics = std::move(s.bodies);
+      else parts.push_back(std::move(s));
+    }
+  if (!statics || parts.size() != static_cast<std::size_t>(world_count()))
+    throw std::logic_error("PartitionedWorld::snapshot: the ranks sent " + std::to_string(parts.size()) +
+                           " parts for " + std::to_string(world_count()) + " worlds");
+  return Internals::assemble(steps_done_, std::move(parts), std::move(*statics));
 }
 
 std::size_t PartitionedWorld::gathered_count(bool sleeping) const {

@@ -95,14 +95,14 @@ struct PartitionedOptions {
   /// Ranks (process_group.h; docs/mpi.md): this process steps only the
   /// worlds group->rank_of() gives its rank, and messages to other ranks'
   /// worlds go through the group. Every rank builds the same world from the
-  /// same scene, map and options. Lockstep only so far: refused
-  /// (std::invalid_argument) with anticipation > 0, SyncTest, validation,
-  /// load balancing or the watchdog's Heal. Under a group, step() and the
-  /// whole-scene readers (body_states, state_hash, sleeping_count,
-  /// body_count, metrics) are collective: every rank calls them in the same
-  /// order; rank 0 gets the whole scene's answer, the others their own
-  /// worlds'. snapshot() over ranks throws std::logic_error (not done
-  /// yet: docs/mpi.md).
+  /// same scene, map and options. Refused (std::invalid_argument) with
+  /// validation, load balancing or the watchdog's Heal (docs/mpi.md). Under
+  /// a group, step() and the whole-scene readers (body_states, state_hash,
+  /// sleeping_count, body_count, metrics, snapshot) are collective: every
+  /// rank calls them in the same order; rank 0 gets the whole scene's
+  /// answer, the others their own worlds' (snapshot(): every rank gets the
+  /// whole scene's state; the worlds' parts are gathered to every rank).
+  /// Each rank keeps only its share of a scene (docs/mpi.md).
   /// Null: every world in this process.
   std::shared_ptr<ProcessGroup> group = {};
 };
