@@ -15,8 +15,8 @@
 #include <utility>
 
 #include "soda/scene/fnv1a.h"
-#include "soda/worlds/value_codec.h"
 #include "soda/worlds/snapshot_parts.h"
+#include "soda/worlds/value_codec.h"
 #include "soda/worlds/world_snapshot.h"
 
 namespace soda {

@@ -8,6 +8,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "driver/run_inputs.h"
 #include "execution/plain_bytes.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/replay/replay_writer.h"
@@ -31,7 +32,8 @@ std::vector<std::uint8_t> owned_here(const PartitionedWorld& world, ProcessGroup
   const int k = world.world_count();
   for (WorldId w = 0; w < k; ++w) {
     if (group.rank_of(w, k) != group.rank()) continue;
-    for (const BodyState& b : world.world(w).owned_states()) put_plain(out, OwnedState{static_cast<std::int32_t>(w), b});
+    for (const BodyState& b : world.world(w).owned_states())
+      put_plain(out, OwnedState{static_cast<std::int32_t>(w), b});
   }
   return out;
 }
@@ -78,10 +80,9 @@ void record_on_ranks(PartitionedWorld& world, const replay::ViewHeader* header, 
   const std::int64_t cpu0 = thread_cpu_ns();
   std::optional<replay::ReplayWriter> out;
   if (writes) {
-    out.emplace(config.record_path, *header, replay::ReplayWriterOptions{config.record_keyframe_every, config.record_compression_level});
-    if (config.inputs)
-      for (const UserInput& in : *config.inputs)
-        if (in.kind == UserInput::Kind::AddBody) out->describe(view_body(in.body));
+    out.emplace(config.record_path, *header,
+                replay::ReplayWriterOptions{config.record_keyframe_every, config.record_compression_level});
+    describe_added_bodies(*out, config);
   }
   std::vector<double> cpu_before;
   for (std::int64_t k = 0; k <= config.steps; ++k) {

@@ -63,9 +63,7 @@ void record(Simulation& sim, SceneReader& reader, const Scene& scene, const Terr
   const replay::ViewHeader header = view_header(scene, map);
   replay::ReplayWriter out(config.record_path, header,
                            {config.record_keyframe_every, config.record_compression_level});
-  if (config.inputs)
-    for (const UserInput& in : *config.inputs)
-      if (in.kind == UserInput::Kind::AddBody) out.describe(view_body(in.body));
+  describe_added_bodies(out, config);
   sim.start(sim.time_of(config.steps));
   for (std::int64_t k = 0; k <= config.steps; ++k) {
     std::optional<SceneFrame> frame = reader.read_at(sim.time_of(k));
@@ -84,6 +82,12 @@ void record(Simulation& sim, SceneReader& reader, const Scene& scene, const Terr
 }
 
 }  // namespace
+
+void describe_added_bodies(replay::ReplayWriter& out, const RunConfig& config) {
+  if (!config.inputs) return;
+  for (const UserInput& in : *config.inputs)
+    if (in.kind == UserInput::Kind::AddBody) out.describe(view_body(in.body));
+}
 
 SimulationConfig simulation_config(const RunConfig& config) {
   SimulationConfig sc;

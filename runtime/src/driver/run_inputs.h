@@ -5,6 +5,14 @@
 #include "soda/runtime/run.h"
 
 namespace soda {
+namespace replay {
+class ReplayWriter;
+}
+
+/// Describes to a replay file the bodies config.inputs add (it stores a
+/// body's description before the first frame that holds it): every
+/// recording, on threads and over ranks, before its first frame.
+void describe_added_bodies(replay::ReplayWriter& out, const RunConfig& config);
 
 /// Whether run_scene replays config.inputs through a Simulation (the
 /// embedding API's calls): yes unless config.inputs_via_simulation is
