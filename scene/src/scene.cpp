@@ -89,8 +89,16 @@ Shape Shape::heightfield_of(std::shared_ptr<const HeightfieldData> heightfield) 
 }
 
 double HeightfieldData::max_abs_height() const {
+  if (window.columns != 0) return std::abs(window.max_abs * spacing.y());
   double m = 0.0;
   for (double h : heights) m = std::max(m, std::abs(h * spacing.y()));
+  return m;
+}
+
+double HeightfieldData::max_abs_raw_height() const {
+  if (window.columns != 0) return window.max_abs;
+  double m = 0.0;
+  for (double h : heights) m = std::max(m, std::abs(h));
   return m;
 }
 
@@ -120,6 +128,7 @@ Vec3 Shape::local_half_extents() const {
     }
     case ShapeKind::TriangleMesh: {
       Vec3 h = Vec3::Zero();
+      if (mesh && mesh->cut) return h.cwiseMax(mesh->cut->lo.cwiseAbs()).cwiseMax(mesh->cut->hi.cwiseAbs());
       if (mesh)
         for (const Vec3& p : mesh->vertices) h = h.cwiseMax(p.cwiseAbs());
       return h;
@@ -154,6 +163,7 @@ double Shape::bounding_radius() const {
     }
     case ShapeKind::TriangleMesh: {
       double r = 0.0;
+      if (mesh && mesh->cut) return mesh->cut->radius;
       if (mesh)
         for (const Vec3& p : mesh->vertices) r = std::max(r, p.norm());
       return r;

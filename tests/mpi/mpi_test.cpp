@@ -204,6 +204,56 @@ TEST(Mpi, LevelGeometryJointsAndKinematicBodiesGiveTheOneWorldHash) {
   }
 }
 
+// Level geometry over ranks: a rank's worlds hold the part of the terrain's
+// heightfield and of the city's mesh near their cells (scene_share.h), on
+// 4 ranks less than the whole on every rank, and the gathered hash is the
+// one world's (the test above); a snapshot, which no rank could write
+// whole, is refused alike on every rank, naming the body.
+TEST(Mpi, ARankHoldsThePartOfTheLevelGeometryNearItsWorlds) {
+  for (const char* name : {"terrain", "city"}) {
+    const Scene s = test::scene(name, 40);
+    std::size_t whole = 0;
+    for (const Body& b : s.bodies) {
+      if (b.shape.kind == ShapeKind::TriangleMesh) whole += b.shape.mesh->triangles.size();
+      if (b.shape.kind == ShapeKind::Heightfield) whole += b.shape.heightfield->heights.size();
+    }
+    ASSERT_GT(whole, 0u) << name;
+    PartitionedOptions o = threads_per_world();
+    o.group = g_group;
+    PartitionedWorld world(s, make_partition("kmeans", s, 4, GridOptions{}), o);
+    world.step(20);
+    std::size_t held = 0;
+    bool cut = false;
+    for (WorldId w = 0; w < world.world_count() && held == 0; ++w) {
+      if (g_group->rank_of(w, world.world_count()) != g_group->rank()) continue;
+      for (const BodySnapshot& b : world.world(w).static_snapshots()) {
+        const Shape& shape = b.description.shape;
+        if (shape.kind == ShapeKind::TriangleMesh) held += shape.mesh->triangles.size(), cut |= !!shape.mesh->cut;
+        if (shape.kind == ShapeKind::Heightfield)
+          held += shape.heightfield->heights.size(), cut |= shape.heightfield->window.columns != 0;
+      }
+    }
+    std::printf("[ %s 40, K 4, rank %d of %d ] its worlds hold %zu of the %zu %s\n", name, g_group->rank(),
+                g_group->size(), held, whole, s.bodies.front().shape.kind == ShapeKind::Heightfield ? "samples" : "triangles");
+    if (g_group->size() == 4) {
+      EXPECT_LT(held, whole) << name << ", rank " << g_group->rank();
+      EXPECT_TRUE(cut) << name;
+    }
+    const std::size_t bodies = world.body_count();  // collective; rank 0's is the gathered count
+    if (g_group->rank() == 0) {
+      EXPECT_EQ(bodies, s.bodies.size());
+    }
+    if (g_group->size() == 4) {
+      try {
+        (void)world.snapshot();  // collective
+        ADD_FAILURE() << name << ": a snapshot of a cut scene was written";
+      } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("only a part of"), std::string::npos) << e.what();
+      }
+    }
+  }
+}
+
 // A floor of 361 static tiles under a pile: each world, on whichever rank,
 // holds the tiles near its cells (docs/partitioned-step.md, §2a), the other
 // ranks' worlds that a rank builds but never steps hold none, and the

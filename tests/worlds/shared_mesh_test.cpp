@@ -20,6 +20,7 @@
 #include "worlds/heightfield_mesh.h"
 #include "soda/grid/partition.h"
 #include "soda/worlds/bullet_bodies.h"
+#include "soda/worlds/scene_share.h"
 #include "soda/worlds/territory_world.h"
 
 namespace soda {
@@ -115,6 +116,48 @@ TEST(SharedMesh, EightWorldsHoldOneCopyOfTheGeometry) {
   // Copies of a shape (a scene's, a snapshot's) map to the one Bullet shape.
   const Shape copy = with.bodies[0].shape;
   EXPECT_EQ(make_collision_shape(copy).get(), make_collision_shape(with.bodies[0].shape).get());
+}
+
+// What an MPI rank holds of the mesh (scene_share.h): the part near the
+// worlds it steps (world w on rank w % R, MpiGroup's default), its scene
+// data and its Bullet shape and BVH, against the whole mesh on one rank.
+// 8 k-means territories; SODA_MESH_TRIANGLES sets the mesh's size as above.
+// On 2 ranks a rank holds at most 0.6 of the whole, on 4 at most 0.35.
+TEST(SharedMesh, ARankHoldsThePartOfTheMeshNearItsWorlds) {
+  const char* env = std::getenv("SODA_MESH_TRIANGLES");
+  const long triangles = env ? std::atol(env) : 200000;
+  const int side = static_cast<int>(std::ceil(std::sqrt(triangles / 2.0)));
+  // 64 cubes spread over the whole mesh, for territories that split it.
+  Scene with = mesh_scene(side, true);
+  with.bodies.resize(1);
+  for (int k = 0; k < 64; ++k) {
+    Body b;
+    b.id = static_cast<BodyId>(k + 1);
+    b.shape = Shape::box(Vec3(0.5, 0.5, 0.5));
+    b.position = Vec3(side * (-0.45 + 0.9 * (k % 8) / 7.0), 2.0, side * (-0.45 + 0.9 * (k / 8) / 7.0));
+    with.bodies.push_back(std::move(b));
+  }
+  const TerritoryMap map = make_partition("kmeans", with, 8, GridOptions{});
+  const auto bytes = [](const Shape& s) {
+    const std::size_t data = s.mesh->vertices.size() * sizeof(Vec3) + s.mesh->triangles.size() * 12;
+    return data + concave_shape_bytes(s);  // concave_shape_bytes counts a part's whole_index
+  };
+  const double whole = double(bytes(with.bodies[0].shape));
+  for (int ranks : {1, 2, 4}) {
+    std::size_t largest = 0, largest_triangles = 0;
+    for (int r = 0; r < ranks; ++r) {
+      const Scene share = scene_share(with, map, [&](WorldId w) { return w % ranks == r; });
+      const Shape& part = share.bodies[0].shape;
+      ASSERT_EQ(part.kind, ShapeKind::TriangleMesh);
+      if (bytes(part) > largest) largest = bytes(part), largest_triangles = part.mesh->triangles.size();
+    }
+    std::printf("[ mesh %s, %zu triangles, 8 territories on %d rank(s) ] the largest rank holds %zu triangles, "
+                "%zu bytes (scene data, Bullet shape and BVH): %.3f of the whole\n",
+                kPrecisionName, with.bodies[0].shape.mesh->triangles.size(), ranks, largest_triangles, largest,
+                double(largest) / whole);
+    const double most = ranks == 1 ? 1.0 : ranks == 2 ? 0.6 : 0.35;
+    EXPECT_LE(double(largest), most * whole) << ranks << " ranks";
+  }
 }
 
 // The terrain scene on 8 territory worlds: its heightfield, and the same

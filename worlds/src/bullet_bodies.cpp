@@ -234,7 +234,9 @@ BulletBodies::BulletBodies(const Scene& scene) {
   shapes.reserve(scene.bodies.size());
   bodies.reserve(scene.bodies.size());
   for (const Body& b : scene.bodies) {
-    shapes.push_back(make_collision_shape(b.shape));
+    // Stock Bullet's own triangle order for a mesh (concave_shapes.h).
+    shapes.push_back(b.shape.kind == ShapeKind::TriangleMesh ? stock_concave_shape(b.shape)
+                                                             : make_collision_shape(b.shape));
     bodies.push_back(make_rigid_body(b, *shapes.back()));
   }
 }

@@ -10,7 +10,8 @@
 // smaller id. So a convex-concave pair has SODA's algorithm: Bullet's, step
 // for step — the convex body's box in the concave shape's frame grown by
 // the shape's margin, the triangles under it in the shape's own order
-// (BVH or grid: a function of the shape alone), each tested by its Bullet
+// (a mesh's: its triangles' order in the whole mesh, whether a process holds
+// the whole or a part; a heightfield's: its grid's), each tested by its Bullet
 // triangle algorithm into the one manifold, then the manifold refreshed —
 // but with the manifold in the order the pair is given and each triangle
 // tested with the bodies in that order. Given a manifold (a compound's

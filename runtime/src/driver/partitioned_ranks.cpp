@@ -130,7 +130,7 @@ std::vector<BodyState> PartitionedWorld::gathered_states() const {
 // world 0 (a world of another rank is never stepped here: its kinematic
 // bodies stand where the scene put them), assembled as on threads.
 WorldSnapshot PartitionedWorld::gathered_snapshot() const {
-  enum Kind : std::uint8_t { kPart = 0, kStatics = 1 };
+  enum Kind : std::uint8_t { kPart = 0, kStatics = 1, kCut = 2 };
   std::vector<std::uint8_t> mine;
   const auto put_bytes = [&mine](Kind kind, const WorldSnapshot& s) {
     const std::vector<std::uint8_t> bytes = serialize(s);
@@ -138,6 +138,20 @@ WorldSnapshot PartitionedWorld::gathered_snapshot() const {
     put(mine, static_cast<std::uint64_t>(bytes.size()));
     mine.insert(mine.end(), bytes.begin(), bytes.end());
   };
+  // A rank whose worlds hold a part of a mesh or heightfield (scene_share.h)
+  // names it, and every rank refuses alike: no rank holds its whole.
+  for (WorldId w = 0; w < world_count(); ++w) {
+    if (!steps_world(w)) continue;
+    for (const BodySnapshot& s : world(w).static_snapshots()) {
+      const Shape& shape = s.description.shape;
+      if ((shape.mesh && shape.mesh->cut) || (shape.heightfield && shape.heightfield->window.columns != 0)) {
+        put(mine, kCut);
+        put(mine, static_cast<std::uint64_t>(s.description.id));
+        break;
+      }
+    }
+    break;
+  }
   for (WorldId w = 0; w < world_count(); ++w) {
     if (!steps_world(w)) continue;
     WorldSnapshot part = world(w).part_snapshot();
@@ -154,6 +168,10 @@ WorldSnapshot PartitionedWorld::gathered_snapshot() const {
     for (std::size_t at = 0; at < bytes.size();) {
       const auto kind = take<Kind>(bytes, at);
       const auto n = take<std::uint64_t>(bytes, at);
+      if (kind == kCut)
+        throw std::runtime_error("PartitionedWorld::snapshot over MPI ranks: static body " + std::to_string(n) +
+                                 " is a triangle mesh or heightfield that each rank holds only a part of (docs/mpi.md, "
+                                 "\"What a rank holds\"), so no rank can write it whole");
       if (n > bytes.size() - at) throw std::logic_error("PartitionedWorld::snapshot: a rank's part is truncated");
       WorldSnapshot s = deserialize_part_snapshot(
           std::vector<std::uint8_t>(bytes.begin() + static_cast<std::ptrdiff_t>(at),

@@ -40,6 +40,15 @@ const char* shape_kind_name(ShapeKind kind);
 
 struct CompoundChild;
 
+/// What a part of a triangle mesh keeps of the whole mesh it was cut from
+/// (an MPI rank holds the triangles near its worlds: scene_share.h).
+struct MeshCut {
+  /// The whole mesh's index of each of the part's triangles, ascending.
+  std::vector<std::uint32_t> whole_index;
+  Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();  // the whole mesh's vertex bounds
+  double radius = 0.0;  // the largest distance of a whole mesh's vertex from the origin
+};
+
 /// The triangles of a static triangle mesh, in the body's frame (metres).
 /// Immutable once made: shapes share it (Shape::mesh), so a scene's copies
 /// (every world's, every snapshot's) hold one pointer, never the triangles.
@@ -49,6 +58,9 @@ struct TriangleMeshData {
   /// The OBJ file the mesh was read from, as the scene file names it
   /// (relative to the scene file's folder); empty: the triangles are inline.
   std::string file;
+  /// Set on a part cut from a larger mesh: its triangles are some of the
+  /// whole's, and its bounds are the whole's. Null: the whole mesh.
+  std::shared_ptr<const MeshCut> cut;
 };
 
 /// The heights of a static heightfield: a grid of `columns` samples along x
@@ -61,8 +73,24 @@ struct HeightfieldData {
   int rows = 0;                 // samples along z, >= 2
   std::vector<double> heights;  // rows * columns, row by row (z), each row along x
   Vec3 spacing = Vec3(1.0, 1.0, 1.0);  // m between samples along x and z; y scales the heights
+  /// A window cut from the whole grid (an MPI rank holds the samples near
+  /// its worlds: scene_share.h): `heights` then holds `rows` x `columns`
+  /// samples from sample (column, row) of the whole, row by row, and
+  /// `max_abs` is the whole's largest |height|. columns == 0: every sample.
+  struct Window {
+    int column = 0, row = 0, columns = 0, rows = 0;
+    double max_abs = 0.0;
+  } window;
   /// Largest |height| * spacing.y() (the local AABB's half height).
   double max_abs_height() const;
+  /// Largest |height| of the whole grid.
+  double max_abs_raw_height() const;
+  /// Sample (i, j) of the whole grid (i along x, j along z); a window
+  /// holds only its own.
+  double height(int i, int j) const {
+    if (window.columns == 0) return heights[static_cast<std::size_t>(j) * columns + i];
+    return heights[static_cast<std::size_t>(j - window.row) * window.columns + (i - window.column)];
+  }
 };
 
 /// Collision shape in the body's local frame. Units: metres.

@@ -12,7 +12,11 @@ namespace soda {
 /// The part of `scene` that the worlds `keep` accepts hold when built from
 /// it (TerritoryWorld(scene, w, map)): every static and kinematic body (each
 /// world knows every static), the dynamic bodies whose home world is kept,
-/// and every joint but those between dropped bodies. A dynamic body's home
+/// and every joint but those between dropped bodies. A fixed static
+/// triangle mesh or heightfield is cut to the triangles the kept worlds may
+/// meet (those within reach + 1 cells of their cells; a MeshCut or a
+/// HeightfieldData::Window), which give those worlds the same contacts as
+/// the whole (docs/mpi.md, "What a rank holds"). A dynamic body's home
 /// world owns the cell of its position as Bullet holds it (rounded to
 /// btScalar); a joint group's is its anchor's (its smallest dynamic id). A
 /// kept world built from the share holds exactly what it holds when built
