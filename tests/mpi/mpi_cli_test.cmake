@@ -3,7 +3,8 @@
 # rank 0 only (each rank's Bullet objects its share, not the scene), gives
 # it with speculation and SyncTest too, also for a scene
 # with joints, with a solver pool, with inputs from a file and recording a
-# replay, and refuses a bad --ranks-worlds or --validate with exit 2.
+# replay, validates every step (--validate: rank 0 prints the threaded
+# run's census), and refuses a bad --ranks-worlds with exit 2.
 # Run by ctest: cmake -DSODA=... -DMPIEXEC=... -P mpi_cli_test.cmake
 set(scene --scene falling-cubes --n 120 --steps 60)
 
@@ -84,7 +85,19 @@ foreach(rank 0 1)
   message(STATUS "rank ${rank}: ${spec_rounds} GVT rounds speculating, none in lockstep")
 endforeach()
 
-foreach(bad "--ranks-worlds;0,2,1" "--ranks-worlds;0,1" "--validate")
+# --validate: every step's census over the ranks; rank 0 prints the counts,
+# those of the threaded run.
+execute_process(COMMAND ${SODA} run ${scene} --territories 3 --validate OUTPUT_VARIABLE threaded RESULT_VARIABLE rc)
+string(REGEX MATCH "validate: [^;]*" threaded_census "${threaded}")
+ranked_run(validated --validate --anticipation 8)
+expect_once("validate: " "${validated}" "--validate")
+string(REGEX MATCH "validate: [^;]*" ranked_census "${validated}")
+if(NOT threaded_census OR NOT ranked_census STREQUAL threaded_census)
+  message(FATAL_ERROR "--validate on 2 ranks: '${ranked_census}', on threads '${threaded_census}'")
+endif()
+message(STATUS "--validate on 2 ranks: ${ranked_census}")
+
+foreach(bad "--ranks-worlds;0,2,1" "--ranks-worlds;0,1")
   execute_process(COMMAND ${MPIEXEC} --oversubscribe -np 2 ${SODA} run ${scene} --territories 3 ${bad}
                   OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 60)
   if(NOT rc EQUAL 2 OR NOT err MATCHES "soda: error: ")

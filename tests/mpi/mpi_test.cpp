@@ -356,7 +356,8 @@ TEST(Mpi, AFailingRankStopsEveryRankWhileSpeculating) { expect_failure_stops_eve
 // velocity, a pose and a collision filter, the gravity turned, a body
 // removed and one added; on the pendulums, a joint removed; on the
 // conveyor, a kinematic pallet's filter changed and changed back.
-void expect_inputs_give_the_one_territory_hash(const Case& c, const std::vector<UserInput>& inputs) {
+void expect_inputs_give_the_one_territory_hash(const Case& c, const std::vector<UserInput>& inputs,
+                                                bool validate = false) {
   const Scene s = test::scene(c.scene, c.n);
   PartitionedOptions alone;
   alone.inputs = inputs;
@@ -365,6 +366,7 @@ void expect_inputs_give_the_one_territory_hash(const Case& c, const std::vector<
   for (PartitionedOptions o : {threads_per_world(), speculating()}) {
     o.inputs = inputs;
     o.group = g_group;
+    o.runtime.validate = validate;
     PartitionedWorld world(s, make_partition(c.partition, s, c.territories, GridOptions{}), o);
     world.step(c.steps);
     const std::uint64_t hash = world.state_hash();  // collective
@@ -410,6 +412,21 @@ std::vector<UserInput> body_inputs() {
   bodies = {push, heavy, fast, ghost, tilt, moved, input(UserInput::Kind::RemoveBody, 35, 9), added};
   for (std::size_t i = 0; i < bodies.size(); ++i) bodies[i].sequence = i;
   return bodies;
+}
+
+// Validation over ranks (--validate): after every step, every rank's
+// worlds' census (one owner a body, none lost, one holder a contact pair,
+// Bullet's object counts) gathered and checked alike on every rank, with
+// the bodies inputs add and remove expected at their step; the hash stays
+// the one world's. Lockstep and speculating, level geometry cut per rank.
+TEST(Mpi, ValidationChecksEveryRanksWorldsAtEveryStep) {
+  for (PartitionedOptions o : {threads_per_world(), speculating()}) {
+    o.runtime.validate = true;
+    expect_reference_hash({"cube-pile", 100, "kmeans", 4, 70}, o);
+    expect_reference_hash({"terrain", 40, "kmeans", 4, 40}, o);
+    expect_reference_hash({"ragdolls", 6, "kmeans", 4, 40}, o);
+  }
+  expect_inputs_give_the_one_territory_hash({"cube-pile", 100, "kmeans", 4, 80}, body_inputs(), true);
 }
 
 TEST(Mpi, InputsGiveTheOneTerritoryHash) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <memory>
 
 #include "step/island_merge.h"
 #include "runtime/partitioned_test_util.h"
@@ -302,6 +303,59 @@ TEST(Validator, NamesBrokenInvariants) {
   Validator too_many(s, 2);
   too_many.report(WorldStepReport{0, 4, {1, 2}, 0, 1, 3, {}, 0});
   EXPECT_THROW(too_many.report(WorldStepReport{1, 4, {3, 4}, 0, 1, 0, {}, 3}), ValidationError);  // 3 parked of 2
+}
+
+// Over ranks (gathered): each rank's validator holds its worlds' reports
+// without checking; the union of every rank's, given to each, is checked
+// step by step in order, once every world has reported the step; a step
+// still owed waits for the next gather. A rank built from its share learns
+// the other bodies from expect_bodies, or they would be "not in the scene".
+TEST(Validator, GatheredOverRanksChecksTheUnionOfEveryRanksReports) {
+  const Scene s = test::scene("falling-cubes", 4);  // ground 0, cubes 1..4
+  Scene share = s;
+  share.bodies.resize(3);  // rank 0 holds cubes 1 and 2
+  const auto ranks = [&] {
+    std::vector<std::unique_ptr<Validator>> v;
+    for (int r = 0; r < 2; ++r) {
+      v.push_back(std::make_unique<Validator>(share, 2, true));
+      v.back()->expect_bodies({1, 2, 3, 4});
+    }
+    return v;
+  };
+  const auto gather = [](std::vector<std::unique_ptr<Validator>>& v) {
+    std::vector<WorldStepReport> all;
+    for (auto& r : v)
+      for (WorldStepReport& report : r->take_pending()) all.push_back(std::move(report));
+    for (auto& r : v) r->check_gathered(all);
+  };
+  auto ok = ranks();
+  ok[0]->report(WorldStepReport{0, 1, {1, 2}, 0, 1, 3, {{1, 2}}});
+  ok[1]->report(WorldStepReport{1, 1, {3, 4}, 1, 1, 4, {{3, 4}}});
+  ok[0]->report(WorldStepReport{0, 2, {1, 2}, 0, 1, 3, {}});  // world 1 owes step 2
+  EXPECT_EQ(ok[0]->steps_checked(), 0);  // a rank alone checks nothing
+  gather(ok);
+  EXPECT_EQ(ok[0]->steps_checked(), 1);
+  EXPECT_EQ(ok[1]->steps_checked(), 1);
+  ok[1]->report(WorldStepReport{1, 2, {3, 4}, 0, 1, 3, {}});
+  gather(ok);
+  EXPECT_EQ(ok[0]->steps_checked(), 2);
+  auto twice = ranks();
+  twice[0]->report(WorldStepReport{0, 5, {1, 2, 3}, 0, 1, 4, {}});
+  twice[1]->report(WorldStepReport{1, 5, {3, 4}, 0, 1, 3, {}});
+  std::vector<WorldStepReport> all = twice[1]->take_pending();
+  for (WorldStepReport& r : twice[0]->take_pending()) all.push_back(std::move(r));
+  for (auto& v : twice) {  // each rank fails alike, with the same message
+    try {
+      v->check_gathered(all);
+      ADD_FAILURE() << "no exception";
+    } catch (const ValidationError& e) {
+      EXPECT_NE(std::string(e.what()).find("body 3 is owned by worlds 0 1"), std::string::npos) << e.what();
+    }
+  }
+  Validator unaware(share, 2, true);  // not told of cubes 3 and 4
+  EXPECT_THROW(unaware.check_gathered({WorldStepReport{0, 1, {1, 2}, 0, 1, 3, {}},
+                                       WorldStepReport{1, 1, {3, 4}, 0, 1, 3, {}}}),
+               ValidationError);
 }
 
 }  // namespace

@@ -23,6 +23,11 @@
 
 namespace soda {
 
+/// Validation over ranks: the reports every rank's worlds made since the
+/// last call, gathered to every rank and checked alike (validator.h).
+/// Collective. partitioned_ranks.cpp.
+void gather_validation(ProcessGroup& group, Validator& validator);
+
 struct PartitionedWorld::Internals {
   // In construction order; destroyed in reverse (a process refers to all above it).
   TerritoryMap map;  // the map in force (a world kept by a cession may hold an older copy: balance_step.cpp)

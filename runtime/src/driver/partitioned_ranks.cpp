@@ -47,7 +47,46 @@ void each_scalar(M& m, F&& f) {
   for_each_counter(m, [&](const char*, auto& value, CounterFold) { f(value); });
 }
 
+void put_report(std::vector<std::uint8_t>& out, const WorldStepReport& r) {
+  put(out, static_cast<std::int32_t>(r.world));
+  put(out, r.step);
+  put(out, static_cast<std::uint64_t>(r.owned.size()));
+  for (BodyId id : r.owned) put(out, id);
+  for (std::size_t n : {r.ghosts, r.statics, r.bullet_objects, r.parked}) put(out, static_cast<std::uint64_t>(n));
+  put(out, static_cast<std::uint64_t>(r.held_pairs.size()));
+  for (const auto& [a, b] : r.held_pairs) put(out, a), put(out, b);
+}
+
+WorldStepReport take_report(const std::vector<std::uint8_t>& in, std::size_t& at) {
+  WorldStepReport r;
+  r.world = take<std::int32_t>(in, at);
+  r.step = take<std::int64_t>(in, at);
+  const auto count = [&](std::size_t item) {
+    const auto n = take<std::uint64_t>(in, at);
+    if (n > (in.size() - at) / item) throw std::logic_error(std::string(kReadout) + " is truncated");
+    return static_cast<std::size_t>(n);
+  };
+  r.owned.resize(count(sizeof(BodyId)));
+  for (BodyId& id : r.owned) id = take<BodyId>(in, at);
+  for (std::size_t* n : {&r.ghosts, &r.statics, &r.bullet_objects, &r.parked})
+    *n = static_cast<std::size_t>(take<std::uint64_t>(in, at));
+  r.held_pairs.resize(count(2 * sizeof(BodyId)));
+  for (auto& [a, b] : r.held_pairs) a = take<BodyId>(in, at), b = take<BodyId>(in, at);
+  return r;
+}
+
 }  // namespace
+
+// Validation over ranks: each rank's worlds' reports, gathered to every
+// rank, checked alike on every rank (validator.h). Collective.
+void gather_validation(ProcessGroup& group, Validator& validator) {
+  std::vector<std::uint8_t> mine;
+  for (const WorldStepReport& r : validator.take_pending()) put_report(mine, r);
+  std::vector<WorldStepReport> all;
+  for (const std::vector<std::uint8_t>& bytes : group.all_gather(mine))
+    for (std::size_t at = 0; at < bytes.size();) all.push_back(take_report(bytes, at));
+  validator.check_gathered(std::move(all));
+}
 
 bool PartitionedWorld::steps_world(WorldId w) const {
   return !options_.group || options_.group->rank_of(w, world_count()) == options_.group->rank();
@@ -58,7 +97,6 @@ void PartitionedWorld::check_group_options() const {
     throw std::invalid_argument("PartitionedWorld over ranks (MPI, docs/mpi.md): " + what +
                                 " is not supported yet");
   };
-  if (options_.runtime.validate) refuse("validation");
   if (options_.runtime.watchdog.response == WatchdogResponse::Heal) refuse("the watchdog's heal");
   if (options_.runtime.balance.policy != "none" || options_.balance_policy) refuse("load balancing");
 }

@@ -99,9 +99,14 @@ void PartitionedWorld::init_from_scene(const Scene& scene, TerritoryMap map, Sce
   }
   const ProcessGroup& group = *options_.group;
   const int k = map.world_count();
+  std::vector<BodyId> dynamic;  // validation: every rank's bodies are expected
+  if (options_.runtime.validate)
+    for (const Body& b : scene.bodies)
+      if (!b.is_static) dynamic.push_back(b.id);
   const Scene share = scene_share(scene, map, [&](WorldId w) { return group.rank_of(w, k) == group.rank(); });
   if (owned) *owned = Scene{};
   build(&share, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(share, w, map); });
+  if (in_->validator) in_->validator->expect_bodies(dynamic);
 }
 
 PartitionedWorld::PartitionedWorld(const WorldSnapshot& state, TerritoryMap map, PartitionedOptions options)
@@ -197,7 +202,7 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   }
   if (hooks.fuzz_seed) in.transport = make_fuzzing_transport(std::move(in.transport), hooks.fuzz_seed);
   if (options_.runtime.validate && !scene) throw std::logic_error("PartitionedWorld::build: validation needs the scene");
-  in.validator = options_.runtime.validate ? std::make_unique<Validator>(*scene, k) : nullptr;
+  in.validator = options_.runtime.validate ? std::make_unique<Validator>(*scene, k, options_.group != nullptr) : nullptr;
   // The inputs still to come (those of earlier steps are in the scene).
   if (in.validator && inputs_)
     for (const UserInput& input : inputs_->from(steps_done_)) in.validator->expect(input, substeps_);
@@ -307,8 +312,19 @@ void PartitionedWorld::step(int n) {
 void PartitionedWorld::run_to(std::int64_t scene_step) {
   const std::int64_t target = scene_step * substeps_;
   for (auto& p : in_->processes) p->set_target(target);
+  if (options_.group && in_->validator) {
+    // Validating over ranks: the reports are gathered and checked every
+    // window of steps, which bounds what a rank holds of them.
+    constexpr std::int64_t kValidationWindow = 32;
+    for (std::int64_t at = steps_done_; at < scene_step;) {
+      at = std::min(scene_step, at + kValidationWindow);
+      for (auto& p : in_->processes) p->set_target(at * substeps_);
+      run_on_ranks(at * substeps_);
+      gather_validation(*options_.group, *in_->validator);
+    }
+  }
   if (options_.group) {
-    run_on_ranks(target);
+    if (!in_->validator) run_on_ranks(target);
     steps_done_ = scene_step;
     collect_step_loads();
     return;

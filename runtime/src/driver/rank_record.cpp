@@ -103,4 +103,17 @@ void record_on_ranks(PartitionedWorld& world, const replay::ViewHeader* header, 
   r.record_cpu_seconds = static_cast<double>(thread_cpu_ns() - cpu0) * 1e-9;
 }
 
+std::size_t held_pairs_on_ranks(const PartitionedWorld& world, ProcessGroup& group) {
+  std::uint64_t mine = 0, pairs = 0;
+  for (WorldId w = 0; w < world.world_count(); ++w)
+    if (group.rank_of(w, world.world_count()) == group.rank()) mine += world.world(w).held_contact_pairs().size();
+  std::vector<std::uint8_t> bytes;
+  put_plain(bytes, mine);
+  for (const std::vector<std::uint8_t>& b : group.all_gather(bytes)) {
+    std::size_t at = 0;
+    pairs += take_plain<std::uint64_t>(b, at, "a rank's held pairs");
+  }
+  return static_cast<std::size_t>(pairs);
+}
+
 }  // namespace soda

@@ -1,6 +1,7 @@
 // Internal: `--record` over MPI ranks. Rank 0 writes the replay file; the
 // frames come from every rank: after each scene step the ranks send it the
 // poses their worlds own, with the owner of each and each world's busy time.
+// Also --validate's count of contact pairs over ranks.
 #pragma once
 
 #include "soda/grid/territory_map.h"
@@ -20,5 +21,9 @@ namespace soda {
 /// aside (docs/mpi.md, "Recording").
 void record_on_ranks(PartitionedWorld& world, const replay::ViewHeader* header, const TerritoryMap& map,
                      const RunConfig& config, RunResult& r);
+
+/// The contact pairs every rank's worlds hold, summed over the ranks (one
+/// holder a pair: --validate checks it every step). Collective.
+std::size_t held_pairs_on_ranks(const PartitionedWorld& world, ProcessGroup& group);
 
 }  // namespace soda

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <type_traits>
 
 #include <sys/resource.h>
@@ -154,6 +155,18 @@ RunResult build_run_destroy(const Scene& scene, const RunConfig& config, const S
   r.teardown_seconds = gone.wall_since(stepped);
   r.teardown_cpu_seconds = gone.cpu_since(stepped);
   return r;
+}
+
+// --validate's bodies and contact pairs. On threads from a snapshot, which
+// also throws if two worlds own one body; over ranks (a snapshot is refused
+// where a rank holds a part of a mesh) the gathered count and every world's
+// held pairs, summed over the ranks (every step's census checks the rest).
+std::pair<std::size_t, std::size_t> census_counts(const PartitionedWorld& world, const RunConfig& config) {
+  if (!config.group) {
+    const WorldSnapshot s = world.snapshot();
+    return {s.bodies.size(), s.manifolds.size()};
+  }
+  return {world.body_count(), held_pairs_on_ranks(world, *config.group)};
 }
 
 // Ranks: every rank's traffic and its worlds' CPU and blocked time, to rank
@@ -303,11 +316,7 @@ RunResult run_partitioned(Scene scene, const RunConfig& config) {
   const Stamp built;
   r.setup_seconds = built.wall_since(start);
   r.setup_cpu_seconds = built.cpu_since(start);
-  if (config.runtime.validate) {  // snapshot() also throws if two worlds own one body
-    const WorldSnapshot s = world.snapshot();
-    r.bodies_at_start = s.bodies.size();
-    r.contact_pairs_at_start = s.manifolds.size();
-  }
+  if (config.runtime.validate) std::tie(r.bodies_at_start, r.contact_pairs_at_start) = census_counts(world, config);
   const std::int64_t process_cpu0 = process_cpu_ns();
   t0 = wall_ns();
   next_progress = t0 + static_cast<std::int64_t>(config.progress_seconds * 1e9);
@@ -321,11 +330,7 @@ RunResult run_partitioned(Scene scene, const RunConfig& config) {
   for (std::size_t i = 0; i < step_ends.size(); ++i) step_ns.push_back(step_ends[i] - (i ? step_ends[i - 1] : t0));
   r.step_time = StepTimeStats::from_ns(std::move(step_ns));
   collect_partitioned(world, scene_statics, config, r);
-  if (config.runtime.validate) {
-    const WorldSnapshot s = world.snapshot();
-    r.bodies_at_end = s.bodies.size();
-    r.contact_pairs_at_end = s.manifolds.size();
-  }
+  if (config.runtime.validate) std::tie(r.bodies_at_end, r.contact_pairs_at_end) = census_counts(world, config);
   const Stamp stepped;
   owned_world.reset();
   const Stamp gone;

@@ -7,7 +7,8 @@
 
 namespace soda {
 
-Validator::Validator(const Scene& scene, int world_count) : world_count_(world_count) {
+Validator::Validator(const Scene& scene, int world_count, bool gathered)
+    : world_count_(world_count), gathered_(gathered) {
   for (const Body& b : scene.bodies) {
     if (b.is_static) {
       ++static_count_;
@@ -24,6 +25,11 @@ void Validator::expect(const UserInput& in, int substeps) {
   if (in.kind == UserInput::Kind::RemoveBody) lives_[in.id].removed = boundary;
 }
 
+void Validator::expect_bodies(const std::vector<BodyId>& ids) {
+  std::lock_guard lock(lives_mutex_);
+  for (BodyId id : ids) lives_.try_emplace(id);
+}
+
 void Validator::report(WorldStepReport r) {
   std::vector<WorldStepReport> complete;
   std::int64_t step = r.step;
@@ -31,7 +37,7 @@ void Validator::report(WorldStepReport r) {
     std::lock_guard lock(mutex_);
     std::vector<WorldStepReport>& list = pending_[step];
     list.push_back(std::move(r));
-    if (static_cast<int>(list.size()) < world_count_) return;
+    if (gathered_ || static_cast<int>(list.size()) < world_count_) return;
     complete = std::move(list);
     pending_.erase(step);
     ++checked_;
@@ -42,6 +48,36 @@ void Validator::report(WorldStepReport r) {
 std::int64_t Validator::steps_checked() const {
   std::lock_guard lock(mutex_);
   return checked_;
+}
+
+std::vector<WorldStepReport> Validator::take_pending() {
+  std::lock_guard lock(mutex_);
+  std::vector<WorldStepReport> out;
+  for (auto& [step, list] : pending_)
+    for (WorldStepReport& r : list) out.push_back(std::move(r));
+  pending_.clear();
+  return out;
+}
+
+void Validator::check_gathered(std::vector<WorldStepReport> reports) {
+  for (WorldStepReport& r : reports) incomplete_[r.step].push_back(std::move(r));
+  for (auto it = incomplete_.begin(); it != incomplete_.end();) {
+    if (static_cast<int>(it->second.size()) < world_count_) {
+      ++it;
+      continue;
+    }
+    // In world order: the same list, hence the same message, on every rank.
+    std::sort(it->second.begin(), it->second.end(),
+              [](const WorldStepReport& a, const WorldStepReport& b) { return a.world < b.world; });
+    const std::int64_t step = it->first;
+    const std::vector<WorldStepReport> complete = std::move(it->second);
+    it = incomplete_.erase(it);
+    {
+      std::lock_guard lock(mutex_);
+      ++checked_;
+    }
+    check(step, complete);
+  }
 }
 
 void Validator::check(std::int64_t step, const std::vector<WorldStepReport>& reports) const {

@@ -11,6 +11,11 @@
 //     or owned twice is a failure;
 //  3. every pair's live contact state has exactly one holder.
 // A failure throws ValidationError naming the step, ids and worlds.
+//
+// Over MPI ranks (`gathered`), a rank's validator holds its own worlds'
+// reports (report() never checks), the run takes them (take_pending()),
+// gathers every rank's, and each rank checks the same union
+// (check_gathered()): every rank checks, and fails, alike.
 #pragma once
 
 #include <cstdint>
@@ -38,7 +43,11 @@ struct WorldStepReport {
 
 class Validator {
  public:
-  Validator(const Scene& scene, int world_count);
+  /// `gathered`: the reports come together over ranks (above).
+  Validator(const Scene& scene, int world_count, bool gathered = false);
+  /// Dynamic bodies of the scene the constructor's did not have (over ranks
+  /// it is built from the rank's share). Thread-safe.
+  void expect_bodies(const std::vector<BodyId>& ids);
   /// An input that will be applied at scene step boundary input.step
   /// (`substeps` internal steps per scene step): AddBody makes its body
   /// expected in the reports of later steps, RemoveBody unexpected; other
@@ -48,6 +57,11 @@ class Validator {
   /// Thread-safe. Throws ValidationError when the step it completes is wrong.
   void report(WorldStepReport report);
   std::int64_t steps_checked() const;
+  /// The reports not checked yet, taken out (gathered mode). Thread-safe.
+  std::vector<WorldStepReport> take_pending();
+  /// Every rank's taken reports: checks each step all worlds have reported,
+  /// in order, and keeps the rest for the next call. Throws as report().
+  void check_gathered(std::vector<WorldStepReport> reports);
 
  private:
   void check(std::int64_t step, const std::vector<WorldStepReport>& reports) const;
@@ -60,6 +74,8 @@ class Validator {
   bool expected(const Life& life, std::int64_t step) const { return life.added < step && step <= life.removed; }
 
   int world_count_;
+  bool gathered_;
+  std::map<std::int64_t, std::vector<WorldStepReport>> incomplete_;  // gathered mode: steps some world owes
   mutable std::mutex lives_mutex_;
   std::map<BodyId, Life> lives_;  // every dynamic body of the scene or of an input
   std::size_t static_count_ = 0;

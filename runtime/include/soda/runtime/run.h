@@ -122,7 +122,7 @@ struct RunConfig {
   /// the same config; rank 0's result is the whole scene's (state hash,
   /// bodies, per-world metrics, `ranks`), the other ranks' hold their own
   /// worlds only. The canonical world only; not with load balancing, heal,
-  /// validation, checkpoints (docs/mpi.md, "What is not done"). Null: one
+  /// checkpoints (docs/mpi.md, "What is not done"). Null: one
   /// process.
   std::shared_ptr<ProcessGroup> group;
 };
