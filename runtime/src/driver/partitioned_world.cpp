@@ -7,7 +7,6 @@
 #include <cstring>
 #include <thread>
 
-#include <spdlog/spdlog.h>
 
 #include "embedding/input_ledger.h"
 #include "step/input_queue.h"
@@ -337,58 +336,6 @@ void PartitionedWorld::run_to(std::int64_t scene_step) {
   Scheduler(std::move(o), in_->task_list(), *in_->transport, nullptr).run();
   steps_done_ = scene_step;
   collect_step_loads();
-}
-
-// The step whose result the watchdog objects to. A non-finite state or an
-// absurd speed comes out of the step that finds it. A penetration does not:
-// a step's contact points are found from the positions the step before left
-// (collision detection runs before the solve), so a penetration found at
-// step t was made by step t - 1, and re-simulating t would find it again.
-namespace {
-std::int64_t heal_step(const WatchdogError& error) {
-  for (const WatchdogFinding& f : error.findings())
-    if (f.kind == WatchdogFinding::Kind::Penetration && error.step() > 1) return error.step() - 1;
-  return error.step();
-}
-}  // namespace
-
-// The worlds stopped wherever they were; the newest step whose state every
-// world still keeps, before the step to heal, is where they start again
-// (worlds keep one step below GVT for this: world_process.cpp). Right after
-// a heal the worlds keep nothing before the healed step: a penetration it
-// left is then healed at the step that found it.
-void PartitionedWorld::restore_before(const WatchdogError& error) {
-  std::int64_t bad = heal_step(error);
-  std::int64_t r = bad - 1;
-  std::optional<WorldSnapshot> whole = in_->kept_snapshot(r, base_substeps_);
-  while (!whole && r > 0) whole = in_->kept_snapshot(--r, base_substeps_);
-  if (!whole && bad < error.step()) {
-    bad = error.step();
-    r = bad - 1;
-    whole = in_->kept_snapshot(r, base_substeps_);
-  }
-  if (!whole)
-    throw WatchdogError(error.step(), error.world(), error.findings(), options_.runtime.watchdog.limits,
-                        "self-heal found no step every world keeps");
-  restore(std::move(*whole));
-  sync_states_.clear();
-  heal_at_ = bad;
-  spdlog::warn("watchdog: {}; rolling back to step {} to re-simulate step {} with {} substeps", error.what(), r,
-               heal_at_, options_.runtime.watchdog.heal_substeps);
-}
-
-// At the boundary before the bad step: that one step as heal_substeps
-// substeps of every world, then the usual step size again.
-void PartitionedWorld::resimulate_with_substeps() {
-  WorldSnapshot at = snapshot();
-  at.settings.substeps = base_substeps_ * options_.runtime.watchdog.heal_substeps;
-  restore(std::move(at));
-  run_to(steps_done_ + 1);
-  WorldSnapshot after = snapshot();
-  after.settings.substeps = base_substeps_;
-  restore(std::move(after));
-  healed_steps_.push_back(heal_at_);
-  heal_at_ = 0;
 }
 
 void PartitionedWorld::restore(WorldSnapshot state) {
