@@ -321,6 +321,7 @@ int cmd_resume(Options& o) {
     o.config.inputs_source = o.inputs_path;
   }
   const soda::RunResult r = soda::run_scene(scene, o.config);
+  if (o.config.group && o.config.group->rank() != 0) return 0;  // rank 0 prints the whole scene's result
   print_summary(r);
   print_checkpoints(o, r);
   if (!o.json_path.empty())

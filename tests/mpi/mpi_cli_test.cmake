@@ -3,8 +3,9 @@
 # rank 0 only (each rank's Bullet objects its share, not the scene), gives
 # it with speculation and SyncTest too, also for a scene
 # with joints, with a solver pool, with inputs from a file and recording a
-# replay, validates every step (--validate: rank 0 prints the threaded
-# run's census), and refuses a bad --ranks-worlds with exit 2.
+# replay, writing and resuming a checkpoint, validates every step
+# (--validate: rank 0 prints the threaded run's census), and refuses a bad
+# --ranks-worlds with exit 2.
 # Run by ctest: cmake -DSODA=... -DMPIEXEC=... -P mpi_cli_test.cmake
 set(scene --scene falling-cubes --n 120 --steps 60)
 
@@ -163,6 +164,38 @@ if(NOT rc EQUAL 0 OR NOT info MATCHES "frames: 81 \\(steps 0 \\.\\. 80\\)" OR
   message(FATAL_ERROR "the replay recorded on 2 ranks: expected 81 frames ending on ${reference} (${rc}):\n${info}\n${err}")
 endif()
 message(STATUS "--record on 2 ranks: 81 frames, the last frame's hash ${reference}")
+
+# --checkpoint and --resume over ranks: rank 0 writes, at step 37 (after
+# the removal, before the addition), the file the threaded run writes, byte
+# for byte; resumed from it over the ranks and on threads, the run ends on
+# the one-territory hash.
+set(ckpt_ranks ${CMAKE_CURRENT_BINARY_DIR}/mpi_cli_ranks.checkpoint)
+set(ckpt_threads ${CMAKE_CURRENT_BINARY_DIR}/mpi_cli_threads.checkpoint)
+file(REMOVE ${ckpt_ranks} ${ckpt_threads})
+ranked_run(checkpointed --anticipation 8 --checkpoint-at 37 --checkpoint ${ckpt_ranks})
+execute_process(COMMAND ${SODA} run ${scene} --territories 3 --checkpoint-at 37 --checkpoint ${ckpt_threads}
+                OUTPUT_VARIABLE out RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0 OR NOT EXISTS ${ckpt_ranks})
+  message(FATAL_ERROR "--checkpoint-at 37 on threads (${rc}) or on 2 ranks failed:\n${out}")
+endif()
+file(SHA256 ${ckpt_ranks} on_ranks)
+file(SHA256 ${ckpt_threads} on_threads)
+if(NOT on_ranks STREQUAL on_threads)
+  message(FATAL_ERROR "the checkpoint written on 2 ranks differs from the threaded run's")
+endif()
+foreach(launch "${MPIEXEC};--oversubscribe;-np;2" "")
+  execute_process(COMMAND ${launch} ${SODA} run --resume ${ckpt_ranks} --territories 3 --anticipation 8
+                  OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 120)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "${launch} soda run --resume failed (${rc}):\n${out}\n${err}")
+  endif()
+  expect_once("state_hash" "${out}" "--resume (${launch})")
+  hash_of(resumed "${out}")
+  if(NOT resumed STREQUAL reference OR NOT out MATCHES "resumed .* at step 37, ran to step 80")
+    message(FATAL_ERROR "resumed (${launch}): state_hash ${resumed}, one territory ${reference}:\n${out}")
+  endif()
+endforeach()
+message(STATUS "--checkpoint-at 37 on 2 ranks: the threaded run's file; resumed on 2 ranks and on threads: ${reference}")
 
 # `soda bench` under mpirun: the tested run (3 territories) on 2 ranks, the
 # stock baseline and the one-territory run on rank 0 alone; rank 0 prints

@@ -6,6 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -15,7 +18,9 @@
 #include "soda/mpi/mpi_group.h"
 #include "soda/mpi/mpi_session.h"
 #include "soda/replay/replay_reader.h"
+#include "soda/runtime/checkpoint.h"
 #include "soda/runtime/run.h"
+#include "soda/runtime/simulation.h"
 #include "soda/worlds/watchdog.h"
 #include "driver/testing_hooks.h"
 
@@ -535,6 +540,80 @@ void expect_recording_as_on_threads(const std::string& scene, int n, const std::
               hash_hex(*last->state_hash).c_str(), hash_hex(t.state_hash).c_str());
   EXPECT_EQ(hash_hex(*last->state_hash), hash_hex(t.state_hash));
   EXPECT_EQ(with_ids > 0, !inputs.empty());
+}
+
+// --checkpoint over ranks: rank 0 writes, at the step asked, the file the
+// threaded run writes there, byte for byte: the whole scene's state, the
+// inputs still to come (an addition at 40), the ids removed before (9, at
+// 35). Resumed from it, a Simulation on threads and a run over the ranks
+// (--resume, on another territory count) end on the uninterrupted run's
+// hash. Lockstep and speculating.
+std::vector<char> file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<char>(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+void expect_checkpoint_as_on_threads(int anticipation) {
+  const Scene s = test::scene("cube-pile", 100);
+  RunConfig config;
+  config.territories = 4;
+  config.steps = 70;
+  config.checkpoint_at = 37;
+  config.progress_seconds = 0;
+  config.runtime.anticipation = anticipation;
+  config.inputs = body_inputs();
+  const std::string stem = ::testing::TempDir() + "mpi_checkpoint_np" + std::to_string(g_group->size()) + "_a" +
+                           std::to_string(anticipation) + "_" + std::to_string(sizeof(btScalar));
+  RunConfig on_ranks = config;
+  on_ranks.checkpoint_path = stem + "_ranks.checkpoint";
+  on_ranks.group = g_group;
+  const RunResult r = run_scene(s, on_ranks);  // collective
+  EXPECT_EQ(r.checkpoint_step, 37);
+  // Resumed over the ranks from the file rank 0 wrote (written before any
+  // rank went on: checkpoint_on_ranks agrees on the write).
+  RunConfig again;
+  again.territories = 3;
+  again.steps = config.steps;
+  again.progress_seconds = 0;
+  again.runtime.anticipation = anticipation;
+  again.resume = std::make_shared<const SimulationSnapshot>(read_checkpoint(on_ranks.checkpoint_path));
+  again.group = g_group;
+  const RunResult resumed_on_ranks = run_scene(scene_of(again.resume->state), again);  // collective
+  EXPECT_EQ(resumed_on_ranks.resumed_at, 37);
+  if (g_group->rank() != 0) return;
+  EXPECT_EQ(hash_hex(resumed_on_ranks.state_hash), hash_hex(r.state_hash));
+  RunConfig on_threads = config;
+  on_threads.checkpoint_path = stem + "_threads.checkpoint";
+  const RunResult t = run_scene(s, on_threads);
+  EXPECT_EQ(hash_hex(r.state_hash), hash_hex(t.state_hash));
+  const SimulationSnapshot a = read_checkpoint(on_ranks.checkpoint_path);
+  const SimulationSnapshot b = read_checkpoint(on_threads.checkpoint_path);
+  EXPECT_TRUE(same_bits(a.state, b.state));
+  EXPECT_EQ(file_bytes(on_ranks.checkpoint_path), file_bytes(on_threads.checkpoint_path));  // byte for byte
+  ASSERT_EQ(a.inputs.size(), b.inputs.size());
+  for (std::size_t i = 0; i < a.inputs.size(); ++i) {
+    EXPECT_EQ(a.inputs[i].kind, b.inputs[i].kind) << i;
+    EXPECT_EQ(a.inputs[i].step, b.inputs[i].step) << i;
+    EXPECT_EQ(a.inputs[i].body.id, b.inputs[i].body.id) << i;
+  }
+  EXPECT_EQ(a.retired_ids, b.retired_ids);
+  EXPECT_EQ(a.retired_ids, std::vector<BodyId>{9});
+  EXPECT_EQ(a.retired_joint_ids, b.retired_joint_ids);
+  SimulationConfig resumed_config{.territories = 2, .buffer_capacity = 16};
+  Simulation resumed = Simulation::resume(on_ranks.checkpoint_path, resumed_config);
+  ASSERT_TRUE(resumed.advance_to(resumed.time_of(config.steps)));
+  std::printf("[ cube-pile 100 with 8 inputs, K 4 on %d ranks, anticipation %d, --checkpoint-at 37 ] %llu bytes, "
+              "the threaded run's file; resumed on 2 threads: %s, on K 3 over the ranks: %s, uninterrupted %s\n",
+              g_group->size(), anticipation, static_cast<unsigned long long>(r.checkpoint_bytes),
+              hash_hex(resumed.state_hash()).c_str(), hash_hex(resumed_on_ranks.state_hash).c_str(),
+              hash_hex(t.state_hash).c_str());
+  EXPECT_EQ(hash_hex(resumed.state_hash()), hash_hex(t.state_hash));
+  resumed.stop();
+}
+
+TEST(Mpi, CheckpointGivesTheThreadedOneAndResumesOnThreads) {
+  expect_checkpoint_as_on_threads(0);
+  expect_checkpoint_as_on_threads(8);
 }
 
 TEST(Mpi, RecordingGivesTheThreadedReplay) {

@@ -12,8 +12,10 @@
 #include "execution/plain_bytes.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/replay/replay_writer.h"
+#include "soda/runtime/checkpoint.h"
 #include "soda/runtime/process_group.h"
 #include "soda/runtime/scene_reader.h"
+#include "soda/runtime/simulation.h"
 #include "soda/runtime/view_adapter.h"
 #include "soda/scene/scene.h"
 
@@ -103,6 +105,44 @@ void record_on_ranks(PartitionedWorld& world, const replay::ViewHeader* header, 
   r.record_cpu_seconds = static_cast<double>(thread_cpu_ns() - cpu0) * 1e-9;
 }
 
+void checkpoint_on_ranks(PartitionedWorld& world, const RunConfig& config, RunResult& r) {
+  ProcessGroup& group = *config.group;
+  world.step(static_cast<int>(config.checkpoint_at));
+  SimulationSnapshot at;
+  at.state = world.snapshot();  // collective; every rank gets it
+  // The inputs as a Simulation queues them (by step, then as given), and
+  // what they removed before the step.
+  if (config.inputs) {
+    std::vector<UserInput> inputs = *config.inputs;
+    std::stable_sort(inputs.begin(), inputs.end(),
+                     [](const UserInput& a, const UserInput& b) { return a.step < b.step; });
+    for (const UserInput& in : inputs) {
+      if (in.step >= config.checkpoint_at) at.inputs.push_back(in);
+      else if (in.kind == UserInput::Kind::RemoveBody) at.retired_ids.push_back(in.id);
+      else if (in.kind == UserInput::Kind::RemoveJoint) at.retired_joint_ids.push_back(in.joint);
+    }
+    std::sort(at.retired_ids.begin(), at.retired_ids.end());
+    std::sort(at.retired_joint_ids.begin(), at.retired_joint_ids.end());
+  }
+  std::string failed;
+  if (group.rank() == 0) {
+    try {
+      r.checkpoint_bytes = write_checkpoint(at, config.checkpoint_path);
+    } catch (const CheckpointError& e) {
+      failed = e.what();
+    }
+  }
+  const std::vector<std::uint8_t> mine(failed.begin(), failed.end());
+  for (const std::vector<std::uint8_t>& bytes : group.all_gather(mine))
+    if (!bytes.empty()) throw CheckpointError(std::string(bytes.begin(), bytes.end()));
+  r.checkpoint_step = at.state.steps_done;
+  world.step(static_cast<int>(config.steps - config.checkpoint_at));
+}
+
+namespace {
+
+// The contact pairs every rank's worlds hold, summed over the ranks (one
+// holder a pair: --validate checks it every step). Collective.
 std::size_t held_pairs_on_ranks(const PartitionedWorld& world, ProcessGroup& group) {
   std::uint64_t mine = 0, pairs = 0;
   for (WorldId w = 0; w < world.world_count(); ++w)
@@ -114,6 +154,20 @@ std::size_t held_pairs_on_ranks(const PartitionedWorld& world, ProcessGroup& gro
     pairs += take_plain<std::uint64_t>(b, at, "a rank's held pairs");
   }
   return static_cast<std::size_t>(pairs);
+}
+
+}  // namespace
+
+// --validate's bodies and contact pairs. On threads from a snapshot, which
+// also throws if two worlds own one body; over ranks (a snapshot is refused
+// where a rank holds a part of a mesh) the gathered count and every world's
+// held pairs, summed over the ranks (every step's census checks the rest).
+std::pair<std::size_t, std::size_t> census_counts(const PartitionedWorld& world, const RunConfig& config) {
+  if (!config.group) {
+    const WorldSnapshot s = world.snapshot();
+    return {s.bodies.size(), s.manifolds.size()};
+  }
+  return {world.body_count(), held_pairs_on_ranks(world, *config.group)};
 }
 
 }  // namespace soda

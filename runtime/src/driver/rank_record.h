@@ -1,8 +1,11 @@
 // Internal: `--record` over MPI ranks. Rank 0 writes the replay file; the
 // frames come from every rank: after each scene step the ranks send it the
 // poses their worlds own, with the owner of each and each world's busy time.
-// Also --validate's count of contact pairs over ranks.
+// Also --checkpoint over ranks, and --validate's count of contact pairs.
 #pragma once
+
+#include <cstddef>
+#include <utility>
 
 #include "soda/grid/territory_map.h"
 #include "soda/replay/view_frame.h"
@@ -22,8 +25,17 @@ namespace soda {
 void record_on_ranks(PartitionedWorld& world, const replay::ViewHeader* header, const TerritoryMap& map,
                      const RunConfig& config, RunResult& r);
 
-/// The contact pairs every rank's worlds hold, summed over the ranks (one
-/// holder a pair: --validate checks it every step). Collective.
-std::size_t held_pairs_on_ranks(const PartitionedWorld& world, ProcessGroup& group);
+/// Steps `world` (built over config.group's ranks, from step 0) to
+/// config.checkpoint_at, writes the checkpoint a threaded run writes there
+/// to config.checkpoint_path on rank 0 (the gathered snapshot, the inputs
+/// of config.inputs still to come, the ids they removed before), then steps
+/// on to config.steps. Collective: every rank calls it with the same
+/// config; a write that fails throws the same CheckpointError on every
+/// rank. Fills r.checkpoint_step and, on rank 0, r.checkpoint_bytes.
+void checkpoint_on_ranks(PartitionedWorld& world, const RunConfig& config, RunResult& r);
+
+/// --validate's bodies and contact pairs of `world`, on threads or over
+/// config.group's ranks (collective there; rank 0's are the whole scene's).
+std::pair<std::size_t, std::size_t> census_counts(const PartitionedWorld& world, const RunConfig& config);
 
 }  // namespace soda

@@ -157,18 +157,6 @@ RunResult build_run_destroy(const Scene& scene, const RunConfig& config, const S
   return r;
 }
 
-// --validate's bodies and contact pairs. On threads from a snapshot, which
-// also throws if two worlds own one body; over ranks (a snapshot is refused
-// where a rank holds a part of a mesh) the gathered count and every world's
-// held pairs, summed over the ranks (every step's census checks the rest).
-std::pair<std::size_t, std::size_t> census_counts(const PartitionedWorld& world, const RunConfig& config) {
-  if (!config.group) {
-    const WorldSnapshot s = world.snapshot();
-    return {s.bodies.size(), s.manifolds.size()};
-  }
-  return {world.body_count(), held_pairs_on_ranks(world, *config.group)};
-}
-
 // Ranks: every rank's traffic and its worlds' CPU and blocked time, to rank
 // 0, whose message counts become the whole run's.
 void gather_rank_traffic(ProcessGroup& group, const PartitionedWorld& world, RunResult& r) {
@@ -304,8 +292,21 @@ RunResult run_partitioned(Scene scene, const RunConfig& config) {
   if (config.group && !config.record_path.empty() && config.group->rank() == 0) header = view_header(scene, map);
   const Stamp start;
   std::unique_ptr<PartitionedWorld> owned_world;
+  const std::int64_t first = config.resume ? config.resume->state.steps_done : 0;
   try {
-    owned_world = std::make_unique<PartitionedWorld>(std::move(scene), map, options);
+    if (config.resume) {  // over ranks (on threads a Simulation resumes): the state, its queued inputs first
+      for (const UserInput& in : options.inputs)  // ids are never reused within a run
+        if (in.kind == UserInput::Kind::AddBody &&
+            std::binary_search(config.resume->retired_ids.begin(), config.resume->retired_ids.end(), in.body.id))
+          throw SceneError(config.inputs_source + ": input #" + std::to_string(in.sequence) + " adds body " +
+                           std::to_string(in.body.id) + ", removed before the step the checkpoint was saved at");
+      options.inputs.insert(options.inputs.begin(), config.resume->inputs.begin(), config.resume->inputs.end());
+      owned_world = std::make_unique<PartitionedWorld>(config.resume->state, map, options);
+      r.resumed_at = first;
+      r.steps = static_cast<int>(config.steps - first);
+    } else {
+      owned_world = std::make_unique<PartitionedWorld>(std::move(scene), map, options);
+    }
   } catch (const std::invalid_argument& e) {
     // A bad input (PartitionedOptions::inputs): name where the inputs came from.
     if (config.inputs && std::string(e.what()).starts_with("PartitionedOptions::inputs"))
@@ -322,8 +323,10 @@ RunResult run_partitioned(Scene scene, const RunConfig& config) {
   next_progress = t0 + static_cast<std::int64_t>(config.progress_seconds * 1e9);
   if (config.group && !config.record_path.empty())
     record_on_ranks(world, header ? &*header : nullptr, map, config, r);
+  else if (config.group && !config.checkpoint_path.empty())
+    checkpoint_on_ranks(world, config, r);
   else
-    world.step(config.steps);
+    world.step(static_cast<int>(config.steps - first));
   r.wall_seconds = static_cast<double>(wall_ns() - t0) * 1e-9;
   r.process_cpu_seconds = static_cast<double>(process_cpu_ns() - process_cpu0) * 1e-9;
   std::vector<std::int64_t> step_ns;
@@ -416,8 +419,7 @@ RunResult run_any(S&& scene, const RunConfig& config) {
     if (const std::string why = simulation_unsupported(config); !config.record_path.empty() && !why.empty())
       throw std::invalid_argument("--record " + config.record_path + ": over MPI ranks as on threads, a recorded "
                                   "run is one a Simulation runs, " + why);
-    if (!config.checkpoint_path.empty() || config.resume)
-      throw std::invalid_argument("over MPI ranks: --checkpoint and --resume are not supported yet (docs/mpi.md)");
+    if (!config.checkpoint_path.empty() || config.resume) check_checkpoints(config);  // as on threads
     return with_estimate(run_partitioned(std::forward<S>(scene), config));
   }
   if (through_simulation_only(config) || (config.inputs && inputs_through_simulation(config)))

@@ -16,9 +16,7 @@
 #include "soda/scene/validate.h"
 
 namespace soda {
-namespace {
 
-// The checkpoint options: a Simulation's, within the run's steps.
 void check_checkpoints(const RunConfig& config) {
   const std::string what = config.resume ? "--resume " + config.resume_source : "--checkpoint " + config.checkpoint_path;
   if (const std::string why = simulation_unsupported(config); !why.empty())
@@ -37,6 +35,8 @@ void check_checkpoints(const RunConfig& config) {
                                 ": outside the run's steps " + std::to_string(first) + " .. " +
                                 std::to_string(config.steps));
 }
+
+namespace {
 
 void check_supported(const RunConfig& config) {
   const std::string what = !config.record_path.empty()     ? "--record"

@@ -14,6 +14,11 @@ class ReplayWriter;
 /// recording, on threads and over ranks, before its first frame.
 void describe_added_bodies(replay::ReplayWriter& out, const RunConfig& config);
 
+/// The checkpoint options (--checkpoint, --resume) of `config`: a
+/// Simulation's features only, the step within the run's steps, no
+/// --record. Throws std::invalid_argument naming the option.
+void check_checkpoints(const RunConfig& config);
+
 /// Whether run_scene replays config.inputs through a Simulation (the
 /// embedding API's calls): yes unless config.inputs_via_simulation is
 /// false or the run balances load (a policy other
