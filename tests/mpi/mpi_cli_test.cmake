@@ -86,6 +86,12 @@ foreach(rank 0 1)
   message(STATUS "rank ${rank}: ${spec_rounds} GVT rounds speculating, none in lockstep")
 endforeach()
 
+# --lb over ranks: every rank decides the same cessions from the gathered
+# loads; the 1-territory hash, cells moved.
+ranked_run(balanced --lb diffusive --lb-period 10 --anticipation 8)
+expect_once("load balancing: [0-9]+ balance steps" "${balanced}" "--lb diffusive")
+message(STATUS "--lb diffusive on 2 ranks: ${reference}")
+
 # --validate: every step's census over the ranks; rank 0 prints the counts,
 # those of the threaded run.
 execute_process(COMMAND ${SODA} run ${scene} --territories 3 --validate OUTPUT_VARIABLE threaded RESULT_VARIABLE rc)

@@ -419,6 +419,49 @@ std::vector<UserInput> body_inputs() {
   return bodies;
 }
 
+// Load balancing over ranks (--lb): every rank gathers every world's loads
+// (its step records and held pairs) so that its policy decides the same
+// moves, the worlds a cession changes are rebuilt from the gathered state
+// (another rank's empty), and the hash is the one world's under every
+// policy, lockstep and speculating; cells do move. A balanced run keeps
+// its level geometry whole on every rank (cells change worlds).
+void expect_balanced_hash(const Case& c, const std::string& policy, PartitionedOptions o) {
+  const Scene s = test::scene(c.scene, c.n);
+  o.runtime.balance.policy = policy;
+  o.runtime.balance.period = 10;
+  o.group = g_group;
+  PartitionedWorld world(s, make_partition(c.partition, s, c.territories, GridOptions{}), o);
+  world.step(c.steps);
+  const std::uint64_t hash = world.state_hash();  // collective
+  std::int64_t moved = 0;
+  for (const BalanceRecord& r : world.balance_log()) moved += r.cells_moved;
+  // Every rank's policy decided the same moves.
+  std::vector<std::uint8_t> mine(reinterpret_cast<const std::uint8_t*>(&moved),
+                                 reinterpret_cast<const std::uint8_t*>(&moved) + sizeof moved);
+  const std::vector<std::vector<std::uint8_t>> all = g_group->all_gather(mine);
+  for (const std::vector<std::uint8_t>& other : all) EXPECT_EQ(other, mine) << c.scene << " --lb " << policy;
+  if (g_group->rank() != 0) return;
+  const std::uint64_t reference = test::reference_hash(s, c.steps);
+  std::printf("[ %s %d, --lb %s, K %d on %d ranks, anticipation %d ] %zu balance steps, %lld cells moved: %s (one "
+              "world %s)\n",
+              c.scene.c_str(), c.n, policy.c_str(), c.territories, g_group->size(), o.runtime.anticipation,
+              world.balance_log().size(), static_cast<long long>(moved), hash_hex(hash).c_str(),
+              hash_hex(reference).c_str());
+  EXPECT_EQ(hash_hex(hash), hash_hex(reference)) << c.scene << " --lb " << policy;
+  if (c.scene == "hotspot" || policy == "churn") EXPECT_GT(moved, 0) << c.scene << " --lb " << policy;
+}
+
+TEST(Mpi, LoadBalancingGivesTheOneWorldHashUnderEveryPolicy) {
+  for (PartitionedOptions o : {threads_per_world(), speculating()}) {
+    for (const char* policy : {"diffusive", "rcb", "churn"}) {
+      expect_balanced_hash({"hotspot", 300, "grid:4x1x1", 4, 60}, policy, o);
+      expect_balanced_hash({"cube-pile", 100, "grid:2x1x2", 4, 40}, policy, o);
+    }
+    expect_balanced_hash({"falling-cubes", 200, "kmeans", 4, 40}, "churn", o);
+    expect_balanced_hash({"terrain", 100, "kmeans", 4, 40}, "churn", o);  // its heightfield whole on every rank
+  }
+}
+
 // Validation over ranks (--validate): after every step, every rank's
 // worlds' census (one owner a body, none lost, one holder a contact pair,
 // Bullet's object counts) gathered and checked alike on every rank, with

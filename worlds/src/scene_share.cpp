@@ -64,7 +64,8 @@ class KeptCells {
 
 }  // namespace
 
-Scene scene_share(const Scene& scene, const TerritoryMap& map, const std::function<bool(WorldId)>& keep) {
+Scene scene_share(const Scene& scene, const TerritoryMap& map, const std::function<bool(WorldId)>& keep,
+                  bool cut_level_geometry) {
   std::unordered_set<BodyId> statics;
   std::unordered_map<BodyId, const Body*> dynamic;
   for (const Body& b : scene.bodies) {
@@ -101,7 +102,7 @@ Scene scene_share(const Scene& scene, const TerritoryMap& map, const std::functi
   for (const Body& b : scene.bodies) {
     if (b.is_static || kept(b)) {
       share.bodies.push_back(b);
-      if (is_level_geometry(b)) share.bodies.back().shape = cut_concave_shape(b, is_near);
+      if (cut_level_geometry && is_level_geometry(b)) share.bodies.back().shape = cut_concave_shape(b, is_near);
     } else {
       dropped.insert(b.id);
     }

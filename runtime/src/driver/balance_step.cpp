@@ -25,11 +25,16 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
 
 #include "driver/partitioned_internals.h"
+#include "execution/plain_bytes.h"
 #include "soda/grid/cell_triangles.h"
 #include "soda/loadbalance/load_monitor.h"
 #include "soda/loadbalance/thread_clock.h"
+#include "soda/runtime/process_group.h"
 #include "soda/worlds/world_snapshot.h"
 
 namespace soda {
@@ -219,11 +224,17 @@ void PartitionedWorld::balance() {
   view.map = &map;
   view.cells = cell_loads(state, map, cell_triangles_for(state, map));
   view.worlds.resize(static_cast<std::size_t>(k));
+  std::vector<std::int64_t> pairs(static_cast<std::size_t>(k), 0);
+  for (WorldId w = 0; w < k; ++w)
+    if (steps_world(w))
+      pairs[static_cast<std::size_t>(w)] =
+          static_cast<std::int64_t>(in_->worlds[static_cast<std::size_t>(w)]->held_contact_pairs().size());
+  if (options_.group) pairs = summed_over_ranks(*options_.group, std::move(pairs));  // every rank decides alike
   for (WorldId w = 0; w < k; ++w) {
     WorldLoad& l = view.worlds[static_cast<std::size_t>(w)];
     l.world = w;
     l.cells = map.cell_count(w);
-    l.contact_pairs = static_cast<std::int64_t>(in_->worlds[static_cast<std::size_t>(w)]->held_contact_pairs().size());
+    l.contact_pairs = pairs[static_cast<std::size_t>(w)];
   }
   for (const CellLoad& c : view.cells) {
     WorldLoad& l = view.worlds[static_cast<std::size_t>(c.owner)];
@@ -293,29 +304,43 @@ void PartitionedWorld::balance() {
   balance_log_.push_back(std::move(rec));
 }
 
-// After every run of the worlds: their finished steps' records, by scene step.
+// After every run of the worlds: their finished steps' records, by scene
+// step. Over ranks every rank's, gathered to every rank (collective), so
+// that every rank's policy decides on the same loads.
 void PartitionedWorld::collect_step_loads() {
   const int k = world_count();
-  for (WorldId w = 0; w < k; ++w) {
-    const std::int32_t cells = static_cast<std::int32_t>(map().cell_count(w));
-    for (const Process::StepRecord& r : in_->process(w).take_step_log()) {
-      const std::int64_t scene_step = (r.step - 1) / substeps_ + 1;
-      if (scene_step <= first_step_) continue;
-      const std::size_t i = static_cast<std::size_t>(scene_step - first_step_ - 1);
-      while (step_loads_.size() <= i) {
-        StepLoads s;
-        s.step = first_step_ + static_cast<std::int64_t>(step_loads_.size()) + 1;
-        s.worlds.resize(static_cast<std::size_t>(k));
-        step_loads_.push_back(std::move(s));
+  std::vector<std::pair<WorldId, Process::StepRecord>> records;
+  for (WorldId w = 0; w < k; ++w)
+    if (steps_world(w))
+      for (const Process::StepRecord& r : in_->process(w).take_step_log()) records.emplace_back(w, r);
+  if (options_.group) {
+    static_assert(std::is_trivially_copyable_v<Process::StepRecord>);
+    std::vector<std::uint8_t> mine;
+    for (const auto& [w, r] : records) put_plain(mine, static_cast<std::int32_t>(w)), put_plain(mine, r);
+    records.clear();
+    for (const std::vector<std::uint8_t>& part : options_.group->all_gather(mine))
+      for (std::size_t at = 0; at < part.size();) {
+        const auto w = static_cast<WorldId>(take_plain<std::int32_t>(part, at, "a rank's step records"));
+        records.emplace_back(w, take_plain<Process::StepRecord>(part, at, "a rank's step records"));
       }
-      WorldStepLoad& l = step_loads_[i].worlds[static_cast<std::size_t>(w)];
-      l.busy_seconds += static_cast<double>(r.cpu_ns) * 1e-9;
-      l.wait_seconds += static_cast<double>(r.wait_ns) * 1e-9;
-      l.bodies = r.bodies;
-      l.cells = cells;
-      l.lead = r.lead;
-      l.islands = r.islands;
+  }
+  for (const auto& [w, r] : records) {
+    const std::int64_t scene_step = (r.step - 1) / substeps_ + 1;
+    if (scene_step <= first_step_) continue;
+    const std::size_t i = static_cast<std::size_t>(scene_step - first_step_ - 1);
+    while (step_loads_.size() <= i) {
+      StepLoads s;
+      s.step = first_step_ + static_cast<std::int64_t>(step_loads_.size()) + 1;
+      s.worlds.resize(static_cast<std::size_t>(k));
+      step_loads_.push_back(std::move(s));
     }
+    WorldStepLoad& l = step_loads_[i].worlds[static_cast<std::size_t>(w)];
+    l.busy_seconds += static_cast<double>(r.cpu_ns) * 1e-9;
+    l.wait_seconds += static_cast<double>(r.wait_ns) * 1e-9;
+    l.bodies = r.bodies;
+    l.cells = static_cast<std::int32_t>(map().cell_count(w));
+    l.lead = r.lead;
+    l.islands = r.islands;
   }
 }
 
@@ -354,9 +379,19 @@ std::int64_t PartitionedWorld::cede(const WorldSnapshot& state, const TerritoryM
       if (std::this_thread::get_id() != me) helper_ns += thread_cpu_ns() - c0;
     };
   };
+  // Over ranks another rank's world is built empty here, as from a share:
+  // the statics and kinematic bodies only (it is never stepped here).
+  std::optional<WorldSnapshot> empty;
+  if (options_.group) {
+    empty.emplace(state);
+    std::erase_if(empty->bodies, [](const BodySnapshot& b) { return !b.description.is_static; });
+    empty->manifolds.clear();
+    empty->joints.clear();
+  }
   std::vector<std::unique_ptr<TerritoryWorld>> fresh(static_cast<std::size_t>(world_count()));
   for_each_world(n, threads, timed([&](std::size_t w) {
-                   fresh[w] = std::make_unique<TerritoryWorld>(state, static_cast<WorldId>(w), map, -1,
+                   const WorldSnapshot& from = steps_world(static_cast<WorldId>(w)) ? state : *empty;
+                   fresh[w] = std::make_unique<TerritoryWorld>(from, static_cast<WorldId>(w), map, -1,
                                                                in_->worlds[w].get());
                  }));
   std::vector<std::unique_ptr<TerritoryWorld>> old = retire();

@@ -28,6 +28,10 @@ namespace soda {
 /// Collective. partitioned_ranks.cpp.
 void gather_validation(ProcessGroup& group, Validator& validator);
 
+/// Load balancing over ranks (partitioned_ranks.cpp), collective: each
+/// entry summed over the ranks.
+std::vector<std::int64_t> summed_over_ranks(ProcessGroup& group, std::vector<std::int64_t> mine);
+
 struct PartitionedWorld::Internals {
   // In construction order; destroyed in reverse (a process refers to all above it).
   TerritoryMap map;  // the map in force (a world kept by a cession may hold an older copy: balance_step.cpp)

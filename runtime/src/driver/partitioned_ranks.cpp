@@ -88,6 +88,17 @@ void gather_validation(ProcessGroup& group, Validator& validator) {
   validator.check_gathered(std::move(all));
 }
 
+std::vector<std::int64_t> summed_over_ranks(ProcessGroup& group, std::vector<std::int64_t> mine) {
+  std::vector<std::uint8_t> bytes;
+  for (std::int64_t v : mine) put(bytes, v);
+  std::fill(mine.begin(), mine.end(), 0);
+  for (const std::vector<std::uint8_t>& part : group.all_gather(bytes)) {
+    std::size_t at = 0;
+    for (std::int64_t& v : mine) v += take<std::int64_t>(part, at);
+  }
+  return mine;
+}
+
 bool PartitionedWorld::steps_world(WorldId w) const {
   return !options_.group || options_.group->rank_of(w, world_count()) == options_.group->rank();
 }
@@ -98,7 +109,6 @@ void PartitionedWorld::check_group_options() const {
                                 " is not supported yet");
   };
   if (options_.runtime.watchdog.response == WatchdogResponse::Heal) refuse("the watchdog's heal");
-  if (options_.runtime.balance.policy != "none" || options_.balance_policy) refuse("load balancing");
 }
 
 // The scheduler's threads step this rank's worlds; the caller's thread (the

@@ -102,7 +102,10 @@ void PartitionedWorld::init_from_scene(const Scene& scene, TerritoryMap map, Sce
   if (options_.runtime.validate)
     for (const Body& b : scene.bodies)
       if (!b.is_static) dynamic.push_back(b.id);
-  const Scene share = scene_share(scene, map, [&](WorldId w) { return group.rank_of(w, k) == group.rank(); });
+  // Cessions move cells between ranks' worlds: a balanced run keeps its
+  // meshes and heightfields whole.
+  const Scene share = scene_share(scene, map, [&](WorldId w) { return group.rank_of(w, k) == group.rank(); },
+                                  options_.runtime.balance.policy == "none" && !options_.balance_policy);
   if (owned) *owned = Scene{};
   build(&share, map, [&](WorldId w) { return std::make_unique<TerritoryWorld>(share, w, map); });
   if (in_->validator) in_->validator->expect_bodies(dynamic);
@@ -201,7 +204,8 @@ void PartitionedWorld::build(const Scene* scene, const TerritoryMap& map,
   }
   if (hooks.fuzz_seed) in.transport = make_fuzzing_transport(std::move(in.transport), hooks.fuzz_seed);
   if (options_.runtime.validate && !scene) throw std::logic_error("PartitionedWorld::build: validation needs the scene");
-  in.validator = options_.runtime.validate ? std::make_unique<Validator>(*scene, k, options_.group != nullptr) : nullptr;
+  const bool gathered = options_.group != nullptr;  // over ranks: validator.h
+  in.validator = options_.runtime.validate ? std::make_unique<Validator>(*scene, k, gathered) : nullptr;
   // The inputs still to come (those of earlier steps are in the scene).
   if (in.validator && inputs_)
     for (const UserInput& input : inputs_->from(steps_done_)) in.validator->expect(input, substeps_);

@@ -96,7 +96,7 @@ struct PartitionedOptions {
   /// worlds group->rank_of() gives its rank, and messages to other ranks'
   /// worlds go through the group. Every rank builds the same world from the
   /// same scene, map and options. Refused (std::invalid_argument) with
-  /// load balancing or the watchdog's Heal (docs/mpi.md). Under
+  /// the watchdog's Heal (docs/mpi.md). Under
   /// a group, step() and the whole-scene readers (body_states, state_hash,
   /// sleeping_count, body_count, metrics, snapshot) are collective: every
   /// rank calls them in the same order; rank 0 gets the whole scene's

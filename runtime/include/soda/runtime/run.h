@@ -121,7 +121,7 @@ struct RunConfig {
   /// spread over the group's processes, every rank running run_scene with
   /// the same config; rank 0's result is the whole scene's (state hash,
   /// bodies, per-world metrics, `ranks`), the other ranks' hold their own
-  /// worlds only. The canonical world only; not with load balancing or
+  /// worlds only. The canonical world only; not with the watchdog's
   /// heal (docs/mpi.md, "What is not done"). Null: one
   /// process.
   std::shared_ptr<ProcessGroup> group;

@@ -25,6 +25,9 @@ namespace soda {
 ///
 /// Used by a rank of an MPI run (docs/mpi.md, "What a rank holds"), whose
 /// worlds are built from its share while the rest of the scene is freed.
-Scene scene_share(const Scene& scene, const TerritoryMap& map, const std::function<bool(WorldId)>& keep);
+/// `cut_level_geometry` false keeps every mesh and heightfield whole (a run
+/// whose cessions move cells between ranks' worlds needs them all).
+Scene scene_share(const Scene& scene, const TerritoryMap& map, const std::function<bool(WorldId)>& keep,
+                  bool cut_level_geometry = true);
 
 }  // namespace soda
