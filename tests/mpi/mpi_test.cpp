@@ -362,7 +362,7 @@ TEST(Mpi, AFailingRankStopsEveryRankWhileSpeculating) { expect_failure_stops_eve
 // removed and one added; on the pendulums, a joint removed; on the
 // conveyor, a kinematic pallet's filter changed and changed back.
 void expect_inputs_give_the_one_territory_hash(const Case& c, const std::vector<UserInput>& inputs,
-                                                bool validate = false) {
+                                                bool validate = false, const std::string& policy = "none") {
   const Scene s = test::scene(c.scene, c.n);
   PartitionedOptions alone;
   alone.inputs = inputs;
@@ -372,14 +372,18 @@ void expect_inputs_give_the_one_territory_hash(const Case& c, const std::vector<
     o.inputs = inputs;
     o.group = g_group;
     o.runtime.validate = validate;
+    o.runtime.balance.policy = policy;
+    o.runtime.balance.period = 10;
     PartitionedWorld world(s, make_partition(c.partition, s, c.territories, GridOptions{}), o);
     world.step(c.steps);
     const std::uint64_t hash = world.state_hash();  // collective
     const std::size_t bodies = world.body_count();  // collective
     if (g_group->rank() != 0) continue;
-    std::printf("[ %s %d with %zu inputs, K %d on %d ranks, anticipation %d ] %s, %zu bodies (one territory %s, %zu)\n",
-                c.scene.c_str(), c.n, inputs.size(), c.territories, g_group->size(), o.runtime.anticipation,
-                hash_hex(hash).c_str(), bodies, hash_hex(one.state_hash()).c_str(), one.body_count());
+    std::printf("[ %s %d with %zu inputs, --lb %s, K %d on %d ranks, anticipation %d ] %s, %zu bodies (one territory "
+                "%s, %zu)\n",
+                c.scene.c_str(), c.n, inputs.size(), policy.c_str(), c.territories, g_group->size(),
+                o.runtime.anticipation, hash_hex(hash).c_str(), bodies, hash_hex(one.state_hash()).c_str(),
+                one.body_count());
     EXPECT_EQ(hash_hex(hash), hash_hex(one.state_hash())) << c.scene << " anticipation " << o.runtime.anticipation;
     EXPECT_EQ(bodies, one.body_count());
     EXPECT_NE(hash_hex(hash), hash_hex(test::reference_hash(s, c.steps)));  // the inputs changed the run
@@ -451,6 +455,13 @@ void expect_balanced_hash(const Case& c, const std::string& policy, PartitionedO
   if (c.scene == "hotspot" || policy == "churn") EXPECT_GT(moved, 0) << c.scene << " --lb " << policy;
 }
 
+// Inputs and load balancing together over ranks: bodies added and removed
+// while cells change worlds.
+TEST(Mpi, InputsWithLoadBalancingGiveTheOneTerritoryHash) {
+  for (const char* policy : {"churn", "diffusive"})
+    expect_inputs_give_the_one_territory_hash({"cube-pile", 100, "grid:2x1x2", 4, 60}, body_inputs(), false, policy);
+}
+
 TEST(Mpi, LoadBalancingGivesTheOneWorldHashUnderEveryPolicy) {
   for (PartitionedOptions o : {threads_per_world(), speculating()}) {
     for (const char* policy : {"diffusive", "rcb", "churn"}) {
@@ -459,6 +470,8 @@ TEST(Mpi, LoadBalancingGivesTheOneWorldHashUnderEveryPolicy) {
     }
     expect_balanced_hash({"falling-cubes", 200, "kmeans", 4, 40}, "churn", o);
     expect_balanced_hash({"terrain", 100, "kmeans", 4, 40}, "churn", o);  // its heightfield whole on every rank
+    expect_balanced_hash({"drift", 200, "grid:4x1x1", 4, 60}, "rcb", o);
+    expect_balanced_hash({"alternating-load", 300, "grid:4x1x1", 4, 60}, "diffusive", o);
   }
 }
 
