@@ -7,7 +7,6 @@
 #include <cstring>
 #include <thread>
 
-
 #include "embedding/input_ledger.h"
 #include "step/input_queue.h"
 #include "step/message_tally.h"
