@@ -603,7 +603,8 @@ void expect_recording_as_on_threads(const std::string& scene, int n, const std::
 // inputs still to come (an addition at 40), the ids removed before (9, at
 // 35). Resumed from it, a Simulation on threads and a run over the ranks
 // (--resume, on another territory count) end on the uninterrupted run's
-// hash. Lockstep and speculating.
+// hash; the resumed run's own checkpoint at 50 is the threaded run's file
+// at 50. Lockstep and speculating.
 std::vector<char> file_bytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::vector<char>(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
@@ -634,10 +635,19 @@ void expect_checkpoint_as_on_threads(int anticipation) {
   again.runtime.anticipation = anticipation;
   again.resume = std::make_shared<const SimulationSnapshot>(read_checkpoint(on_ranks.checkpoint_path));
   again.group = g_group;
+  again.checkpoint_at = 50;  // and saved again, after the addition: the retired id 9 carried on
+  again.checkpoint_path = stem + "_again.checkpoint";
   const RunResult resumed_on_ranks = run_scene(scene_of(again.resume->state), again);  // collective
   EXPECT_EQ(resumed_on_ranks.resumed_at, 37);
   if (g_group->rank() != 0) return;
   EXPECT_EQ(hash_hex(resumed_on_ranks.state_hash), hash_hex(r.state_hash));
+  EXPECT_EQ(resumed_on_ranks.checkpoint_step, 50);
+  RunConfig at_50 = config;
+  at_50.checkpoint_at = 50;
+  at_50.checkpoint_path = stem + "_threads_50.checkpoint";
+  run_scene(s, at_50);
+  EXPECT_EQ(file_bytes(again.checkpoint_path), file_bytes(at_50.checkpoint_path));  // byte for byte
+  EXPECT_EQ(read_checkpoint(again.checkpoint_path).retired_ids, std::vector<BodyId>{9});
   RunConfig on_threads = config;
   on_threads.checkpoint_path = stem + "_threads.checkpoint";
   const RunResult t = run_scene(s, on_threads);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "driver/run_inputs.h"
+#include "embedding/input_ledger.h"
 #include "execution/plain_bytes.h"
 #include "soda/loadbalance/thread_clock.h"
 #include "soda/replay/replay_writer.h"
@@ -105,25 +106,29 @@ void record_on_ranks(PartitionedWorld& world, const replay::ViewHeader* header, 
   r.record_cpu_seconds = static_cast<double>(thread_cpu_ns() - cpu0) * 1e-9;
 }
 
-void checkpoint_on_ranks(PartitionedWorld& world, const RunConfig& config, RunResult& r) {
+void checkpoint_on_ranks(PartitionedWorld& world, const std::vector<UserInput>& inputs, const RunConfig& config,
+                         RunResult& r) {
   ProcessGroup& group = *config.group;
-  world.step(static_cast<int>(config.checkpoint_at));
+  const std::int64_t first = config.resume ? config.resume->state.steps_done : 0;
+  world.step(static_cast<int>(config.checkpoint_at - first));
   SimulationSnapshot at;
   at.state = world.snapshot();  // collective; every rank gets it
-  // The inputs as a Simulation queues them (by step, then as given), and
-  // what they removed before the step.
-  if (config.inputs) {
-    std::vector<UserInput> inputs = *config.inputs;
-    std::stable_sort(inputs.begin(), inputs.end(),
-                     [](const UserInput& a, const UserInput& b) { return a.step < b.step; });
-    for (const UserInput& in : inputs) {
-      if (in.step >= config.checkpoint_at) at.inputs.push_back(in);
-      else if (in.kind == UserInput::Kind::RemoveBody) at.retired_ids.push_back(in.id);
-      else if (in.kind == UserInput::Kind::RemoveJoint) at.retired_joint_ids.push_back(in.joint);
-    }
-    std::sort(at.retired_ids.begin(), at.retired_ids.end());
-    std::sort(at.retired_joint_ids.begin(), at.retired_joint_ids.end());
+  // The inputs still to come as a Simulation queues them (by step, then as
+  // given), and the ids retired before the step as its ledger keeps them.
+  InputLedger ledger(Scene{});
+  if (config.resume) {
+    for (BodyId id : config.resume->retired_ids) ledger.retire(id);
+    for (JointId id : config.resume->retired_joint_ids) ledger.retire_joint(id);
   }
+  std::vector<UserInput> ordered = inputs;
+  std::stable_sort(ordered.begin(), ordered.end(),
+                   [](const UserInput& a, const UserInput& b) { return a.step < b.step; });
+  for (const UserInput& in : ordered) {
+    ledger.record(in);
+    if (in.step >= config.checkpoint_at) at.inputs.push_back(in);
+  }
+  at.retired_ids = ledger.removed_before(config.checkpoint_at);
+  at.retired_joint_ids = ledger.joints_removed_before(config.checkpoint_at);
   std::string failed;
   if (group.rank() == 0) {
     try {

@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <utility>
+#include <vector>
 
 #include "soda/grid/territory_map.h"
 #include "soda/replay/view_frame.h"
@@ -25,14 +26,17 @@ namespace soda {
 void record_on_ranks(PartitionedWorld& world, const replay::ViewHeader* header, const TerritoryMap& map,
                      const RunConfig& config, RunResult& r);
 
-/// Steps `world` (built over config.group's ranks, from step 0) to
-/// config.checkpoint_at, writes the checkpoint a threaded run writes there
-/// to config.checkpoint_path on rank 0 (the gathered snapshot, the inputs
-/// of config.inputs still to come, the ids they removed before), then steps
-/// on to config.steps. Collective: every rank calls it with the same
-/// config; a write that fails throws the same CheckpointError on every
-/// rank. Fills r.checkpoint_step and, on rank 0, r.checkpoint_bytes.
-void checkpoint_on_ranks(PartitionedWorld& world, const RunConfig& config, RunResult& r);
+/// Steps `world` (built over config.group's ranks, at step 0 or at the
+/// step config.resume was saved at) to config.checkpoint_at, writes the
+/// checkpoint a threaded run writes there to config.checkpoint_path on rank
+/// 0 (the gathered snapshot, the `inputs` the run was given that are still
+/// to come, the ids retired before the step: config.resume's and those the
+/// inputs removed), then steps on to config.steps. Collective: every rank
+/// calls it with the same config; a write that fails throws the same
+/// CheckpointError on every rank. Fills r.checkpoint_step and, on rank 0,
+/// r.checkpoint_bytes.
+void checkpoint_on_ranks(PartitionedWorld& world, const std::vector<UserInput>& inputs, const RunConfig& config,
+                         RunResult& r);
 
 /// --validate's bodies and contact pairs of `world`, on threads or over
 /// config.group's ranks (collective there; rank 0's are the whole scene's).

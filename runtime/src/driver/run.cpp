@@ -324,7 +324,7 @@ RunResult run_partitioned(Scene scene, const RunConfig& config) {
   if (config.group && !config.record_path.empty())
     record_on_ranks(world, header ? &*header : nullptr, map, config, r);
   else if (config.group && !config.checkpoint_path.empty())
-    checkpoint_on_ranks(world, config, r);
+    checkpoint_on_ranks(world, options.inputs, config, r);
   else
     world.step(static_cast<int>(config.steps - first));
   r.wall_seconds = static_cast<double>(wall_ns() - t0) * 1e-9;
