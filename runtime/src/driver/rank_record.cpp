@@ -8,6 +8,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "driver/partitioned_internals.h"
 #include "driver/run_inputs.h"
 #include "embedding/input_ledger.h"
 #include "execution/plain_bytes.h"
@@ -144,25 +145,6 @@ void checkpoint_on_ranks(PartitionedWorld& world, const std::vector<UserInput>& 
   world.step(static_cast<int>(config.steps - config.checkpoint_at));
 }
 
-namespace {
-
-// The contact pairs every rank's worlds hold, summed over the ranks (one
-// holder a pair: --validate checks it every step). Collective.
-std::size_t held_pairs_on_ranks(const PartitionedWorld& world, ProcessGroup& group) {
-  std::uint64_t mine = 0, pairs = 0;
-  for (WorldId w = 0; w < world.world_count(); ++w)
-    if (group.rank_of(w, world.world_count()) == group.rank()) mine += world.world(w).held_contact_pairs().size();
-  std::vector<std::uint8_t> bytes;
-  put_plain(bytes, mine);
-  for (const std::vector<std::uint8_t>& b : group.all_gather(bytes)) {
-    std::size_t at = 0;
-    pairs += take_plain<std::uint64_t>(b, at, "a rank's held pairs");
-  }
-  return static_cast<std::size_t>(pairs);
-}
-
-}  // namespace
-
 // --validate's bodies and contact pairs. On threads from a snapshot, which
 // also throws if two worlds own one body; over ranks (a snapshot is refused
 // where a rank holds a part of a mesh) the gathered count and every world's
@@ -172,7 +154,12 @@ std::pair<std::size_t, std::size_t> census_counts(const PartitionedWorld& world,
     const WorldSnapshot s = world.snapshot();
     return {s.bodies.size(), s.manifolds.size()};
   }
-  return {world.body_count(), held_pairs_on_ranks(world, *config.group)};
+  std::int64_t mine = 0;  // the pairs this rank's worlds hold (one holder a pair: the census checks it)
+  for (WorldId w = 0; w < world.world_count(); ++w)
+    if (config.group->rank_of(w, world.world_count()) == config.group->rank())
+      mine += static_cast<std::int64_t>(world.world(w).held_contact_pairs().size());
+  const std::int64_t pairs = summed_over_ranks(*config.group, {mine}).front();
+  return {world.body_count(), static_cast<std::size_t>(pairs)};
 }
 
 }  // namespace soda
