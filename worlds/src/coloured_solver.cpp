@@ -180,6 +180,15 @@ void ColouredSolver::solve_runs(Sweep kind, const int* runs, int count, Residual
 
 // Step 3: colour after colour; the overflow last, on this thread.
 ColouredSolver::Residual ColouredSolver::sweep(Sweep kind) {
+  if (wide_on_ && kind == Sweep::Rolling) {
+    // Bullet's scalar rows, on Bullet's solver bodies, for every colour.
+    wide_.store(m_tmpSolverBodyPool);
+    wide_on_ = false;
+    const Residual total = sweep(kind);
+    wide_on_ = true;
+    wide_.load(m_tmpSolverBodyPool);
+    return total;
+  }
   Residual total;
   const int colours = static_cast<int>(colour_begin_.size()) - 2;
   for (int c = 0; c < colours; ++c) {
@@ -199,7 +208,7 @@ ColouredSolver::Residual ColouredSolver::sweep(Sweep kind) {
       Residual& residual = task_residuals_[static_cast<std::size_t>(t)];
       if (wide) {
         WideRows::Residual r;
-        wide_.solve(kind == Sweep::Friction, first, n, m_tmpSolverBodyPool, r);
+        wide_.solve(kind == Sweep::Friction, first, n, r);
         residual.merge(Residual{r.max, r.nan});
       } else {
         solve_runs(kind, &colour_runs_[static_cast<std::size_t>(first)], n, residual);
@@ -214,7 +223,12 @@ ColouredSolver::Residual ColouredSolver::sweep(Sweep kind) {
   }
   const int begin = colour_begin_[static_cast<std::size_t>(colours)];
   const int count = colour_begin_[static_cast<std::size_t>(colours) + 1] - begin;
-  if (count > 0) solve_runs(kind, &colour_runs_[static_cast<std::size_t>(begin)], count, total);
+  if (count > 0) {
+    const bool wide = wide_on_ && (kind == Sweep::Contact || kind == Sweep::Friction);
+    if (wide) wide_.store(overflow_bodies_, m_tmpSolverBodyPool);
+    solve_runs(kind, &colour_runs_[static_cast<std::size_t>(begin)], count, total);
+    if (wide) wide_.load(overflow_bodies_, m_tmpSolverBodyPool);
+  }
   return total;
 }
 
@@ -238,6 +252,15 @@ void ColouredSolver::pack_wide() {
                                            friction_rows_.data() + r.friction_begin,
                                            r.friction_end - r.friction_begin});
   }
+  // The overflow's bodies, which its scalar rows read from Bullet's solver bodies.
+  overflow_bodies_.clear();
+  for (int k = packed; k < colour_begin_[colours + 1]; ++k) {
+    const Run& r = runs_[static_cast<std::size_t>(colour_runs_[static_cast<std::size_t>(k)])];
+    for (const int b : {r.body_a, r.body_b})
+      if (b != m_fixedBodyId) overflow_bodies_.push_back(b);
+  }
+  std::sort(overflow_bodies_.begin(), overflow_bodies_.end());
+  overflow_bodies_.erase(std::unique(overflow_bodies_.begin(), overflow_bodies_.end()), overflow_bodies_.end());
   const std::vector<int> begins(colour_begin_.begin(), colour_begin_.begin() + static_cast<std::ptrdiff_t>(colours) + 1);
   wide_.pack(wide_runs_, begins, m_tmpSolverContactConstraintPool, m_tmpSolverContactFrictionConstraintPool,
              m_tmpSolverBodyPool);
@@ -306,7 +329,10 @@ btScalar ColouredSolver::solveGroupCacheFriendlyIterations(btCollisionObject** b
       break;
     }
   }
-  if (wide_on_) wide_.unpack(m_tmpSolverContactConstraintPool, m_tmpSolverContactFrictionConstraintPool);
+  if (wide_on_) {
+    wide_.store(m_tmpSolverBodyPool);
+    wide_.unpack(m_tmpSolverContactConstraintPool, m_tmpSolverContactFrictionConstraintPool);
+  }
   wide_on_ = false;
   stats_.threads_max = std::max(stats_.threads_max, threads_);
   return 0.f;

@@ -181,6 +181,7 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
   WideRows wide_;
   bool wide_on_ = false;
   std::vector<WideRows::RunRows> wide_runs_;
+  std::vector<int> overflow_bodies_;  // the overflow colour's solver bodies but the fixed one
 
   std::shared_ptr<SolverPool> pool_;
   Mode mode_ = Mode::Coloured;

@@ -62,6 +62,9 @@ void WideRows::pack(const std::vector<RunRows>& runs, const std::vector<int>& co
   contacts_.clear();
   frictions_.clear();
   group_of_run_.assign(runs.size(), -1);
+  deltas_.resize(static_cast<std::size_t>(bodies.size()) + 1);
+  load(bodies);
+  deltas_.back() = Delta{};
   for (std::size_t c = 0; c + 1 < colour_begin.size(); ++c)
     for (int first = colour_begin[c]; first < colour_begin[c + 1]; first += 4)
       pack_group(runs, first, std::min(4, colour_begin[c + 1] - first), contacts, frictions, bodies);
@@ -85,7 +88,8 @@ void WideRows::pack_group(const std::vector<RunRows>& runs, int first, int count
   std::fill(std::begin(empty.contact), std::end(empty.contact), -1);
   contacts_.resize(contacts_.size() + static_cast<std::size_t>(contact_blocks), empty);
   frictions_.resize(frictions_.size() + static_cast<std::size_t>(friction_blocks), empty);
-  for (int l = 0; l < 4; ++l) g.body_a[l] = g.body_b[l] = -1;
+  const int spare = bodies.size();
+  for (int l = 0; l < 4; ++l) g.body_a[l] = g.body_b[l] = spare;
   for (int l = 0; l < count; ++l) {
     const RunRows& r = runs[static_cast<std::size_t>(first + l)];
     group_of_run_[static_cast<std::size_t>(first + l)] = static_cast<int>(groups_.size());
@@ -93,6 +97,8 @@ void WideRows::pack_group(const std::vector<RunRows>& runs, int first, int count
     g.body_b[l] = r.body_b;
     const btSolverBody& a = bodies[r.body_a];
     const btSolverBody& b = bodies[r.body_b];
+    g.write_a[l] = a.m_originalBody != nullptr;
+    g.write_b[l] = b.m_originalBody != nullptr;
     for (int k = 0; k < 3; ++k) {
       g.lf_a[k][l] = float(a.m_linearFactor.m_floats[k]);
       g.af_a[k][l] = float(a.m_angularFactor.m_floats[k]);
@@ -126,12 +132,43 @@ void WideRows::unpack(btConstraintArray& contacts, btConstraintArray& frictions)
       }
 }
 
-void WideRows::solve(bool friction, int first, int count, btAlignedObjectArray<btSolverBody>& bodies,
-                     Residual& residual) {
+void WideRows::solve(bool friction, int first, int count, Residual& residual) {
   if (count <= 0) return;
   const int last = group_of_run_[static_cast<std::size_t>(first + count - 1)];
   for (int g = group_of_run_[static_cast<std::size_t>(first)]; g <= last; ++g)
-    solve_group(friction, groups_[static_cast<std::size_t>(g)], bodies, residual);
+    solve_group(friction, groups_[static_cast<std::size_t>(g)], residual);
+}
+
+void WideRows::store(btAlignedObjectArray<btSolverBody>& bodies) const {
+  for (int i = 0; i < bodies.size(); ++i) store_one(deltas_[static_cast<std::size_t>(i)], bodies[i]);
+}
+
+void WideRows::load(const btAlignedObjectArray<btSolverBody>& bodies) {
+  for (int i = 0; i < bodies.size(); ++i) load_one(bodies[i], deltas_[static_cast<std::size_t>(i)]);
+}
+
+void WideRows::store(const std::vector<int>& ids, btAlignedObjectArray<btSolverBody>& bodies) const {
+  for (const int i : ids) store_one(deltas_[static_cast<std::size_t>(i)], bodies[i]);
+}
+
+void WideRows::load(const std::vector<int>& ids, const btAlignedObjectArray<btSolverBody>& bodies) {
+  for (const int i : ids) load_one(bodies[i], deltas_[static_cast<std::size_t>(i)]);
+}
+
+void WideRows::load_one(const btSolverBody& body, Delta& delta) {
+  const btVector3& lin = body.m_deltaLinearVelocity;
+  const btVector3& ang = body.m_deltaAngularVelocity;
+  delta = Delta{{float(lin.x()), float(lin.y()), float(lin.z()), 0.f}, {float(ang.x()), float(ang.y()), float(ang.z()), 0.f}};
+}
+
+// x, y and z only, and only to a body with an original body
+// (btSolverBody::internalApplyImpulse writes no other).
+void WideRows::store_one(const Delta& delta, btSolverBody& body) {
+  if (!body.m_originalBody) return;
+  for (int k = 0; k < 3; ++k) {
+    body.m_deltaLinearVelocity.m_floats[k] = delta.lin[k];
+    body.m_deltaAngularVelocity.m_floats[k] = delta.ang[k];
+  }
 }
 
 #if SODA_WIDE_ROWS
@@ -144,50 +181,38 @@ struct Side {
   __m128 lin[3], ang[3];
   const float (*lf)[4];
   const float (*af)[4];
-  float* lin_at[4];  // each lane's body (kZero: no run); stored only where `write`
-  float* ang_at[4];
-  bool write[4];     // the body has an original body (btSolverBody::internalApplyImpulse)
 };
 
-alignas(16) float kZero[4] = {0, 0, 0, 0};
-
-// Bullet's vectors are 16-byte aligned only where Bullet uses SSE (not in
-// this build: ATTRIBUTE_ALIGNED16 is empty on Linux), hence unaligned loads.
-void transpose_in(float* const p[4], __m128 out[3]) {
-  __m128 r0 = _mm_loadu_ps(p[0]), r1 = _mm_loadu_ps(p[1]), r2 = _mm_loadu_ps(p[2]), r3 = _mm_loadu_ps(p[3]);
+template <class Delta>
+void gather(Side& s, const int body[4], const float (*lf)[4], const float (*af)[4], const Delta* deltas) {
+  const Delta &d0 = deltas[body[0]], &d1 = deltas[body[1]], &d2 = deltas[body[2]], &d3 = deltas[body[3]];
+  __m128 r0 = _mm_load_ps(d0.lin), r1 = _mm_load_ps(d1.lin), r2 = _mm_load_ps(d2.lin), r3 = _mm_load_ps(d3.lin);
   _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
-  out[0] = r0;
-  out[1] = r1;
-  out[2] = r2;
-}
-
-// Lanes back to the bodies, each body's w as it was.
-void transpose_out(const __m128 in[3], float* const p[4], const bool write[4]) {
-  __m128 r0 = in[0], r1 = in[1], r2 = in[2], r3 = _mm_setzero_ps();
+  s.lin[0] = r0;
+  s.lin[1] = r1;
+  s.lin[2] = r2;
+  r0 = _mm_load_ps(d0.ang), r1 = _mm_load_ps(d1.ang), r2 = _mm_load_ps(d2.ang), r3 = _mm_load_ps(d3.ang);
   _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
-  const __m128 rows[4] = {r0, r1, r2, r3};
-  for (int l = 0; l < 4; ++l) {
-    if (!write[l]) continue;
-    alignas(16) float v[4];
-    _mm_store_ps(v, rows[l]);
-    p[l][0] = v[0];
-    p[l][1] = v[1];
-    p[l][2] = v[2];
-  }
-}
-
-void gather(Side& s, const int body[4], const float (*lf)[4], const float (*af)[4],
-            btAlignedObjectArray<btSolverBody>& bodies) {
-  for (int l = 0; l < 4; ++l) {
-    btSolverBody* b = body[l] >= 0 ? &bodies[body[l]] : nullptr;
-    s.lin_at[l] = b ? b->internalGetDeltaLinearVelocity().m_floats : kZero;
-    s.ang_at[l] = b ? b->internalGetDeltaAngularVelocity().m_floats : kZero;
-    s.write[l] = b && b->m_originalBody;
-  }
-  transpose_in(s.lin_at, s.lin);
-  transpose_in(s.ang_at, s.ang);
+  s.ang[0] = r0;
+  s.ang[1] = r1;
+  s.ang[2] = r2;
   s.lf = lf;
   s.af = af;
+}
+
+// The lanes back to the bodies that take writes (w is unused).
+template <class Delta>
+void scatter(const Side& s, const int body[4], const bool write[4], Delta* deltas) {
+  __m128 l0 = s.lin[0], l1 = s.lin[1], l2 = s.lin[2], l3 = _mm_setzero_ps();
+  _MM_TRANSPOSE4_PS(l0, l1, l2, l3);
+  __m128 a0 = s.ang[0], a1 = s.ang[1], a2 = s.ang[2], a3 = _mm_setzero_ps();
+  _MM_TRANSPOSE4_PS(a0, a1, a2, a3);
+  const __m128 lin[4] = {l0, l1, l2, l3}, ang[4] = {a0, a1, a2, a3};
+  for (int l = 0; l < 4; ++l) {
+    if (!write[l]) continue;
+    _mm_store_ps(deltas[body[l]].lin, lin[l]);
+    _mm_store_ps(deltas[body[l]].ang, ang[l]);
+  }
 }
 
 // btVector3::dot lane by lane: (x·x' + y·y') + z·z'.
@@ -272,11 +297,10 @@ struct Residuals {
 
 }  // namespace
 
-void WideRows::solve_group(bool friction, const Group& g, btAlignedObjectArray<btSolverBody>& bodies,
-                           Residual& residual) {
+void WideRows::solve_group(bool friction, const Group& g, Residual& residual) {
   Side a, o;
-  gather(a, g.body_a, g.lf_a, g.af_a, bodies);
-  gather(o, g.body_b, g.lf_b, g.af_b, bodies);
+  gather(a, g.body_a, g.lf_a, g.af_a, deltas_.data());
+  gather(o, g.body_b, g.lf_b, g.af_b, deltas_.data());
   Residuals residuals;
   if (!friction) {
     for (int k = 0; k < g.contact_blocks; ++k) {
@@ -307,15 +331,13 @@ void WideRows::solve_group(bool friction, const Group& g, btAlignedObjectArray<b
     }
   }
   residuals.into(residual);
-  transpose_out(a.lin, a.lin_at, a.write);
-  transpose_out(a.ang, a.ang_at, a.write);
-  transpose_out(o.lin, o.lin_at, o.write);
-  transpose_out(o.ang, o.ang_at, o.write);
+  scatter(a, g.body_a, g.write_a, deltas_.data());
+  scatter(o, g.body_b, g.write_b, deltas_.data());
 }
 
 #else
 
-void WideRows::solve_group(bool, const Group&, btAlignedObjectArray<btSolverBody>&, Residual&) {
+void WideRows::solve_group(bool, const Group&, Residual&) {
   throw std::logic_error("WideRows: not in this build (WideRows::applies is false)");
 }
 

@@ -23,9 +23,13 @@
 // The rows are copied once per solve into blocks laid out by lane
 // (pack()), solved there for every iteration, and their impulses and
 // friction limits written back to Bullet's rows at the end (unpack()). The
-// bodies' velocity changes are read from and written to Bullet's solver
-// bodies around each group, so the overflow colour (solved by the scalar
-// loop, in run order) sees them as ever.
+// bodies' velocity changes live, for the whole solve, in a compact array
+// of their own (two aligned vectors of four floats a body, x y z and an
+// unused w): pack() loads them from Bullet's solver bodies, the groups
+// gather from and scatter to it, and store() writes them back. Whoever
+// solves rows with Bullet's scalar functions meanwhile (the overflow
+// colour, rolling friction) stores the bodies it touches first and loads
+// them back after (store(ids) / load(ids)).
 //
 // Only where Bullet's active row functions are those scalar references and
 // btScalar is float (WideRows::applies); the double build keeps the loop
@@ -57,12 +61,22 @@ class WideRows {
 
   /// Copies the rows of `runs` (in groups of four, in order; a group never
   /// spans two colours: `colour_begin` lists where each colour starts in
-  /// `runs`, its last entry the end) into lane blocks.
+  /// `runs`, its last entry the end) into lane blocks, and every solver
+  /// body's velocity changes into the compact array.
   void pack(const std::vector<RunRows>& runs, const std::vector<int>& colour_begin,
             const btConstraintArray& contacts, const btConstraintArray& frictions,
             const btAlignedObjectArray<btSolverBody>& bodies);
   /// Writes every packed row's impulse (friction rows: and limits) back.
   void unpack(btConstraintArray& contacts, btConstraintArray& frictions) const;
+
+  /// The compact velocity changes of every solver body with an original
+  /// body (never Bullet's fixed one) back to Bullet's solver bodies.
+  void store(btAlignedObjectArray<btSolverBody>& bodies) const;
+  /// Every solver body's velocity changes into the compact array again.
+  void load(const btAlignedObjectArray<btSolverBody>& bodies);
+  /// The same for the solver bodies `ids` only, and back from them.
+  void store(const std::vector<int>& ids, btAlignedObjectArray<btSolverBody>& bodies) const;
+  void load(const std::vector<int>& ids, const btAlignedObjectArray<btSolverBody>& bodies);
 
   /// Residual of a sweep part: the largest squared row residual, NaN sticky.
   struct Residual {
@@ -71,10 +85,10 @@ class WideRows {
   };
   /// Solves the contact rows (friction: false) or the friction rows of the
   /// runs [first, first + count) of the packed order — first a multiple of
-  /// four from its colour's start — against `bodies` (a body without an
-  /// original body, Bullet's fixed one, is read, never written).
-  void solve(bool friction, int first, int count, btAlignedObjectArray<btSolverBody>& bodies,
-             Residual& residual);
+  /// four from its colour's start — against the compact velocity changes
+  /// (a body without an original body, Bullet's fixed one, is read, never
+  /// written).
+  void solve(bool friction, int first, int count, Residual& residual);
 
  private:
   struct alignas(16) Block {  // one row of each of the four runs of a group
@@ -88,16 +102,24 @@ class WideRows {
   };
   struct alignas(16) Group {
     float lf_a[3][4], af_a[3][4], lf_b[3][4], af_b[3][4];  // the bodies' linear and angular factors
-    int body_a[4], body_b[4];  // -1: no run in this lane
+    int body_a[4], body_b[4];  // into deltas_ (the spare zero entry: no run in this lane)
+    bool write_a[4], write_b[4];  // the lane's body has an original body
     int contact_first, contact_blocks;
     int friction_first, friction_blocks;
   };
 
   void pack_group(const std::vector<RunRows>& runs, int first, int count, const btConstraintArray& contacts,
                   const btConstraintArray& frictions, const btAlignedObjectArray<btSolverBody>& bodies);
-  void solve_group(bool friction, const Group& g, btAlignedObjectArray<btSolverBody>& bodies,
-                   Residual& residual);
+  void solve_group(bool friction, const Group& g, Residual& residual);
 
+  /// One solver body's velocity changes (w unused); deltas_[bodies] is a
+  /// spare zero entry for the lanes without a run.
+  struct alignas(16) Delta {
+    float lin[4], ang[4];
+  };
+  std::vector<Delta> deltas_;
+  static void load_one(const btSolverBody& body, Delta& delta);
+  static void store_one(const Delta& delta, btSolverBody& body);
   std::vector<Group> groups_;
   std::vector<int> group_of_run_;  // the group holding each packed run
   std::vector<Block> contacts_, frictions_;
