@@ -59,6 +59,11 @@ Command add_queries_command(CLI::App& bench);
 /// settings, interleaved (cmd_defaults.cpp; docs/stress.md).
 Command add_defaults_command(CLI::App& bench);
 
+/// `soda bench broadphase`: the worlds' DBVT against an incremental sweep
+/// and prune on a scene's recorded boxes (cmd_broadphase.cpp;
+/// docs/results/broadphase.md).
+Command add_broadphase_command(CLI::App& bench);
+
 /// `stress`: the numerical-stability suite. cmd_stress.cpp; docs/stress.md.
 Command add_stress_command(CLI::App& app);
 

@@ -588,6 +588,7 @@ int soda_main(int argc, char** argv, [[maybe_unused]] bool under_mpi) {
   more.push_back(soda::cli::add_idle_command(*bench));
   more.push_back(soda::cli::add_queries_command(*bench));
   more.push_back(soda::cli::add_defaults_command(*bench));
+  more.push_back(soda::cli::add_broadphase_command(*bench));
   more.push_back(soda::cli::add_stress_command(app));
   more.push_back(soda::cli::add_lb_command(app));
   more.push_back(soda::cli::add_replay_info_command(app));

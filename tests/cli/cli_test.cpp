@@ -98,6 +98,31 @@ TEST_F(CliTest, BenchWritesDocumentedJson) {
   EXPECT_EQ(j["wall_seconds_all"].size(), 2u);
 }
 
+// `soda bench broadphase`: every broadphase reports the same exact pairs at
+// every step (and, this small, the pairs of every two bodies tested), some
+// pairs at the end, and a positive ratio dbvt / it.
+TEST_F(CliTest, BenchBroadphaseReportsTheSameExactPairs) {
+  const std::string out = (dir_ / "broadphase.json").string();
+  const Outcome o = run_cli("bench broadphase --scene falling-cubes --n 200 --steps 30 --repeat 1 --out " + out);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(out));
+  EXPECT_EQ(j["exact_pairs_equal"], true) << j.dump();
+  EXPECT_EQ(j["exact_pairs_equal_to_brute_force"], true) << j.dump();
+  EXPECT_EQ(j["steps"], 30);
+  ASSERT_EQ(j["broadphases"].size(), 4u) << j.dump();
+  for (const nlohmann::json& b : j["broadphases"]) {
+    const std::string name = b["broadphase"].get<std::string>();
+    EXPECT_EQ(b["exact_pairs_equal_to_dbvt"], true) << name;
+    EXPECT_GT(b["raw_pairs_end"].get<std::size_t>(), 0u) << name;
+    EXPECT_GT(b["exact_pairs_end"].get<std::size_t>(), 0u) << name;
+    EXPECT_GE(b["raw_pairs_end"].get<std::size_t>(), b["exact_pairs_end"].get<std::size_t>()) << name;
+    EXPECT_GT(b["ratio_vs_dbvt"].get<double>(), 0.0) << name;
+    EXPECT_EQ(b["seconds"].size(), 1u) << name;
+  }
+  EXPECT_EQ(j["broadphases"][0]["broadphase"], "dbvt");  // the baseline
+  EXPECT_DOUBLE_EQ(j["broadphases"][0]["ratio_vs_dbvt"].get<double>(), 1.0);
+}
+
 // One meaning of every speed ratio, named in the help of soda, soda bench,
 // the benchmarks under it and soda lb.
 TEST_F(CliTest, HelpNamesTheMeaningOfTheRatios) {
