@@ -110,6 +110,7 @@ struct OracleRun {
   std::uint64_t hash = 0;
   std::size_t coloured_islands = 0;
   std::size_t wide_islands = 0;
+  std::size_t avx2_islands = 0;
 };
 
 OracleRun run_stock_world(int iterations, double residual_threshold, ColouredSolver::Mode mode, int threads) {
@@ -123,8 +124,16 @@ OracleRun run_stock_world(int iterations, double residual_threshold, ColouredSol
   configure_canonical_solver(world.bullet().getSolverInfo(), scene.settings);
   world.bullet().getSolverInfo().m_leastSquaresResidualThreshold = btScalar(residual_threshold);
   test::run(world, 120);
-  return OracleRun{world.state_hash(), solver.stats().coloured_islands, solver.stats().wide_islands};
+  return OracleRun{world.state_hash(), solver.stats().coloured_islands, solver.stats().wide_islands,
+                   solver.stats().avx2_islands};
 }
+
+// Lets the wide rows take the AVX2 kernel (where the CPU has it) or not,
+// for the guard's lifetime.
+struct AllowAvx2 {
+  explicit AllowAvx2(bool allow) { WideRows::allow_avx2(allow); }
+  ~AllowAvx2() { WideRows::allow_avx2(true); }
+};
 
 TEST(ColouredSolve, EqualsBulletsLoopInTheColourOrder) {
 #if defined(__SANITIZE_THREAD__)  // TSan looks for races: one iteration count
@@ -137,23 +146,30 @@ TEST(ColouredSolve, EqualsBulletsLoopInTheColourOrder) {
       const OracleRun reference =
           run_stock_world(iterations, threshold, ColouredSolver::Mode::SequentialInColourOrder, 1);
       ASSERT_GT(reference.coloured_islands, std::size_t{0}) << "nothing was coloured: the test tests nothing";
-      for (int threads : {1, 3}) {
-        const OracleRun coloured = run_stock_world(iterations, threshold, ColouredSolver::Mode::Coloured, threads);
-        std::printf("[ cube-pile 200 %s ] %d iterations, threshold %g, %d thread(s): colour order %s, coloured %s\n",
-                    kPrecisionName, iterations, threshold, threads, hash_hex(reference.hash).c_str(),
-                    hash_hex(coloured.hash).c_str());
-        EXPECT_EQ(hash_hex(coloured.hash), hash_hex(reference.hash))
-            << iterations << " iterations, threshold " << threshold << ", " << threads << " thread(s)";
-        EXPECT_EQ(coloured.coloured_islands, reference.coloured_islands);
-        // The float build solves the colours' contact and friction rows four
-        // runs at a time (wide_rows.h), the double build in the scalar loop:
-        // either way the bits of Bullet's loop.
+      // Both kernels of the wide rows: AVX2 where this CPU has it, and SSE2.
+      for (const bool avx2 : {true, false})
+        for (int threads : {1, 3}) {
+          const AllowAvx2 allow(avx2);
+          const OracleRun coloured = run_stock_world(iterations, threshold, ColouredSolver::Mode::Coloured, threads);
+          std::printf("[ cube-pile 200 %s ] %d iterations, threshold %g, %d thread(s), %zu of %zu islands on AVX2: "
+                      "colour order %s, coloured %s\n",
+                      kPrecisionName, iterations, threshold, threads, coloured.avx2_islands, coloured.wide_islands,
+                      hash_hex(reference.hash).c_str(), hash_hex(coloured.hash).c_str());
+          EXPECT_EQ(hash_hex(coloured.hash), hash_hex(reference.hash))
+              << iterations << " iterations, threshold " << threshold << ", " << threads << " thread(s), AVX2 "
+              << avx2;
+          EXPECT_EQ(coloured.coloured_islands, reference.coloured_islands);
+          // The float build solves the colours' contact and friction rows
+          // eight runs at a time (wide_rows.h), the double build in the
+          // scalar loop: either way the bits of Bullet's loop.
 #ifdef BT_USE_DOUBLE_PRECISION
-        EXPECT_EQ(coloured.wide_islands, std::size_t{0});
+          EXPECT_EQ(coloured.wide_islands, std::size_t{0});
 #else
-        EXPECT_EQ(coloured.wide_islands, coloured.coloured_islands) << "the wide rows did not run";
+          EXPECT_EQ(coloured.wide_islands, coloured.coloured_islands) << "the wide rows did not run";
+          EXPECT_EQ(coloured.avx2_islands, avx2 && wide::avx2_supported() ? coloured.wide_islands : 0)
+              << "the kernel asked for did not run";
 #endif
-      }
+        }
     }
   }
 }

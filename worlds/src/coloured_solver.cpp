@@ -194,11 +194,11 @@ ColouredSolver::Residual ColouredSolver::sweep(Sweep kind) {
   for (int c = 0; c < colours; ++c) {
     const int begin = colour_begin_[static_cast<std::size_t>(c)];
     const int count = colour_begin_[static_cast<std::size_t>(c) + 1] - begin;
-    // A multiple of 4: a task starts on a group of the wide rows.
+    // A multiple of wide::kLanes: a task starts on a group of the wide rows.
     const int fitted = pool_ ? std::clamp(count / (kTasksPerThread * pool_->threads()), kMinRunsPerTask,
                                           kMaxRunsPerTask)
                              : kMaxRunsPerTask;
-    const int per_task = (fitted + 3) & ~3;
+    const int per_task = (fitted + wide::kLanes - 1) / wide::kLanes * wide::kLanes;
     const bool wide = wide_on_ && (kind == Sweep::Contact || kind == Sweep::Friction);
     const int tasks = (count + per_task - 1) / per_task;
     task_residuals_.assign(static_cast<std::size_t>(tasks), Residual{});
@@ -302,6 +302,7 @@ btScalar ColouredSolver::solveGroupCacheFriendlyIterations(btCollisionObject** b
   if (wide_on_) {
     pack_wide();
     ++stats_.wide_islands;
+    if (WideRows::uses_avx2()) ++stats_.avx2_islands;
   }
   const btScalar threshold = info.m_leastSquaresResidualThreshold;
   auto done = [&](const Residual& r) { return !r.nan && r.max <= threshold; };

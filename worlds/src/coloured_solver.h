@@ -91,7 +91,8 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
   /// Cumulative counts (never reset; worlds take differences per step).
   struct Stats {
     std::size_t coloured_islands = 0;  // solveGroup calls solved coloured
-    std::size_t wide_islands = 0;      // ... whose contact and friction sweeps ran four runs at a time (wide_rows.h)
+    std::size_t wide_islands = 0;      // ... whose contact and friction sweeps ran eight runs at a time (wide_rows.h)
+    std::size_t avx2_islands = 0;      // ... of those, on the AVX2 kernel
     std::size_t coloured_runs = 0;     // runs of those islands, summed
     std::size_t overflow_runs = 0;     // ... solved in the overflow colour
     int colours_max = 0;               // most colours of one island (overflow excluded)
@@ -176,7 +177,7 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
   void set_colour_order();
   void pack_wide();
 
-  /// Contact and friction sweeps of the colours four runs at a time
+  /// Contact and friction sweeps of the colours eight runs at a time
   /// (wide_rows.h), where WideRows::applies: the same bits.
   WideRows wide_;
   bool wide_on_ = false;

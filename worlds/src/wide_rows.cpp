@@ -1,7 +1,9 @@
-// The coloured sweeps four runs at a time (wide_rows.h).
+// The coloured sweeps eight runs at a time (wide_rows.h), and the SSE2
+// kernel (wide_lanes.h).
 #include "wide_rows.h"
 
 #include <algorithm>
+#include <atomic>
 #include <stdexcept>
 
 #if defined(__SSE2__) && !defined(BT_USE_DOUBLE_PRECISION)
@@ -32,7 +34,7 @@ void put_row(Block& b, int l, int index, const btSolverConstraint& c, const btSo
              const btSolverBody& body_b) {
   const btVector3* vectors[6] = {&c.m_contactNormal1, &c.m_relpos1CrossNormal, &c.m_contactNormal2,
                                  &c.m_relpos2CrossNormal, &c.m_angularComponentA, &c.m_angularComponentB};
-  float(*fields[6])[4] = {b.n1, b.r1, b.n2, b.r2, b.a1, b.a2};
+  float(*fields[6])[wide::kLanes] = {b.n1, b.r1, b.n2, b.r2, b.a1, b.a2};
   for (int v = 0; v < 6; ++v)
     for (int k = 0; k < 3; ++k) fields[v][k][l] = float(vectors[v]->m_floats[k]);
   const btVector3 l1 = c.m_contactNormal1 * body_a.internalGetInvMass();  // as the row function does
@@ -58,6 +60,7 @@ void put_row(Block& b, int l, int index, const btSolverConstraint& c, const btSo
 void WideRows::pack(const std::vector<RunRows>& runs, const std::vector<int>& colour_begin,
                     const btConstraintArray& contacts, const btConstraintArray& frictions,
                     const btAlignedObjectArray<btSolverBody>& bodies) {
+  avx2_ = uses_avx2();
   groups_.clear();
   contacts_.clear();
   frictions_.clear();
@@ -66,8 +69,8 @@ void WideRows::pack(const std::vector<RunRows>& runs, const std::vector<int>& co
   load(bodies);
   deltas_.back() = Delta{};
   for (std::size_t c = 0; c + 1 < colour_begin.size(); ++c)
-    for (int first = colour_begin[c]; first < colour_begin[c + 1]; first += 4)
-      pack_group(runs, first, std::min(4, colour_begin[c + 1] - first), contacts, frictions, bodies);
+    for (int first = colour_begin[c]; first < colour_begin[c + 1]; first += wide::kLanes)
+      pack_group(runs, first, std::min(wide::kLanes, colour_begin[c + 1] - first), contacts, frictions, bodies);
 }
 
 void WideRows::pack_group(const std::vector<RunRows>& runs, int first, int count, const btConstraintArray& contacts,
@@ -89,7 +92,8 @@ void WideRows::pack_group(const std::vector<RunRows>& runs, int first, int count
   contacts_.resize(contacts_.size() + static_cast<std::size_t>(contact_blocks), empty);
   frictions_.resize(frictions_.size() + static_cast<std::size_t>(friction_blocks), empty);
   const int spare = bodies.size();
-  for (int l = 0; l < 4; ++l) g.body_a[l] = g.body_b[l] = spare;
+  g.runs = count;
+  for (int l = 0; l < wide::kLanes; ++l) g.body_a[l] = g.body_b[l] = spare;
   for (int l = 0; l < count; ++l) {
     const RunRows& r = runs[static_cast<std::size_t>(first + l)];
     group_of_run_[static_cast<std::size_t>(first + l)] = static_cast<int>(groups_.size());
@@ -120,10 +124,10 @@ void WideRows::pack_group(const std::vector<RunRows>& runs, int first, int count
 
 void WideRows::unpack(btConstraintArray& contacts, btConstraintArray& frictions) const {
   for (const Block& b : contacts_)
-    for (int l = 0; l < 4; ++l)
+    for (int l = 0; l < wide::kLanes; ++l)
       if (b.row[l] >= 0) contacts[b.row[l]].m_appliedImpulse = b.applied[l];
   for (const Block& b : frictions_)
-    for (int l = 0; l < 4; ++l)
+    for (int l = 0; l < wide::kLanes; ++l)
       if (b.row[l] >= 0) {
         btSolverConstraint& f = frictions[b.row[l]];
         f.m_appliedImpulse = b.applied[l];
@@ -137,6 +141,17 @@ void WideRows::solve(bool friction, int first, int count, Residual& residual) {
   const int last = group_of_run_[static_cast<std::size_t>(first + count - 1)];
   for (int g = group_of_run_[static_cast<std::size_t>(first)]; g <= last; ++g)
     solve_group(friction, groups_[static_cast<std::size_t>(g)], residual);
+}
+
+namespace {
+std::atomic<bool> avx2_allowed{true};
+}  // namespace
+
+void WideRows::allow_avx2(bool allow) { avx2_allowed.store(allow); }
+
+bool WideRows::uses_avx2() {
+  static const bool supported = wide::avx2_supported();
+  return supported && avx2_allowed.load();
 }
 
 void WideRows::store(btAlignedObjectArray<btSolverBody>& bodies) const {
@@ -173,117 +188,59 @@ void WideRows::store_one(const Delta& delta, btSolverBody& body) {
 
 #if SODA_WIDE_ROWS
 
+namespace wide {
 namespace {
 
-// One side of four runs, lane by lane: the bodies' delta linear and
-// angular velocities (x, y, z), their linear and angular factors.
-struct Side {
-  __m128 lin[3], ang[3];
-  const float (*lf)[4];
-  const float (*af)[4];
-};
+// SSE2's operations for the kernel (wide_kernel.h): four lanes.
+struct V4 {
+  using T = __m128;
+  static constexpr int kWidth = 4;
+  static T load(const float* p) { return _mm_load_ps(p); }
+  static void store(float* p, T v) { _mm_store_ps(p, v); }
+  static T zero() { return _mm_setzero_ps(); }
+  static T sign() { return _mm_set1_ps(-0.0f); }
+  static T add(T a, T b) { return _mm_add_ps(a, b); }
+  static T sub(T a, T b) { return _mm_sub_ps(a, b); }
+  static T mul(T a, T b) { return _mm_mul_ps(a, b); }
+  static T lt(T a, T b) { return _mm_cmplt_ps(a, b); }
+  static T gt(T a, T b) { return _mm_cmpgt_ps(a, b); }
+  static T and_(T a, T b) { return _mm_and_ps(a, b); }
+  static T andnot(T a, T b) { return _mm_andnot_ps(a, b); }
+  static T or_(T a, T b) { return _mm_or_ps(a, b); }
+  static T xor_(T a, T b) { return _mm_xor_ps(a, b); }
+  static T max(T a, T b) { return _mm_max_ps(a, b); }
+  static T unordered(T a, T b) { return _mm_cmpunord_ps(a, b); }
+  static bool any(T mask) { return _mm_movemask_ps(mask) != 0; }
 
-template <class Delta>
-void gather(Side& s, const int body[4], const float (*lf)[4], const float (*af)[4], const Delta* deltas) {
-  const Delta &d0 = deltas[body[0]], &d1 = deltas[body[1]], &d2 = deltas[body[2]], &d3 = deltas[body[3]];
-  __m128 r0 = _mm_load_ps(d0.lin), r1 = _mm_load_ps(d1.lin), r2 = _mm_load_ps(d2.lin), r3 = _mm_load_ps(d3.lin);
-  _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
-  s.lin[0] = r0;
-  s.lin[1] = r1;
-  s.lin[2] = r2;
-  r0 = _mm_load_ps(d0.ang), r1 = _mm_load_ps(d1.ang), r2 = _mm_load_ps(d2.ang), r3 = _mm_load_ps(d3.ang);
-  _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
-  s.ang[0] = r0;
-  s.ang[1] = r1;
-  s.ang[2] = r2;
-  s.lf = lf;
-  s.af = af;
-}
-
-// The lanes back to the bodies that take writes (w is unused).
-template <class Delta>
-void scatter(const Side& s, const int body[4], const bool write[4], Delta* deltas) {
-  __m128 l0 = s.lin[0], l1 = s.lin[1], l2 = s.lin[2], l3 = _mm_setzero_ps();
-  _MM_TRANSPOSE4_PS(l0, l1, l2, l3);
-  __m128 a0 = s.ang[0], a1 = s.ang[1], a2 = s.ang[2], a3 = _mm_setzero_ps();
-  _MM_TRANSPOSE4_PS(a0, a1, a2, a3);
-  const __m128 lin[4] = {l0, l1, l2, l3}, ang[4] = {a0, a1, a2, a3};
-  for (int l = 0; l < 4; ++l) {
-    if (!write[l]) continue;
-    _mm_store_ps(deltas[body[l]].lin, lin[l]);
-    _mm_store_ps(deltas[body[l]].ang, ang[l]);
+  // Four bodies' x, y, z into three vectors, and back (w unused).
+  static void gather(const Delta* deltas, const int* body, T lin[3], T ang[3]) {
+    const Delta &d0 = deltas[body[0]], &d1 = deltas[body[1]], &d2 = deltas[body[2]], &d3 = deltas[body[3]];
+    T r0 = _mm_load_ps(d0.lin), r1 = _mm_load_ps(d1.lin), r2 = _mm_load_ps(d2.lin), r3 = _mm_load_ps(d3.lin);
+    _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
+    lin[0] = r0, lin[1] = r1, lin[2] = r2;
+    r0 = _mm_load_ps(d0.ang), r1 = _mm_load_ps(d1.ang), r2 = _mm_load_ps(d2.ang), r3 = _mm_load_ps(d3.ang);
+    _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
+    ang[0] = r0, ang[1] = r1, ang[2] = r2;
   }
-}
-
-// btVector3::dot lane by lane: (x·x' + y·y') + z·z'.
-inline __m128 dot3(const float (*a)[4], const __m128* b) {
-  return _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_load_ps(a[0]), b[0]), _mm_mul_ps(_mm_load_ps(a[1]), b[1])),
-                    _mm_mul_ps(_mm_load_ps(a[2]), b[2]));
-}
-
-inline __m128 blend(__m128 mask, __m128 yes, __m128 no) {
-  return _mm_or_ps(_mm_and_ps(mask, yes), _mm_andnot_ps(mask, no));
-}
-
-// btSolverBody::internalApplyImpulse lane by lane, where mask is set:
-// lin += (l · Δ) ∘ linear factor, ang += a ∘ (Δ · angular factor), l the
-// row's linear component n ∘ m⁻¹.
-inline void apply(Side& s, const float (*l)[4], const float (*a)[4], __m128 impulse, __m128 mask) {
-  for (int k = 0; k < 3; ++k) {
-    const __m128 lin = _mm_mul_ps(_mm_mul_ps(_mm_load_ps(l[k]), impulse), _mm_load_ps(s.lf[k]));
-    const __m128 ang = _mm_mul_ps(_mm_load_ps(a[k]), _mm_mul_ps(impulse, _mm_load_ps(s.af[k])));
-    s.lin[k] = blend(mask, _mm_add_ps(s.lin[k], lin), s.lin[k]);
-    s.ang[k] = blend(mask, _mm_add_ps(s.ang[k], ang), s.ang[k]);
+  static void scatter(const T lin[3], const T ang[3], const int* body, const bool* write, Delta* deltas) {
+    T l0 = lin[0], l1 = lin[1], l2 = lin[2], l3 = _mm_setzero_ps();
+    _MM_TRANSPOSE4_PS(l0, l1, l2, l3);
+    T a0 = ang[0], a1 = ang[1], a2 = ang[2], a3 = _mm_setzero_ps();
+    _MM_TRANSPOSE4_PS(a0, a1, a2, a3);
+    const T ls[4] = {l0, l1, l2, l3}, as[4] = {a0, a1, a2, a3};
+    for (int l = 0; l < 4; ++l) {
+      if (!write[l]) continue;
+      _mm_store_ps(deltas[body[l]].lin, ls[l]);
+      _mm_store_ps(deltas[body[l]].ang, as[l]);
+    }
   }
-}
-
-// One block of rows, as gResolveSingleConstraintRow{LowerLimit,Generic}_
-// scalar_reference lane by lane; `mask`: the lanes that solve. Leaves the
-// lanes' final impulses in `impulse_out`.
-template <class Block>
-inline __attribute__((always_inline)) void solve_block(Block& b, Side& a, Side& o, __m128 mask, __m128 lower, __m128 upper, bool generic,
-                 __m128& impulse_out) {
-  const __m128 applied = _mm_load_ps(b.applied);
-  const __m128 jac = _mm_load_ps(b.jac);
-  __m128 impulse = _mm_sub_ps(_mm_load_ps(b.rhs), _mm_mul_ps(applied, _mm_load_ps(b.cfm)));
-  const __m128 d1 = _mm_add_ps(dot3(b.n1, a.lin), dot3(b.r1, a.ang));
-  const __m128 d2 = _mm_add_ps(dot3(b.n2, o.lin), dot3(b.r2, o.ang));
-  impulse = _mm_sub_ps(impulse, _mm_mul_ps(d1, jac));
-  impulse = _mm_sub_ps(impulse, _mm_mul_ps(d2, jac));
-  const __m128 sum = _mm_add_ps(applied, impulse);
-  const __m128 below = _mm_cmplt_ps(sum, lower);
-  __m128 result = sum;
-  if (generic) {
-    const __m128 above = _mm_andnot_ps(below, _mm_cmpgt_ps(sum, upper));
-    impulse = blend(above, _mm_sub_ps(upper, applied), impulse);
-    result = blend(above, upper, result);
-  }
-  impulse = blend(below, _mm_sub_ps(lower, applied), impulse);
-  result = blend(below, lower, result);
-  _mm_store_ps(b.applied, blend(mask, result, applied));
-  apply(a, b.l1, b.a1, impulse, mask);
-  apply(o, b.l2, b.a2, impulse, mask);
-  impulse_out = impulse;
-}
-
-// The rows' residuals as the row functions return them, Δ · (1.0 / J) in
-// double rounded to float, squared: into `largest` where `mask` is set and
-// the square is a number, into `nan` where it is not. (The maximum of the
-// squares, never below +0, does not depend on the order it is taken in.)
-struct Residuals {
-  __m128 largest = _mm_setzero_ps();
-  __m128 nan = _mm_setzero_ps();
-  void add(__m128 impulse, const double* inverse_jac, __m128 mask) {
+  // Δ · (1.0 / J) in double, rounded to float.
+  static T residual(T impulse, const double* inverse_jac) {
     const __m128d low = _mm_mul_pd(_mm_cvtps_pd(impulse), _mm_load_pd(inverse_jac));
     const __m128d high = _mm_mul_pd(_mm_cvtps_pd(_mm_movehl_ps(impulse, impulse)), _mm_load_pd(inverse_jac + 2));
-    const __m128 r = _mm_movelh_ps(_mm_cvtpd_ps(low), _mm_cvtpd_ps(high));
-    const __m128 square = _mm_mul_ps(r, r);
-    const __m128 bad = _mm_cmpunord_ps(square, square);
-    nan = _mm_or_ps(nan, _mm_and_ps(mask, bad));
-    largest = _mm_max_ps(largest, _mm_and_ps(_mm_andnot_ps(bad, mask), square));
+    return _mm_movelh_ps(_mm_cvtpd_ps(low), _mm_cvtpd_ps(high));
   }
-  template <class Residual>
-  void into(Residual& residual) const {
+  static void into(T largest, T nan, Residual& residual) {
     alignas(16) float values[4];
     alignas(16) std::uint32_t bad[4];
     _mm_store_ps(values, largest);
@@ -295,44 +252,26 @@ struct Residuals {
   }
 };
 
+#include "wide_kernel.h"
+
 }  // namespace
 
+void solve_group_sse2(bool friction, const Group& group, const Rows& rows, Residual& residual) {
+  solve_group<V4>(friction, group, rows, residual);
+}
+
+}  // namespace wide
+
 void WideRows::solve_group(bool friction, const Group& g, Residual& residual) {
-  Side a, o;
-  gather(a, g.body_a, g.lf_a, g.af_a, deltas_.data());
-  gather(o, g.body_b, g.lf_b, g.af_b, deltas_.data());
-  Residuals residuals;
-  if (!friction) {
-    for (int k = 0; k < g.contact_blocks; ++k) {
-      Block& b = contacts_[static_cast<std::size_t>(g.contact_first + k)];
-      const __m128 mask = _mm_load_ps(reinterpret_cast<const float*>(b.valid));
-      __m128 impulse;
-      solve_block(b, a, o, mask, _mm_load_ps(b.lower), _mm_load_ps(b.upper), false, impulse);
-      residuals.add(impulse, b.inverse_jac, mask);
-    }
+  const wide::Rows rows{contacts_.data(), frictions_.data(), deltas_.data()};
+  wide::Residual r{residual.max, residual.nan};
+  if (avx2_) {
+    wide::solve_group_avx2(friction, g, rows, r);
   } else {
-    const __m128 sign = _mm_set1_ps(-0.0f);
-    for (int k = 0; k < g.friction_blocks; ++k) {
-      Block& b = frictions_[static_cast<std::size_t>(g.friction_first + k)];
-      alignas(16) float total[4];
-      for (int l = 0; l < 4; ++l)
-        total[l] = b.contact[l] >= 0 ? contacts_[static_cast<std::size_t>(b.contact[l])].applied[l] : 0.0f;
-      const __m128 t = _mm_load_ps(total);
-      const __m128 mask =
-          _mm_and_ps(_mm_load_ps(reinterpret_cast<const float*>(b.valid)), _mm_cmpgt_ps(t, _mm_setzero_ps()));
-      const __m128 limit = _mm_mul_ps(_mm_load_ps(b.friction), t);
-      const __m128 lower = blend(mask, _mm_xor_ps(limit, sign), _mm_load_ps(b.lower));
-      const __m128 upper = blend(mask, limit, _mm_load_ps(b.upper));
-      _mm_store_ps(b.lower, lower);
-      _mm_store_ps(b.upper, upper);
-      __m128 impulse;
-      solve_block(b, a, o, mask, lower, upper, true, impulse);
-      residuals.add(impulse, b.inverse_jac, mask);
-    }
+    wide::solve_group_sse2(friction, g, rows, r);
   }
-  residuals.into(residual);
-  scatter(a, g.body_a, g.write_a, deltas_.data());
-  scatter(o, g.body_b, g.write_b, deltas_.data());
+  residual.max = r.max;
+  residual.nan = r.nan;
 }
 
 #else

@@ -1,9 +1,9 @@
-// Internal: the coloured solve's contact and friction sweeps four runs at a
-// time, one run per SSE lane (docs/coloured-solve.md, "Wide rows").
+// Internal: the coloured solve's contact and friction sweeps eight runs at
+// a time, one run per lane (docs/coloured-solve.md, "Wide rows").
 //
 // Inside a colour no two runs share a dynamic body (coloured_solver.h), so
-// four runs may be solved at once: lane l of every vector belongs to run l
-// of a group of four consecutive runs of the colour, and a run's rows are
+// eight runs may be solved at once: lane l of every vector belongs to run l
+// of a group of eight consecutive runs of the colour, and a run's rows are
 // still solved one after another, in pool order. Every lane computes what
 // Bullet's row functions compute for its row — those the libBulletDynamics
 // of this project's Debian package runs: gResolveSingleConstraintRow
@@ -15,7 +15,10 @@
 // a ∘ (Δ · angular factor), only for a body with an original body, and the
 // residual as Δ · (1.0 / J) in double. So the result is the coloured loop's,
 // bit for bit: the lanes are independent IEEE operations, no contraction
-// (the project builds with -ffp-contract=off), SSE2 only (every x86-64). A
+// (the project builds with -ffp-contract=off, and the AVX2 kernel is built
+// without FMA). A group is solved four lanes at a time by SSE2 (every
+// x86-64) or eight at a time by AVX2 where the CPU has it (wide_lanes.h):
+// the same operations per lane, so the same bits on every machine. A
 // lane without a row (a run shorter than its group's longest) or a friction
 // row whose contact carries no impulse keeps its row and bodies exactly as
 // they were (blended, never added a zero).
@@ -41,6 +44,8 @@
 
 #include <btBulletDynamicsCommon.h>
 
+#include "wide_lanes.h"
+
 namespace soda {
 
 class WideRows {
@@ -59,7 +64,7 @@ class WideRows {
   /// and the solver's active row functions are Bullet's scalar references.
   static bool applies(btSequentialImpulseConstraintSolver& solver);
 
-  /// Copies the rows of `runs` (in groups of four, in order; a group never
+  /// Copies the rows of `runs` (in groups of eight, in order; a group never
   /// spans two colours: `colour_begin` lists where each colour starts in
   /// `runs`, its last entry the end) into lane blocks, and every solver
   /// body's velocity changes into the compact array.
@@ -85,39 +90,32 @@ class WideRows {
   };
   /// Solves the contact rows (friction: false) or the friction rows of the
   /// runs [first, first + count) of the packed order — first a multiple of
-  /// four from its colour's start — against the compact velocity changes
+  /// eight (wide::kLanes) from its colour's start — against the compact velocity changes
   /// (a body without an original body, Bullet's fixed one, is read, never
   /// written).
   void solve(bool friction, int first, int count, Residual& residual);
 
+  /// Whether solves take the eight-lane AVX2 kernel where the CPU has it
+  /// (the default) or the four-lane SSE2 one everywhere: the same bits.
+  /// Process-wide, read when a solve packs its rows; the tests compare the
+  /// two.
+  static void allow_avx2(bool allow);
+  /// The kernel a solve packed now takes: true for AVX2.
+  static bool uses_avx2();
+
  private:
-  struct alignas(16) Block {  // one row of each of the four runs of a group
-    float n1[3][4], r1[3][4], n2[3][4], r2[3][4], a1[3][4], a2[3][4];
-    float l1[3][4], l2[3][4];  // n1 ∘ m⁻¹ of body a, n2 ∘ m⁻¹ of body b: Bullet's "linear component"
-    float rhs[4], cfm[4], jac[4], applied[4], lower[4], upper[4], friction[4];
-    double inverse_jac[4];    // 1.0 / jac in double, as the row functions' residual takes it
-    std::uint32_t valid[4];   // all ones where the lane has a row
-    int row[4];               // the row's index in its pool (-1: none)
-    int contact[4];           // friction rows: the block of contacts_ holding their contact row (same lane)
-  };
-  struct alignas(16) Group {
-    float lf_a[3][4], af_a[3][4], lf_b[3][4], af_b[3][4];  // the bodies' linear and angular factors
-    int body_a[4], body_b[4];  // into deltas_ (the spare zero entry: no run in this lane)
-    bool write_a[4], write_b[4];  // the lane's body has an original body
-    int contact_first, contact_blocks;
-    int friction_first, friction_blocks;
-  };
+  using Block = wide::Block;
+  using Group = wide::Group;
+  using Delta = wide::Delta;
 
   void pack_group(const std::vector<RunRows>& runs, int first, int count, const btConstraintArray& contacts,
                   const btConstraintArray& frictions, const btAlignedObjectArray<btSolverBody>& bodies);
   void solve_group(bool friction, const Group& g, Residual& residual);
 
-  /// One solver body's velocity changes (w unused); deltas_[bodies] is a
-  /// spare zero entry for the lanes without a run.
-  struct alignas(16) Delta {
-    float lin[4], ang[4];
-  };
+  /// Every solver body's velocity changes; deltas_[bodies] is a spare zero
+  /// entry for the lanes without a run.
   std::vector<Delta> deltas_;
+  bool avx2_ = false;  // this solve's groups take the AVX2 kernel
   static void load_one(const btSolverBody& body, Delta& delta);
   static void store_one(const Delta& delta, btSolverBody& body);
   std::vector<Group> groups_;
