@@ -5,6 +5,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "parallel_stages.h"
+
 namespace soda {
 
 void ColouredSolver::Residual::add(btScalar r) {
@@ -242,9 +244,11 @@ void ColouredSolver::pack_wide() {
     const Run& run = runs_[static_cast<std::size_t>(r)];
     return std::pair{run.contact_end - run.contact_begin, run.friction_end - run.friction_begin};
   };
-  for (std::size_t c = 0; c < colours; ++c)
-    std::stable_sort(colour_runs_.begin() + colour_begin_[c], colour_runs_.begin() + colour_begin_[c + 1],
-                     [&](int x, int y) { return rows(x) < rows(y); });
+  run_in_chunks(pool_.get(), static_cast<int>(colours), kParallelMinColours, 1, [&](int begin, int end) {
+    for (int c = begin; c < end; ++c)
+      std::stable_sort(colour_runs_.begin() + colour_begin_[c], colour_runs_.begin() + colour_begin_[c + 1],
+                       [&](int x, int y) { return rows(x) < rows(y); });
+  });
   wide_runs_.clear();
   for (int k = 0; k < packed; ++k) {
     const Run& r = runs_[static_cast<std::size_t>(colour_runs_[static_cast<std::size_t>(k)])];
@@ -263,7 +267,7 @@ void ColouredSolver::pack_wide() {
   overflow_bodies_.erase(std::unique(overflow_bodies_.begin(), overflow_bodies_.end()), overflow_bodies_.end());
   const std::vector<int> begins(colour_begin_.begin(), colour_begin_.begin() + static_cast<std::ptrdiff_t>(colours) + 1);
   wide_.pack(wide_runs_, begins, m_tmpSolverContactConstraintPool, m_tmpSolverContactFrictionConstraintPool,
-             m_tmpSolverBodyPool);
+             m_tmpSolverBodyPool, pool_.get());
 }
 
 // Mode::SequentialInColourOrder: Bullet's order arrays in the order the

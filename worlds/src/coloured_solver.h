@@ -82,6 +82,9 @@ constexpr int kManifoldsPerTask = 16;
 constexpr int kParallelMinSolverBodies = 256;
 /// Bodies per pool task of that stage (and of the bodies' write-back).
 constexpr int kSolverBodiesPerTask = 64;
+/// Colours from which the sorts of their runs by row counts (before the
+/// wide rows' packing) are shared on the pool, one colour a task.
+constexpr int kParallelMinColours = 4;
 /// Contact rows per pool task of the write-back of impulses to the points
 /// (a few dozen instructions a row).
 constexpr int kRowsPerWriteBackTask = 256;

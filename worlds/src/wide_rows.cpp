@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <span>
 #include <stdexcept>
+
+#include "parallel_stages.h"
 
 #if defined(__SSE2__) && !defined(BT_USE_DOUBLE_PRECISION)
 #include <emmintrin.h>
@@ -59,44 +62,58 @@ void put_row(Block& b, int l, int index, const btSolverConstraint& c, const btSo
 
 void WideRows::pack(const std::vector<RunRows>& runs, const std::vector<int>& colour_begin,
                     const btConstraintArray& contacts, const btConstraintArray& frictions,
-                    const btAlignedObjectArray<btSolverBody>& bodies) {
+                    const btAlignedObjectArray<btSolverBody>& bodies, SolverPool* pool) {
   avx2_ = uses_avx2();
-  groups_.clear();
-  contacts_.clear();
-  frictions_.clear();
-  group_of_run_.assign(runs.size(), -1);
   deltas_.resize(static_cast<std::size_t>(bodies.size()) + 1);
-  load(bodies);
+  run_in_chunks(pool, bodies.size(), kParallelMinBodies, kBodiesPerTask, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) load_one(bodies[i], deltas_[static_cast<std::size_t>(i)]);
+  });
   deltas_.back() = Delta{};
+  // Each group's runs and the places of its blocks, in order; then the
+  // groups filled in, each writing only its own blocks.
+  groups_.clear();
+  group_first_.clear();
+  group_of_run_.assign(runs.size(), -1);
+  contact_blocks_ = friction_blocks_ = 0;
   for (std::size_t c = 0; c + 1 < colour_begin.size(); ++c)
-    for (int first = colour_begin[c]; first < colour_begin[c + 1]; first += wide::kLanes)
-      pack_group(runs, first, std::min(wide::kLanes, colour_begin[c + 1] - first), contacts, frictions, bodies);
+    for (int first = colour_begin[c]; first < colour_begin[c + 1]; first += wide::kLanes) {
+      Group g{};
+      g.runs = std::min(wide::kLanes, colour_begin[c + 1] - first);
+      for (int l = 0; l < g.runs; ++l) {
+        const RunRows& r = runs[static_cast<std::size_t>(first + l)];
+        g.contact_blocks = std::max(g.contact_blocks, r.contact_end - r.contact_begin);
+        g.friction_blocks = std::max(g.friction_blocks, r.friction_count);
+        group_of_run_[static_cast<std::size_t>(first + l)] = static_cast<int>(groups_.size());
+      }
+      g.contact_first = contact_blocks_;
+      g.friction_first = friction_blocks_;
+      contact_blocks_ += g.contact_blocks;
+      friction_blocks_ += g.friction_blocks;
+      groups_.push_back(g);
+      group_first_.push_back(first);
+    }
+  // The block arrays only grow: each group sets every field of its blocks.
+  if (contacts_.size() < static_cast<std::size_t>(contact_blocks_)) contacts_.resize(static_cast<std::size_t>(contact_blocks_));
+  if (frictions_.size() < static_cast<std::size_t>(friction_blocks_))
+    frictions_.resize(static_cast<std::size_t>(friction_blocks_));
+  run_in_chunks(pool, static_cast<int>(groups_.size()), kParallelMinGroups, kGroupsPerTask, [&](int begin, int end) {
+    for (int g = begin; g < end; ++g) pack_group(runs, g, contacts, frictions, bodies);
+  });
 }
 
-void WideRows::pack_group(const std::vector<RunRows>& runs, int first, int count, const btConstraintArray& contacts,
+void WideRows::pack_group(const std::vector<RunRows>& runs, int index, const btConstraintArray& contacts,
                           const btConstraintArray& frictions, const btAlignedObjectArray<btSolverBody>& bodies) {
-  Group g{};
-  int contact_blocks = 0, friction_blocks = 0;
-  for (int l = 0; l < count; ++l) {
-    const RunRows& r = runs[static_cast<std::size_t>(first + l)];
-    contact_blocks = std::max(contact_blocks, r.contact_end - r.contact_begin);
-    friction_blocks = std::max(friction_blocks, r.friction_count);
-  }
-  g.contact_first = static_cast<int>(contacts_.size());
-  g.contact_blocks = contact_blocks;
-  g.friction_first = static_cast<int>(frictions_.size());
-  g.friction_blocks = friction_blocks;
+  Group& g = groups_[static_cast<std::size_t>(index)];
+  const int first = group_first_[static_cast<std::size_t>(index)];
   Block empty{};
   std::fill(std::begin(empty.row), std::end(empty.row), -1);
   std::fill(std::begin(empty.contact), std::end(empty.contact), -1);
-  contacts_.resize(contacts_.size() + static_cast<std::size_t>(contact_blocks), empty);
-  frictions_.resize(frictions_.size() + static_cast<std::size_t>(friction_blocks), empty);
+  std::fill_n(contacts_.begin() + g.contact_first, g.contact_blocks, empty);
+  std::fill_n(frictions_.begin() + g.friction_first, g.friction_blocks, empty);
   const int spare = bodies.size();
-  g.runs = count;
   for (int l = 0; l < wide::kLanes; ++l) g.body_a[l] = g.body_b[l] = spare;
-  for (int l = 0; l < count; ++l) {
+  for (int l = 0; l < g.runs; ++l) {
     const RunRows& r = runs[static_cast<std::size_t>(first + l)];
-    group_of_run_[static_cast<std::size_t>(first + l)] = static_cast<int>(groups_.size());
     g.body_a[l] = r.body_a;
     g.body_b[l] = r.body_b;
     const btSolverBody& a = bodies[r.body_a];
@@ -119,14 +136,13 @@ void WideRows::pack_group(const std::vector<RunRows>& runs, int first, int count
       block.contact[l] = g.contact_first + (f.m_frictionIndex - r.contact_begin);
     }
   }
-  groups_.push_back(g);
 }
 
 void WideRows::unpack(btConstraintArray& contacts, btConstraintArray& frictions) const {
-  for (const Block& b : contacts_)
+  for (const Block& b : std::span(contacts_.data(), static_cast<std::size_t>(contact_blocks_)))
     for (int l = 0; l < wide::kLanes; ++l)
       if (b.row[l] >= 0) contacts[b.row[l]].m_appliedImpulse = b.applied[l];
-  for (const Block& b : frictions_)
+  for (const Block& b : std::span(frictions_.data(), static_cast<std::size_t>(friction_blocks_)))
     for (int l = 0; l < wide::kLanes; ++l)
       if (b.row[l] >= 0) {
         btSolverConstraint& f = frictions[b.row[l]];

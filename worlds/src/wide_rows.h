@@ -48,6 +48,13 @@
 
 namespace soda {
 
+class SolverPool;
+
+/// Groups from which pack() fills the groups on the pool (a group is a few
+/// thousand instructions of copying), and groups per pool task.
+constexpr int kParallelMinGroups = 64;
+constexpr int kGroupsPerTask = 16;
+
 class WideRows {
  public:
   /// A run as the coloured solver holds it: its two solver bodies, its
@@ -67,10 +74,12 @@ class WideRows {
   /// Copies the rows of `runs` (in groups of eight, in order; a group never
   /// spans two colours: `colour_begin` lists where each colour starts in
   /// `runs`, its last entry the end) into lane blocks, and every solver
-  /// body's velocity changes into the compact array.
+  /// body's velocity changes into the compact array; on `pool`'s threads
+  /// (null: the calling thread) from kParallelMinGroups groups, the same
+  /// blocks either way.
   void pack(const std::vector<RunRows>& runs, const std::vector<int>& colour_begin,
             const btConstraintArray& contacts, const btConstraintArray& frictions,
-            const btAlignedObjectArray<btSolverBody>& bodies);
+            const btAlignedObjectArray<btSolverBody>& bodies, SolverPool* pool);
   /// Writes every packed row's impulse (friction rows: and limits) back.
   void unpack(btConstraintArray& contacts, btConstraintArray& frictions) const;
 
@@ -108,7 +117,7 @@ class WideRows {
   using Group = wide::Group;
   using Delta = wide::Delta;
 
-  void pack_group(const std::vector<RunRows>& runs, int first, int count, const btConstraintArray& contacts,
+  void pack_group(const std::vector<RunRows>& runs, int index, const btConstraintArray& contacts,
                   const btConstraintArray& frictions, const btAlignedObjectArray<btSolverBody>& bodies);
   void solve_group(bool friction, const Group& g, Residual& residual);
 
@@ -119,8 +128,10 @@ class WideRows {
   static void load_one(const btSolverBody& body, Delta& delta);
   static void store_one(const Delta& delta, btSolverBody& body);
   std::vector<Group> groups_;
+  std::vector<int> group_first_;   // each group's first run
   std::vector<int> group_of_run_;  // the group holding each packed run
-  std::vector<Block> contacts_, frictions_;
+  std::vector<Block> contacts_, frictions_;  // the first contact_blocks_, friction_blocks_ are this solve's
+  int contact_blocks_ = 0, friction_blocks_ = 0;
 };
 
 }  // namespace soda
