@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstddef>
 
+#include "canonical_dynamics_world.h"
 #include "soda/scene/fnv1a.h"
 #include "sort_sweep_broadphase.h"
 #include "soda/worlds/stock_world.h"
@@ -17,12 +18,6 @@ namespace {
 // The SAP's world box: every recorded box, plus this on every side (metres),
 // so that no box touches the quantisation's clamp.
 constexpr btScalar kWorldMargin = 10;
-// As the worlds' add_body_with_canonical_proxy (canonical_dynamics_world.cpp):
-// the tree is rebuilt top-down each time its leaves reach a power of two
-// from this many on, with this bottom-up threshold.
-constexpr int kRebalanceFromLeaves = 4096;
-constexpr int kTopDownThreshold = 2;
-
 double wall_seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -167,11 +162,7 @@ void Lane::create(const RecordedBox& box) {
   if (kind_.soda_rules) dbvt_->m_gid = body.id;  // proxy unique id = body id + 1: the canonical pair order
   proxies_[box.body] = broadphase_->createProxy(lo, hi, BOX_SHAPE_PROXYTYPE, const_cast<RecordedBody*>(&body),
                                                 body.group, body.mask, nullptr);
-  if (kind_.soda_rules) {
-    btDbvt& tree = dbvt_->m_sets[0];
-    const int leaves = tree.m_leaves;
-    if (leaves >= kRebalanceFromLeaves && (leaves & (leaves - 1)) == 0) tree.optimizeTopDown(kTopDownThreshold);
-  }
+  if (kind_.soda_rules) rebalance_after_insertion(*dbvt_);  // as the worlds' add_body_with_canonical_proxy
 }
 
 // As parking takes a batch of bodies out: their pairs in one sweep, then
@@ -196,20 +187,9 @@ void Lane::take_out(const std::vector<std::uint32_t>& leaving) {
   pairs_->sweeps = true;
 }
 
-// As the worlds' remove_stale_pairs (canonical_dynamics_world.cpp): every
-// pair whose leaf volumes no longer overlap, every step.
-void Lane::remove_stale_pairs() {
-  btBroadphasePairArray& pairs = pairs_->getOverlappingPairArray();
-  for (int i = 0; i < pairs.size();) {
-    auto* a = static_cast<btDbvtProxy*>(pairs[i].m_pProxy0);
-    auto* b = static_cast<btDbvtProxy*>(pairs[i].m_pProxy1);
-    if (Intersect(a->leaf->volume, b->leaf->volume)) {
-      ++i;
-    } else {
-      pairs_->removeOverlappingPair(a, b, nullptr);
-    }
-  }
-}
+// The worlds' rule: every pair whose leaf volumes no longer overlap, every
+// step (pairs_ is the tree's pair cache).
+void Lane::remove_stale_pairs() { soda::remove_stale_pairs(*dbvt_, nullptr); }
 
 void Lane::step(std::size_t s) {
   if (!rec_.leaving[s].empty()) take_out(rec_.leaving[s]);

@@ -39,6 +39,10 @@ void add_body_with_canonical_proxy(btDiscreteDynamicsWorld& world, btDbvtBroadph
   // order a pair's proxies by that number (body0 = smaller).
   broadphase.m_gid = body->getUserIndex();
   world.addRigidBody(body, group, mask);
+  rebalance_after_insertion(broadphase);
+}
+
+void rebalance_after_insertion(btDbvtBroadphase& broadphase) {
   // The tree's shape decides only the order in which overlaps are found,
   // never which (pairs are canonical: remove_stale_pairs, sorted islands).
   btDbvt& tree = broadphase.m_sets[0];

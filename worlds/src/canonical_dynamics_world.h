@@ -60,6 +60,11 @@ namespace soda {
 void add_body_with_canonical_proxy(btDiscreteDynamicsWorld& world, btDbvtBroadphase& broadphase,
                                    btRigidBody* body, int group, int mask);
 
+/// After a proxy's insertion into `broadphase`'s tree of moving proxies:
+/// the tree rebuilt top down when its leaf count reaches a power of two
+/// from 4,096 on (add_body_with_canonical_proxy calls it).
+void rebalance_after_insertion(btDbvtBroadphase& broadphase);
+
 /// Removes every pair whose dbvt leaf volumes no longer overlap (stock Bullet
 /// removes a fraction per step), so that the pair set is a function of the
 /// leaf volumes alone. Returns the number of pairs left.
