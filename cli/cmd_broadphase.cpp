@@ -53,12 +53,7 @@ struct Measured {
     for (std::size_t r = 1; r < seconds.size(); ++r) least = std::min(least, seconds[r] - first_step[r]);
     return least;
   }
-  double median() const {
-    std::vector<double> s = seconds;
-    std::sort(s.begin(), s.end());
-    const std::size_t m = s.size() / 2;
-    return s.size() % 2 ? s[m] : 0.5 * (s[m - 1] + s[m]);
-  }
+  double median() const { return cli::median(seconds); }
 };
 
 double mean_of(const std::vector<std::size_t>& v) {

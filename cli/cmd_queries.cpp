@@ -26,6 +26,13 @@
 #include "soda/worlds/body_state.h"
 
 namespace soda::cli {
+
+double median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
 namespace {
 
 struct QueriesOptions {
@@ -114,12 +121,6 @@ double run_with_queries(const Scene& scene, const QueriesOptions& o, const RayLa
   caster.join();
   hash = sim.state_hash();
   return t;
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 int run_queries(const QueriesOptions& o) {

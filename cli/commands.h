@@ -39,6 +39,10 @@ std::vector<Command> add_accuracy_commands(CLI::App& bench);
 /// std::invalid_argument naming the text. cmd_accuracy.cpp.
 double parse_step_size(const std::string& text);
 
+/// The median of `values` (not empty): the middle one, or the mean of the
+/// middle two. cmd_queries.cpp.
+double median(std::vector<double> values);
+
 /// Under `bench`: `speculation` (anticipation against lockstep on a scene
 /// whose load alternates between territories). cmd_speculation.cpp;
 /// docs/speculation-bench.md.

@@ -188,10 +188,11 @@ ColouredSolver::Residual ColouredSolver::sweep(Sweep kind) {
     wide_on_ = false;
     const Residual total = sweep(kind);
     wide_on_ = true;
-    wide_.load(m_tmpSolverBodyPool);
+    wide_.load(m_tmpSolverBodyPool, pool_.get());
     return total;
   }
   Residual total;
+  const bool wide_sweep = wide_on_ && (kind == Sweep::Contact || kind == Sweep::Friction);
   const int colours = static_cast<int>(colour_begin_.size()) - 2;
   for (int c = 0; c < colours; ++c) {
     const int begin = colour_begin_[static_cast<std::size_t>(c)];
@@ -201,14 +202,13 @@ ColouredSolver::Residual ColouredSolver::sweep(Sweep kind) {
                                           kMaxRunsPerTask)
                              : kMaxRunsPerTask;
     const int per_task = (fitted + wide::kLanes - 1) / wide::kLanes * wide::kLanes;
-    const bool wide = wide_on_ && (kind == Sweep::Contact || kind == Sweep::Friction);
     const int tasks = (count + per_task - 1) / per_task;
     task_residuals_.assign(static_cast<std::size_t>(tasks), Residual{});
     auto task = [&](int t) {
       const int first = begin + t * per_task;
       const int n = std::min(per_task, begin + count - first);
       Residual& residual = task_residuals_[static_cast<std::size_t>(t)];
-      if (wide) {
+      if (wide_sweep) {
         WideRows::Residual r;
         wide_.solve(kind == Sweep::Friction, first, n, r);
         residual.merge(Residual{r.max, r.nan});
@@ -226,15 +226,14 @@ ColouredSolver::Residual ColouredSolver::sweep(Sweep kind) {
   const int begin = colour_begin_[static_cast<std::size_t>(colours)];
   const int count = colour_begin_[static_cast<std::size_t>(colours) + 1] - begin;
   if (count > 0) {
-    const bool wide = wide_on_ && (kind == Sweep::Contact || kind == Sweep::Friction);
-    if (wide) wide_.store(overflow_bodies_, m_tmpSolverBodyPool);
+    if (wide_sweep) wide_.store(overflow_bodies_, m_tmpSolverBodyPool);
     solve_runs(kind, &colour_runs_[static_cast<std::size_t>(begin)], count, total);
-    if (wide) wide_.load(overflow_bodies_, m_tmpSolverBodyPool);
+    if (wide_sweep) wide_.load(overflow_bodies_, m_tmpSolverBodyPool);
   }
   return total;
 }
 
-// The colours' runs (not the overflow) in colour order, packed four by four.
+// The colours' runs (not the overflow) in colour order, packed eight by eight.
 void ColouredSolver::pack_wide() {
   const std::size_t colours = colour_begin_.size() - 2;
   const int packed = colour_begin_[colours];
@@ -306,7 +305,7 @@ btScalar ColouredSolver::solveGroupCacheFriendlyIterations(btCollisionObject** b
   if (wide_on_) {
     pack_wide();
     ++stats_.wide_islands;
-    if (WideRows::uses_avx2()) ++stats_.avx2_islands;
+    if (wide_.packed_avx2()) ++stats_.avx2_islands;
   }
   const btScalar threshold = info.m_leastSquaresResidualThreshold;
   auto done = [&](const Residual& r) { return !r.nan && r.max <= threshold; };

@@ -65,9 +65,7 @@ void WideRows::pack(const std::vector<RunRows>& runs, const std::vector<int>& co
                     const btAlignedObjectArray<btSolverBody>& bodies, SolverPool* pool) {
   avx2_ = uses_avx2();
   deltas_.resize(static_cast<std::size_t>(bodies.size()) + 1);
-  run_in_chunks(pool, bodies.size(), kParallelMinBodies, kBodiesPerTask, [&](int begin, int end) {
-    for (int i = begin; i < end; ++i) load_one(bodies[i], deltas_[static_cast<std::size_t>(i)]);
-  });
+  load(bodies, pool);
   deltas_.back() = Delta{};
   // Each group's runs and the places of its blocks, in order; then the
   // groups filled in, each writing only its own blocks.
@@ -93,7 +91,8 @@ void WideRows::pack(const std::vector<RunRows>& runs, const std::vector<int>& co
       group_first_.push_back(first);
     }
   // The block arrays only grow: each group sets every field of its blocks.
-  if (contacts_.size() < static_cast<std::size_t>(contact_blocks_)) contacts_.resize(static_cast<std::size_t>(contact_blocks_));
+  if (contacts_.size() < static_cast<std::size_t>(contact_blocks_))
+    contacts_.resize(static_cast<std::size_t>(contact_blocks_));
   if (frictions_.size() < static_cast<std::size_t>(friction_blocks_))
     frictions_.resize(static_cast<std::size_t>(friction_blocks_));
   run_in_chunks(pool, static_cast<int>(groups_.size()), kParallelMinGroups, kGroupsPerTask, [&](int begin, int end) {
@@ -174,8 +173,10 @@ void WideRows::store(btAlignedObjectArray<btSolverBody>& bodies) const {
   for (int i = 0; i < bodies.size(); ++i) store_one(deltas_[static_cast<std::size_t>(i)], bodies[i]);
 }
 
-void WideRows::load(const btAlignedObjectArray<btSolverBody>& bodies) {
-  for (int i = 0; i < bodies.size(); ++i) load_one(bodies[i], deltas_[static_cast<std::size_t>(i)]);
+void WideRows::load(const btAlignedObjectArray<btSolverBody>& bodies, SolverPool* pool) {
+  run_in_chunks(pool, bodies.size(), kParallelMinBodies, kBodiesPerTask, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) load_one(bodies[i], deltas_[static_cast<std::size_t>(i)]);
+  });
 }
 
 void WideRows::store(const std::vector<int>& ids, btAlignedObjectArray<btSolverBody>& bodies) const {
@@ -189,7 +190,8 @@ void WideRows::load(const std::vector<int>& ids, const btAlignedObjectArray<btSo
 void WideRows::load_one(const btSolverBody& body, Delta& delta) {
   const btVector3& lin = body.m_deltaLinearVelocity;
   const btVector3& ang = body.m_deltaAngularVelocity;
-  delta = Delta{{float(lin.x()), float(lin.y()), float(lin.z()), 0.f}, {float(ang.x()), float(ang.y()), float(ang.z()), 0.f}};
+  delta = Delta{{float(lin.x()), float(lin.y()), float(lin.z()), 0.f},
+                {float(ang.x()), float(ang.y()), float(ang.z()), 0.f}};
 }
 
 // x, y and z only, and only to a body with an original body
@@ -280,14 +282,11 @@ void solve_group_sse2(bool friction, const Group& group, const Rows& rows, Resid
 
 void WideRows::solve_group(bool friction, const Group& g, Residual& residual) {
   const wide::Rows rows{contacts_.data(), frictions_.data(), deltas_.data()};
-  wide::Residual r{residual.max, residual.nan};
   if (avx2_) {
-    wide::solve_group_avx2(friction, g, rows, r);
+    wide::solve_group_avx2(friction, g, rows, residual);
   } else {
-    wide::solve_group_sse2(friction, g, rows, r);
+    wide::solve_group_sse2(friction, g, rows, residual);
   }
-  residual.max = r.max;
-  residual.nan = r.nan;
 }
 
 #else

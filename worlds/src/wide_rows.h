@@ -86,17 +86,15 @@ class WideRows {
   /// The compact velocity changes of every solver body with an original
   /// body (never Bullet's fixed one) back to Bullet's solver bodies.
   void store(btAlignedObjectArray<btSolverBody>& bodies) const;
-  /// Every solver body's velocity changes into the compact array again.
-  void load(const btAlignedObjectArray<btSolverBody>& bodies);
+  /// Every solver body's velocity changes into the compact array again, on
+  /// `pool`'s threads (null: the calling thread) from kParallelMinBodies.
+  void load(const btAlignedObjectArray<btSolverBody>& bodies, SolverPool* pool = nullptr);
   /// The same for the solver bodies `ids` only, and back from them.
   void store(const std::vector<int>& ids, btAlignedObjectArray<btSolverBody>& bodies) const;
   void load(const std::vector<int>& ids, const btAlignedObjectArray<btSolverBody>& bodies);
 
   /// Residual of a sweep part: the largest squared row residual, NaN sticky.
-  struct Residual {
-    btScalar max = 0;
-    bool nan = false;
-  };
+  using Residual = wide::Residual;
   /// Solves the contact rows (friction: false) or the friction rows of the
   /// runs [first, first + count) of the packed order — first a multiple of
   /// eight (wide::kLanes) from its colour's start — against the compact velocity changes
@@ -109,8 +107,10 @@ class WideRows {
   /// Process-wide, read when a solve packs its rows; the tests compare the
   /// two.
   static void allow_avx2(bool allow);
-  /// The kernel a solve packed now takes: true for AVX2.
+  /// The kernel the next pack() chooses: true for AVX2.
   static bool uses_avx2();
+  /// The kernel the last pack() chose: true for AVX2.
+  bool packed_avx2() const { return avx2_; }
 
  private:
   using Block = wide::Block;
