@@ -125,8 +125,7 @@ IslandProfile profile_island(btCollisionObject* const* bodies, int body_count,
 int island_iterations(int base, const IslandProfile& profile) {
   double factor = 1.0;
   if (profile.height > kPlainHeight) {
-    const double h = profile.height / kHeightScale;
-    factor = std::max(factor, h * h);
+    factor = std::max(factor, std::pow(double(profile.height) / kPlainHeight, kHeightPower));
   }
   if (profile.mass_ratio > kPlainMassRatio) factor = std::max(factor, std::sqrt(profile.mass_ratio));
   if (profile.stiff() && profile.bodies <= kSmallStiffIsland)
