@@ -176,9 +176,11 @@ TEST(ColouredSolve, EqualsBulletsLoopInTheColourOrder) {
   }
 }
 
-// The solver bodies and the contact and friction rows built on the pool
-// and the write-back on the pool (coloured_setup.cpp) equal Bullet's serial
-// convertBodies, convertContacts and solveGroupCacheFriendlyFinish: the same solver, with and without
+// The contact and friction rows of a point set up together (point_rows.h),
+// and the solver bodies and rows built on the pool and the write-back on the
+// pool (coloured_setup.cpp) equal Bullet's serial convertBodies,
+// convertContacts (its setupContactConstraint and setupFrictionConstraint
+// calls) and solveGroupCacheFriendlyFinish: the same solver, with and without
 // a pool, under the solver modes whose friction rows differ (one or two
 // directions, velocity-dependent or fixed directions, direction caching)
 // and with and without warm starting (the only part that adds into the
@@ -187,9 +189,17 @@ TEST(ColouredSolve, EqualsBulletsLoopInTheColourOrder) {
 struct SetupRun {
   std::uint64_t hash = 0;
   std::size_t coloured_islands = 0;
+  std::size_t point_rows = 0;
   int setup_threads = 0;
   int body_setup_threads = 0;
   int finish_threads = 0;
+};
+
+// Lets a point's rows be set up together (point_rows.h) or by Bullet's
+// calls, for the guard's lifetime.
+struct AllowPointRows {
+  explicit AllowPointRows(bool allow) { ColouredSolver::allow_point_rows(allow); }
+  ~AllowPointRows() { ColouredSolver::allow_point_rows(true); }
 };
 
 SetupRun run_setup_world(int solver_mode, int threads) {
@@ -202,7 +212,8 @@ SetupRun run_setup_world(int solver_mode, int threads) {
   configure_canonical_solver(world.bullet().getSolverInfo(), scene.settings);
   world.bullet().getSolverInfo().m_solverMode = solver_mode;
   test::run(world, 60);
-  return SetupRun{world.state_hash(), solver.stats().coloured_islands, solver.stats().setup_threads_max,
+  return SetupRun{world.state_hash(), solver.stats().coloured_islands, solver.stats().point_rows,
+                  solver.stats().setup_threads_max,
                   solver.stats().body_setup_threads_max, solver.stats().finish_threads_max};
 }
 
@@ -217,14 +228,24 @@ TEST(ColouredSolve, RowSetupOnThePoolEqualsBulletsLoop) {
           SOLVER_DISABLE_VELOCITY_DEPENDENT_FRICTION_DIRECTION | SOLVER_ENABLE_FRICTION_DIRECTION_CACHING,
   };
   for (int mode : modes) {
+    SetupRun bullet_rows;  // each row by Bullet's own setup call
+    {
+      const AllowPointRows allow(false);
+      bullet_rows = run_setup_world(mode, 1);
+    }
     const SetupRun serial = run_setup_world(mode, 1);
     ASSERT_GT(serial.coloured_islands, std::size_t{0}) << "nothing was coloured: the test tests nothing";
-    EXPECT_EQ(serial.setup_threads, 0) << "no pool: Bullet's loop";
+    EXPECT_EQ(bullet_rows.point_rows, std::size_t{0}) << "the reference did not take Bullet's calls";
+    EXPECT_GT(serial.point_rows, std::size_t{0}) << "no point's rows were set up together: the test tests nothing";
+    EXPECT_EQ(serial.setup_threads, 0) << "no pool";
     EXPECT_EQ(serial.body_setup_threads, 0) << "no pool: Bullet's loop";
     EXPECT_EQ(serial.finish_threads, 0) << "no pool: Bullet's loop";
     const SetupRun pooled = run_setup_world(mode, 3);
-    std::printf("[ cube-pile 300 %s ] solver mode 0x%x: serial rows %s, rows on %d threads %s\n", kPrecisionName, mode,
-                hash_hex(serial.hash).c_str(), pooled.setup_threads, hash_hex(pooled.hash).c_str());
+    std::printf("[ cube-pile 300 %s ] solver mode 0x%x: Bullet's row setup %s, serial rows %s, rows on %d threads %s\n",
+                kPrecisionName, mode, hash_hex(bullet_rows.hash).c_str(), hash_hex(serial.hash).c_str(),
+                pooled.setup_threads, hash_hex(pooled.hash).c_str());
+    EXPECT_EQ(hash_hex(serial.hash), hash_hex(bullet_rows.hash))
+        << "a point's rows set up together differ from Bullet's calls, solver mode 0x" << std::hex << mode;
     EXPECT_EQ(pooled.setup_threads, 3) << "the rows were not built on the pool: the test tests nothing";
     EXPECT_EQ(pooled.body_setup_threads, 3) << "the solver bodies were not set up on the pool";
     EXPECT_EQ(pooled.finish_threads, 3) << "the write-back did not run on the pool";

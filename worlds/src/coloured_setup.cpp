@@ -1,8 +1,9 @@
 // ColouredSolver's setup and finish on the pool (docs/coloured-solve.md,
 // "The rest of the step on the pool"). convertContacts: Bullet's contact and
-// friction rows of a large island built on the pool's threads. The rows,
-// their indices and the solver bodies' warm-start deltas are the bits
-// Bullet's serial convertContacts gives:
+// friction rows of every island, built in three steps (on the pool's threads
+// for a large island, on the calling thread otherwise). The rows, their
+// indices and the solver bodies' warm-start deltas are the bits Bullet's
+// serial convertContacts gives:
 //
 //  1. on the calling thread, in manifold order: each manifold's two solver
 //     bodies (getOrInitSolverBody: it may append the fixed body or a
@@ -14,9 +15,11 @@
 //     contact's (one, or two with SOLVER_USE_2_FRICTION_DIRECTIONS, in every
 //     branch of Bullet's friction setup), so its friction rows' indices are
 //     known as well;
-//  2. on the pool, per manifold: its rows, by Bullet's own setup calls
-//     (setupContactConstraint, setupFrictionConstraint,
-//     setFrictionConstraintImpulse) at those indices. Each manifold writes
+//  2. on the pool, per manifold: its rows at those indices, a point's
+//     contact and friction rows set up together (point_rows.h: Bullet's
+//     setupContactConstraint and setupFrictionConstraint, three rows at
+//     once), or by Bullet's own calls for a point with its own solver
+//     parameters (contact CFM, ERP, stiffness, friction anchor). Each manifold writes
 //     only its own rows and its own points (the friction directions); the
 //     solver bodies are only read (their velocities, never their deltas).
 //     Warm starting is left out here (setupContactConstraint called with
@@ -33,14 +36,22 @@
 // writeBackBodies on ranges of rows and bodies (each writes its row's own
 // contact point or its solver body's own rigid body), on the pool.
 // Rolling friction (a third pool whose row count depends on the contact's
-// geometry) takes Bullet's serial loop, as do small islands and a pool of
-// one thread.
+// geometry) takes Bullet's serial convertContacts; small islands and a pool
+// of one thread take Bullet's convertBodies and finish.
 #include <algorithm>
+#include <atomic>
 
 #include "coloured_solver.h"
 #include "parallel_stages.h"
+#include "point_rows.h"
 
 namespace soda {
+
+namespace {
+std::atomic<bool> point_rows_allowed{true};
+}  // namespace
+
+void ColouredSolver::allow_point_rows(bool allow) { point_rows_allowed.store(allow); }
 
 void ColouredSolver::convertBodies(btCollisionObject** bodies, int count, const btContactSolverInfo& info) {
   SolverPool* pool = pool_ && pool_->threads() > 1 ? pool_.get() : nullptr;
@@ -80,7 +91,8 @@ void ColouredSolver::convertBodies(btCollisionObject** bodies, int count, const 
 
 void ColouredSolver::convertContacts(btPersistentManifold** manifolds, int count, const btContactSolverInfo& info) {
   SolverPool* pool = pool_ && pool_->threads() > 1 ? pool_.get() : nullptr;
-  if (!pool || count < kParallelMinManifolds) {
+  const bool together = point_rows_allowed.load(std::memory_order_relaxed);
+  if (!pool && !together) {  // the tests' reference: Bullet's own loop
     btSequentialImpulseConstraintSolver::convertContacts(manifolds, count, info);
     return;
   }
@@ -108,6 +120,7 @@ void ColouredSolver::convertContacts(btPersistentManifold** manifolds, int count
         return;
       }
       ++rows.contacts;
+      if (together && point_rows_apply(cp)) ++stats_.point_rows;
     }
     contacts += rows.contacts;
   }
@@ -125,10 +138,10 @@ void ColouredSolver::convertContacts(btPersistentManifold** manifolds, int count
         for (int i = begin; i < end; ++i) {
           const ManifoldRows& rows = manifold_rows_[static_cast<std::size_t>(i)];
           const int first_friction = friction_base + (rows.first_contact - contact_base) * frictions_per_contact;
-          convert_manifold(*manifolds[i], rows, first_friction, frictions_per_contact, cold);
+          convert_manifold(*manifolds[i], rows, first_friction, frictions_per_contact, together, cold);
         }
       });
-  stats_.setup_threads_max = std::max(stats_.setup_threads_max, threads);
+  if (pool) stats_.setup_threads_max = std::max(stats_.setup_threads_max, threads);
 
   // Step 3.
   if (!(info.m_solverMode & SOLVER_USE_WARMSTARTING)) return;
@@ -150,7 +163,7 @@ void ColouredSolver::convertContacts(btPersistentManifold** manifolds, int count
 // btSequentialImpulseConstraintSolver::convertContact, at the indices step 1
 // gave it instead of appended.
 void ColouredSolver::convert_manifold(btPersistentManifold& m, const ManifoldRows& rows, int first_friction,
-                                      int frictions_per_contact, const btContactSolverInfo& info) {
+                                      int frictions_per_contact, bool together, const btContactSolverInfo& info) {
   if (rows.contacts == 0) return;
   auto* obj0 = const_cast<btCollisionObject*>(m.getBody0());
   auto* obj1 = const_cast<btCollisionObject*>(m.getBody1());
@@ -168,19 +181,16 @@ void ColouredSolver::convert_manifold(btPersistentManifold& m, const ManifoldRow
     c.m_originalContactPoint = &cp;
     const btVector3 rel_pos1 = cp.getPositionWorldOnA() - obj0->getWorldTransform().getOrigin();
     const btVector3 rel_pos2 = cp.getPositionWorldOnB() - obj1->getWorldTransform().getOrigin();
-    btVector3 vel1, vel2;
-    body_a.getVelocityInLocalPointNoDelta(rel_pos1, vel1);
-    body_b.getVelocityInLocalPointNoDelta(rel_pos2, vel2);
-    const btVector3 vel = vel1 - vel2;
-    const btScalar rel_vel = cp.m_normalWorldOnB.dot(vel);
-    btScalar relaxation;
-    setupContactConstraint(c, a, b, cp, info, relaxation, rel_pos1, rel_pos2);
     c.m_frictionIndex = friction;
 
+    // The friction directions, as Bullet's convertContact picks them (and
+    // caches them in the point).
+    FrictionAxes axes;
     auto add = [&](const btVector3& axis, btScalar motion, btScalar cfm) {
-      btSolverConstraint& f = m_tmpSolverContactFrictionConstraintPool[friction++];
-      f.m_frictionIndex = row;
-      setupFrictionConstraint(f, axis, a, b, cp, rel_pos1, rel_pos2, obj0, obj1, relaxation, info, motion, cfm);
+      axes.axis[axes.count] = axis;
+      axes.motion[axes.count] = motion;
+      axes.cfm[axes.count] = cfm;
+      ++axes.count;
     };
     auto anisotropic = [&](btVector3& dir) {
       applyAnisotropicFriction(obj0, dir, btCollisionObject::CF_ANISOTROPIC_FRICTION);
@@ -188,6 +198,11 @@ void ColouredSolver::convert_manifold(btPersistentManifold& m, const ManifoldRow
     };
     if (!(info.m_solverMode & SOLVER_ENABLE_FRICTION_DIRECTION_CACHING) ||
         !(cp.m_contactPointFlags & BT_CONTACT_FLAG_LATERAL_FRICTION_INITIALIZED)) {
+      btVector3 vel1, vel2;  // (Bullet computes them for every point; only new directions read them)
+      body_a.getVelocityInLocalPointNoDelta(rel_pos1, vel1);
+      body_b.getVelocityInLocalPointNoDelta(rel_pos2, vel2);
+      const btVector3 vel = vel1 - vel2;
+      const btScalar rel_vel = cp.m_normalWorldOnB.dot(vel);
       cp.m_lateralFrictionDir1 = vel - cp.m_normalWorldOnB * rel_vel;
       const btScalar lat_rel_vel = cp.m_lateralFrictionDir1.length2();
       if (!(info.m_solverMode & SOLVER_DISABLE_VELOCITY_DEPENDENT_FRICTION_DIRECTION) && lat_rel_vel > SIMD_EPSILON) {
@@ -215,6 +230,24 @@ void ColouredSolver::convert_manifold(btPersistentManifold& m, const ManifoldRow
       add(cp.m_lateralFrictionDir1, cp.m_contactMotion1, cp.m_frictionCFM);
       if (two) add(cp.m_lateralFrictionDir2, cp.m_contactMotion2, cp.m_frictionCFM);
     }
+
+    // The rows: the contact row, then its friction rows, each friction row
+    // pointing back at the contact row.
+    btSolverConstraint* frictions[2];
+    for (int k = 0; k < axes.count; ++k) {
+      frictions[k] = &m_tmpSolverContactFrictionConstraintPool[friction + k];
+      frictions[k]->m_frictionIndex = row;
+    }
+    if (together && point_rows_apply(cp)) {
+      setup_point_rows(c, frictions, axes, body_a, body_b, a, b, cp, rel_pos1, rel_pos2, info);
+    } else {
+      btScalar relaxation;
+      setupContactConstraint(c, a, b, cp, info, relaxation, rel_pos1, rel_pos2);
+      for (int k = 0; k < axes.count; ++k)
+        setupFrictionConstraint(*frictions[k], axes.axis[k], a, b, cp, rel_pos1, rel_pos2, obj0, obj1, relaxation,
+                                info, axes.motion[k], axes.cfm[k]);
+    }
+    friction += axes.count;
     setFrictionConstraintImpulse(c, a, b, cp, info);
     ++row;
   }

@@ -6,9 +6,10 @@
 //     solveGroupCacheFriendlySetup       (stock: solver bodies, contact and
 //                                         friction rows, in body and
 //                                         manifold order; its convertContacts
-//                                         OVERRIDDEN to build the rows of
-//                                         large islands on the pool, the
-//                                         same rows: coloured_setup.cpp)
+//                                         OVERRIDDEN to set up a point's
+//                                         rows together, and those of large
+//                                         islands on the pool, the same
+//                                         rows: coloured_setup.cpp)
 //     solveGroupCacheFriendlyIterations  OVERRIDDEN for islands of at least
 //                                         kColouredMinContactRows contact rows
 //     solveGroupCacheFriendlyFinish      (stock: per body and per row;
@@ -100,6 +101,7 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
     std::size_t overflow_runs = 0;     // ... solved in the overflow colour
     int colours_max = 0;               // most colours of one island (overflow excluded)
     int threads_max = 0;               // most threads a job of a coloured island could use
+    std::size_t point_rows = 0;        // contact points whose rows were set up together (point_rows.h)
     int setup_threads_max = 0;         // most threads a row setup could use (0: never on the pool)
     int body_setup_threads_max = 0;    // most threads a solver body setup could use (0: never on the pool)
     int finish_threads_max = 0;        // most threads a write-back could use (0: never with a pool)
@@ -128,15 +130,22 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
   const std::shared_ptr<SolverPool>& pool() const { return pool_; }
   const Stats& stats() const { return stats_; }
 
+  /// Whether a contact point's rows are set up together (point_rows.h) or
+  /// by Bullet's setupContactConstraint and setupFrictionConstraint, one
+  /// call a row: the same bits either way. Process-wide, for the tests
+  /// that hold that (default true). Not during a solve.
+  static void allow_point_rows(bool allow);
+
  protected:
   btScalar solveGroupCacheFriendlyIterations(btCollisionObject** bodies, int numBodies,
                                              btPersistentManifold** manifoldPtr, int numManifolds,
                                              btTypedConstraint** constraints, int numConstraints,
                                              const btContactSolverInfo& infoGlobal,
                                              btIDebugDraw* debugDrawer) override;
-  /// Bullet's contact and friction rows, built on the pool above
-  /// kParallelMinManifolds manifolds (coloured_setup.cpp): the same rows, at
-  /// the same indices, and the same warm-start deltas as Bullet's loop.
+  /// Bullet's contact and friction rows, a point's rows set up together
+  /// (point_rows.h), on the pool above kParallelMinManifolds manifolds
+  /// (coloured_setup.cpp): the same rows, at the same indices, and the same
+  /// warm-start deltas as Bullet's loop.
   void convertContacts(btPersistentManifold** manifolds, int count, const btContactSolverInfo& info) override;
   /// Bullet's solver bodies, initialised on the pool above kParallelMinSolverBodies
   /// bodies when all are dynamic (coloured_setup.cpp): the same bodies.
@@ -169,8 +178,9 @@ class ColouredSolver final : public btSequentialImpulseConstraintSolver {
     int first_contact;   // its first contact row
     int contacts;        // its contact rows (0: skipped)
   };
+  /// together: a point's rows by setup_point_rows where it applies.
   void convert_manifold(btPersistentManifold& m, const ManifoldRows& rows, int first_friction,
-                        int frictions_per_contact, const btContactSolverInfo& info);
+                        int frictions_per_contact, bool together, const btContactSolverInfo& info);
 
   bool colour(const btContactSolverInfo& info);
   void assign_colours();
