@@ -89,6 +89,80 @@ L4 dot(const Vec& a, const Vec& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 
 Vec operator-(const Vec& a) { return {-a.x, -a.y, -a.z}; }
 
+// The contact row's scalars (setupContactConstraint after the vectors):
+// jac0 its m_jacDiagABInv, rel_vel0 its vel1Dotn + vel2Dotn.
+void contact_row(btSolverConstraint& c, btScalar jac0, btScalar rel_vel0, const btSolverBody& a, const btSolverBody& b,
+                 int id_a, int id_b, btManifoldPoint& cp, const btVector3& rel_pos1, const btVector3& rel_pos2,
+                 const btContactSolverInfo& info) {
+  const btRigidBody* rb0 = a.m_originalBody;
+  const btRigidBody* rb1 = b.m_originalBody;
+  const btVector3 zero3(0, 0, 0);
+  const btScalar inv_time_step = btScalar(1) / info.m_timeStep;
+  const btScalar cfm = info.m_globalCfm * inv_time_step;
+  const btScalar erp = info.m_erp2;
+  c.m_solverBodyIdA = id_a;
+  c.m_solverBodyIdB = id_b;
+  c.m_originalContactPoint = &cp;
+  c.m_jacDiagABInv = jac0;
+  c.m_friction = cp.m_combinedFriction;
+  // restitutionCurve of the bodies' own velocities at the point.
+  const btVector3 v1 = rb0 ? rb0->getVelocityInLocalPoint(rel_pos1) : zero3;
+  const btVector3 v2 = rb1 ? rb1->getVelocityInLocalPoint(rel_pos2) : zero3;
+  const btScalar point_vel = cp.m_normalWorldOnB.dot(v1 - v2);
+  btScalar restitution =
+      btFabs(point_vel) < info.m_restitutionVelocityThreshold ? btScalar(0.) : cp.m_combinedRestitution * -point_vel;
+  if (restitution <= btScalar(0.)) restitution = 0.f;
+  c.m_appliedImpulse = 0.f;
+  c.m_appliedPushImpulse = 0.f;
+  const btScalar penetration = cp.getDistance() + info.m_linearSlop;
+  btScalar positional_error = 0.f;
+  btScalar velocity_error = restitution - rel_vel0;
+  if (penetration > 0) {
+    positional_error = 0;
+    velocity_error -= penetration * inv_time_step;
+  } else {
+    positional_error = -penetration * erp * inv_time_step;
+  }
+  const btScalar penetration_impulse = positional_error * jac0;
+  const btScalar velocity_impulse = velocity_error * jac0;
+  if (!info.m_splitImpulse || penetration > info.m_splitImpulsePenetrationThreshold) {
+    c.m_rhs = penetration_impulse + velocity_impulse;
+    c.m_rhsPenetration = 0.f;
+  } else {
+    c.m_rhs = velocity_impulse;
+    c.m_rhsPenetration = penetration_impulse;
+  }
+  c.m_cfm = cfm * jac0;
+  c.m_lowerLimit = 0;
+  c.m_upperLimit = 1e10f;
+}
+
+// The friction rows' scalars (setupFrictionConstraint after the vectors):
+// lane k + 1 of jac and rel_vel is friction row k's.
+template <int Rows>
+void friction_rows(btSolverConstraint* const* row, const L4& jac, const L4& rel_vel, const FrictionAxes& axes,
+                   int id_a, int id_b, const btManifoldPoint& cp) {
+  for (int k = 0; k + 1 < Rows; ++k) {
+    const int l = k + 1;
+    btSolverConstraint& f = *row[l];
+    f.m_solverBodyIdA = id_a;
+    f.m_solverBodyIdB = id_b;
+    f.m_friction = cp.m_combinedFriction;
+    f.m_originalContactPoint = nullptr;
+    f.m_appliedImpulse = 0.f;
+    f.m_appliedPushImpulse = 0.f;
+    f.m_jacDiagABInv = jac[l];
+    const btScalar velocity_error = axes.motion[k] - rel_vel[l];
+    const btScalar velocity_impulse = velocity_error * jac[l];
+    const btScalar penetration_impulse = btScalar(0);
+    f.m_rhs = penetration_impulse + velocity_impulse;
+    f.m_rhsPenetration = 0.f;
+    f.m_cfm = axes.cfm[k];
+    f.m_lowerLimit = -f.m_friction;
+    f.m_upperLimit = f.m_friction;
+  }
+}
+
 // Rows: the contact row and Rows - 1 friction rows (2 or 3).
 template <int Rows>
 void setup_rows(btSolverConstraint* const* row, const FrictionAxes& axes, const btSolverBody& a,
@@ -164,74 +238,11 @@ void setup_rows(btSolverConstraint* const* row, const FrictionAxes& axes, const 
   }
   const L4 rel_vel = vel1 + vel2;  // vel1Dotn + vel2Dotn
 
-  // setupContactConstraint: relaxation, cfm, erp (no per-point values).
-  const btScalar relaxation = info.m_sor;
-  const btScalar inv_time_step = btScalar(1) / info.m_timeStep;
-  const btScalar cfm = info.m_globalCfm * inv_time_step;
-  const btScalar erp = info.m_erp2;
-  const L4 jac = relaxation / (denom0 + denom1);  // the friction rows'
-
-  // The contact row (lane 0).
-  {
-    btSolverConstraint& c = *row[0];
-    const btScalar jac0 = relaxation / (denom0[0] + denom1[0] + cfm);
-    c.m_solverBodyIdA = id_a;
-    c.m_solverBodyIdB = id_b;
-    c.m_originalContactPoint = &cp;
-    c.m_jacDiagABInv = jac0;
-    c.m_friction = cp.m_combinedFriction;
-    // restitutionCurve of the bodies' own velocities at the point.
-    const btVector3 v1 = rb0 ? rb0->getVelocityInLocalPoint(rel_pos1) : zero3;
-    const btVector3 v2 = rb1 ? rb1->getVelocityInLocalPoint(rel_pos2) : zero3;
-    const btScalar point_vel = n.dot(v1 - v2);
-    btScalar restitution =
-        btFabs(point_vel) < info.m_restitutionVelocityThreshold ? btScalar(0.) : cp.m_combinedRestitution * -point_vel;
-    if (restitution <= btScalar(0.)) restitution = 0.f;
-    c.m_appliedImpulse = 0.f;
-    c.m_appliedPushImpulse = 0.f;
-    const btScalar penetration = cp.getDistance() + info.m_linearSlop;
-    btScalar positional_error = 0.f;
-    btScalar velocity_error = restitution - rel_vel[0];
-    if (penetration > 0) {
-      positional_error = 0;
-      velocity_error -= penetration * inv_time_step;
-    } else {
-      positional_error = -penetration * erp * inv_time_step;
-    }
-    const btScalar penetration_impulse = positional_error * jac0;
-    const btScalar velocity_impulse = velocity_error * jac0;
-    if (!info.m_splitImpulse || penetration > info.m_splitImpulsePenetrationThreshold) {
-      c.m_rhs = penetration_impulse + velocity_impulse;
-      c.m_rhsPenetration = 0.f;
-    } else {
-      c.m_rhs = velocity_impulse;
-      c.m_rhsPenetration = penetration_impulse;
-    }
-    c.m_cfm = cfm * jac0;
-    c.m_lowerLimit = 0;
-    c.m_upperLimit = 1e10f;
-  }
-
-  // The friction rows (lanes 1, 2).
-  for (int k = 0; k + 1 < Rows; ++k) {
-    const int l = k + 1;
-    btSolverConstraint& f = *row[l];
-    f.m_solverBodyIdA = id_a;
-    f.m_solverBodyIdB = id_b;
-    f.m_friction = cp.m_combinedFriction;
-    f.m_originalContactPoint = nullptr;
-    f.m_appliedImpulse = 0.f;
-    f.m_appliedPushImpulse = 0.f;
-    f.m_jacDiagABInv = jac[l];
-    const btScalar velocity_error = axes.motion[k] - rel_vel[l];
-    const btScalar velocity_impulse = velocity_error * jac[l];
-    const btScalar penetration_impulse = btScalar(0);
-    f.m_rhs = penetration_impulse + velocity_impulse;
-    f.m_rhsPenetration = 0.f;
-    f.m_cfm = axes.cfm[k];
-    f.m_lowerLimit = -f.m_friction;
-    f.m_upperLimit = f.m_friction;
-  }
+  const btScalar relaxation = info.m_sor;  // setupContactConstraint's, which the friction rows take
+  const btScalar cfm = info.m_globalCfm * (btScalar(1) / info.m_timeStep);
+  contact_row(*row[0], relaxation / (denom0[0] + denom1[0] + cfm), rel_vel[0], a, b, id_a, id_b, cp, rel_pos1,
+              rel_pos2, info);
+  friction_rows<Rows>(row, relaxation / (denom0 + denom1), rel_vel, axes, id_a, id_b, cp);
 }
 
 }  // namespace
