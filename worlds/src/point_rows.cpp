@@ -163,6 +163,55 @@ void friction_rows(btSolverConstraint* const* row, const L4& jac, const L4& rel_
   }
 }
 
+// The fields of one side of a row.
+struct SideFields {
+  btVector3 btSolverConstraint::*normal;
+  btVector3 btSolverConstraint::*relpos_cross_normal;
+  btVector3 btSolverConstraint::*angular_component;
+};
+constexpr SideFields kSideA = {&btSolverConstraint::m_contactNormal1, &btSolverConstraint::m_relpos1CrossNormal,
+                               &btSolverConstraint::m_angularComponentA};
+constexpr SideFields kSideB = {&btSolverConstraint::m_contactNormal2, &btSolverConstraint::m_relpos2CrossNormal,
+                               &btSolverConstraint::m_angularComponentB};
+
+// One side of every lane's row: its contact normal (`normal`), relpos x
+// normal (`torque`), angular component (the inverse inertia tensor times
+// the torque times the angular factor), its part of the denominator (the
+// axis dotted with the angular component, negated on side B, crossed with
+// rel_pos) and of the relative velocity. The contact row dots the body's
+// velocities plus its external impulses, a friction row linear velocity
+// plus external force impulse and angular velocity alone. Without a body
+// (`rb` null): zero vectors, a zero denominator part, and the contact row
+// dots zero normals with the velocities plus zero, a friction row zero
+// with zero.
+template <int Rows>
+void side(const btRigidBody* rb, const btSolverBody& body, const Vec& axis, const Vec& normal, const Vec& torque,
+          const btVector3& rel_pos, bool minus_angular, const SideFields& f, btSolverConstraint* const* row,
+          L4& denom, L4& vel) {
+  const btVector3 zero3(0, 0, 0);
+  if (!rb) {
+    const L4 zero4 = {0, 0, 0, 0};
+    const Vec zero_vec = {zero4, zero4, zero4};
+    const btVector3 lin = body.m_linearVelocity + zero3;
+    const btVector3 rot = body.m_angularVelocity + zero3;
+    vel = dot(zero_vec, lanes(lin, zero3, zero3, zero3)) + dot(zero_vec, lanes(rot, zero3, zero3, zero3));
+    store<Rows>(zero_vec, row, f.normal);
+    store<Rows>(zero_vec, row, f.relpos_cross_normal);
+    store<Rows>(zero_vec, row, f.angular_component);
+    return;
+  }
+  const Vec ang = angular(rb->getInvInertiaTensorWorld(), torque, rb->getAngularFactor());
+  // vec = m_angularComponentA.cross(rel_pos1), (-m_angularComponentB).cross(rel_pos2)
+  denom = rb->getInvMass() + dot(axis, cross(minus_angular ? -ang : ang, rel_pos));
+  const btVector3 lin = body.m_linearVelocity + body.m_externalForceImpulse;
+  const btVector3 rot = body.m_angularVelocity + body.m_externalTorqueImpulse;
+  vel = dot(normal, lanes(lin, lin, lin, lin)) +
+        dot(torque, lanes(rot, body.m_angularVelocity, body.m_angularVelocity, body.m_angularVelocity));
+  store<Rows>(normal, row, f.normal);
+  store<Rows>(torque, row, f.relpos_cross_normal);
+  store<Rows>(ang, row, f.angular_component);
+}
+
 // Rows: the contact row and Rows - 1 friction rows (2 or 3).
 template <int Rows>
 void setup_rows(btSolverConstraint* const* row, const FrictionAxes& axes, const btSolverBody& a,
@@ -171,7 +220,6 @@ void setup_rows(btSolverConstraint* const* row, const FrictionAxes& axes, const 
   const btRigidBody* rb0 = a.m_originalBody;
   const btRigidBody* rb1 = b.m_originalBody;
   const btVector3& n = cp.m_normalWorldOnB;
-  const btVector3 zero3(0, 0, 0);
   const btVector3& f1 = axes.axis[0];
   const btVector3& f2 = Rows > 2 ? axes.axis[1] : f1;
   const L4 zero4 = {0, 0, 0, 0};
@@ -181,61 +229,20 @@ void setup_rows(btSolverConstraint* const* row, const FrictionAxes& axes, const 
   // the denominators dot with.
   const Vec axis = lanes(n, f1, f2, f2);
 
-  // Side A: relpos1CrossNormal = rel_pos1.cross(normal), m_angularComponentA,
-  // its part of the denominator and of the relative velocity. The contact
-  // row dots its velocities plus the body's external impulses (zero without
-  // a body), a friction row linear velocity plus external force impulse and
-  // angular velocity alone (zero without a body).
-  L4 denom0 = zero4, vel1 = zero4;
-  if (rb0) {
-    const Vec torque = cross(rel_pos1, axis);
-    const Vec ang = angular(rb0->getInvInertiaTensorWorld(), torque, rb0->getAngularFactor());
-    denom0 = rb0->getInvMass() + dot(axis, cross(ang, rel_pos1));  // vec = m_angularComponentA.cross(rel_pos1)
-    const btVector3 lin = a.m_linearVelocity + a.m_externalForceImpulse;
-    const btVector3 rot = a.m_angularVelocity + a.m_externalTorqueImpulse;
-    vel1 = dot(axis, lanes(lin, lin, lin, lin)) + dot(torque, lanes(rot, a.m_angularVelocity, a.m_angularVelocity,
-                                                                     a.m_angularVelocity));
-    store<Rows>(axis, row, &btSolverConstraint::m_contactNormal1);
-    store<Rows>(torque, row, &btSolverConstraint::m_relpos1CrossNormal);
-    store<Rows>(ang, row, &btSolverConstraint::m_angularComponentA);
-  } else {
-    // The contact row dots zero normals with velocities plus zero; friction
-    // rows zero normals with zero.
-    const btVector3 lin = a.m_linearVelocity + zero3;
-    const btVector3 rot = a.m_angularVelocity + zero3;
-    vel1 = dot(zero_vec, lanes(lin, zero3, zero3, zero3)) + dot(zero_vec, lanes(rot, zero3, zero3, zero3));
-    store<Rows>(zero_vec, row, &btSolverConstraint::m_contactNormal1);
-    store<Rows>(zero_vec, row, &btSolverConstraint::m_relpos1CrossNormal);
-    store<Rows>(zero_vec, row, &btSolverConstraint::m_angularComponentA);
-  }
-
-  // Side B: the contact row crosses rel_pos2 with n and negates
-  // (-torqueAxis1), a friction row crosses it with contactNormal2 =
-  // -normalAxis; m_angularComponentB is the tensor times that.
-  L4 denom1 = zero4, vel2 = zero4;
+  // Side A: relpos1CrossNormal = rel_pos1.cross(normal). Side B: the
+  // contact row crosses rel_pos2 with n and negates (-torqueAxis1), a
+  // friction row crosses it with contactNormal2 = -normalAxis.
+  L4 denom0 = zero4, vel1 = zero4, denom1 = zero4, vel2 = zero4;
+  const Vec torque_a = rb0 ? cross(rel_pos1, axis) : zero_vec;
+  side<Rows>(rb0, a, axis, axis, torque_a, rel_pos1, false, kSideA, row, denom0, vel1);
+  Vec torque_b = zero_vec;
   if (rb1) {
-    const Vec minus_axis = -axis;  // contactNormal2
-    Vec torque = cross(rel_pos2, lanes(n, -f1, -f2, -f2));
-    torque.x[0] = -torque.x[0];
-    torque.y[0] = -torque.y[0];
-    torque.z[0] = -torque.z[0];
-    const Vec ang = angular(rb1->getInvInertiaTensorWorld(), torque, rb1->getAngularFactor());
-    denom1 = rb1->getInvMass() + dot(axis, cross(-ang, rel_pos2));  // vec = (-m_angularComponentB).cross(rel_pos2)
-    const btVector3 lin = b.m_linearVelocity + b.m_externalForceImpulse;
-    const btVector3 rot = b.m_angularVelocity + b.m_externalTorqueImpulse;
-    vel2 = dot(minus_axis, lanes(lin, lin, lin, lin)) +
-           dot(torque, lanes(rot, b.m_angularVelocity, b.m_angularVelocity, b.m_angularVelocity));
-    store<Rows>(minus_axis, row, &btSolverConstraint::m_contactNormal2);
-    store<Rows>(torque, row, &btSolverConstraint::m_relpos2CrossNormal);
-    store<Rows>(ang, row, &btSolverConstraint::m_angularComponentB);
-  } else {
-    const btVector3 lin = b.m_linearVelocity + zero3;
-    const btVector3 rot = b.m_angularVelocity + zero3;
-    vel2 = dot(zero_vec, lanes(lin, zero3, zero3, zero3)) + dot(zero_vec, lanes(rot, zero3, zero3, zero3));
-    store<Rows>(zero_vec, row, &btSolverConstraint::m_contactNormal2);
-    store<Rows>(zero_vec, row, &btSolverConstraint::m_relpos2CrossNormal);
-    store<Rows>(zero_vec, row, &btSolverConstraint::m_angularComponentB);
+    torque_b = cross(rel_pos2, lanes(n, -f1, -f2, -f2));
+    torque_b.x[0] = -torque_b.x[0];
+    torque_b.y[0] = -torque_b.y[0];
+    torque_b.z[0] = -torque_b.z[0];
   }
+  side<Rows>(rb1, b, axis, -axis, torque_b, rel_pos2, true, kSideB, row, denom1, vel2);
   const L4 rel_vel = vel1 + vel2;  // vel1Dotn + vel2Dotn
 
   const btScalar relaxation = info.m_sor;  // setupContactConstraint's, which the friction rows take
