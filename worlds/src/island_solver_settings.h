@@ -36,10 +36,10 @@ constexpr int kPlainHeight = 10;
 /// with it in float and double (largest move, float / double: tower-20
 /// 0.041 / 0.071 m, tower-30 0.074 / 0.044 m, tower-50 0.065 / 0.096 m;
 /// limit 0.1 m; docs/stress.md). With power 2 tower-50 (x25) leaned 0.15 m
-/// in float; with 2.3 tower-30 0.089 m. The
-/// law before, (height / 6)^2, jumped from x1 to x3.4 at 11: a heap or pile
-/// of ten layers is 10 to 13 contacts high, and the jump was 44 % (heap 4000)
-/// and 67 % (cube-pile 4000) of their row iterations (docs/results/per-core.md).
+/// in float; with 2.3 tower-30 0.089 m. The law before, (height / 6)^2,
+/// jumped from x1 to x3.4 at 11: a heap or pile of ten layers is 10 to 13
+/// contacts high, and the jump was 44 % (heap 4000) and 67 % (cube-pile
+/// 4000) of their row iterations (docs/results/where-the-time-goes.md).
 constexpr double kHeightPower = 2.5;
 /// Mass ratios above this keep the scene's iterations only if the height
 /// allows: 1:10 stands at 10 iterations (measured).

@@ -1,6 +1,6 @@
-// The rows of one contact point set up together (point_rows.h). Each
-// expression below is commented with the Bullet expression (3.24,
-// btSequentialImpulseConstraintSolver.cpp) whose bits it gives.
+// The rows of one contact point set up together (point_rows.h). The
+// comments name the Bullet fields and expressions (3.24,
+// btSequentialImpulseConstraintSolver.cpp) whose bits each part gives.
 #include "point_rows.h"
 
 #include <cstdint>
@@ -19,6 +19,9 @@ using L4 = btScalar __attribute__((vector_size(4 * sizeof(btScalar))));
 // functions are this file's own (internal linkage), so no call crosses
 // between code built with and without AVX.
 #pragma GCC diagnostic ignored "-Wpsabi"
+// Shuffle masks of L4 (lane indices, 0-3 the first operand, 4-7 the second).
+using LaneIndex = std::conditional_t<sizeof(btScalar) == 4, std::int32_t, std::int64_t>;
+using I4 = LaneIndex __attribute__((vector_size(4 * sizeof(LaneIndex))));
 
 struct Vec {  // a vector per lane
   L4 x, y, z;
@@ -33,8 +36,6 @@ L4 load(const btVector3& v) {
 
 // Four vectors (x, y, z, w) into lanes (w dropped).
 Vec lanes(const btVector3& v0, const btVector3& v1, const btVector3& v2, const btVector3& v3) {
-  using M = std::conditional_t<sizeof(btScalar) == 4, std::int32_t, std::int64_t>;
-  using I4 = M __attribute__((vector_size(4 * sizeof(M))));
   const L4 a = load(v0), b = load(v1), c = load(v2), d = load(v3);
   const L4 ab_lo = __builtin_shuffle(a, b, I4{0, 4, 1, 5});  // a.x b.x a.y b.y
   const L4 cd_lo = __builtin_shuffle(c, d, I4{0, 4, 1, 5});
@@ -48,8 +49,6 @@ Vec lanes(const btVector3& v0, const btVector3& v1, const btVector3& v2, const b
 // (w 0).
 template <int Rows>
 void store(const Vec& v, btSolverConstraint* const* row, btVector3 btSolverConstraint::*field) {
-  using M = std::conditional_t<sizeof(btScalar) == 4, std::int32_t, std::int64_t>;
-  using I4 = M __attribute__((vector_size(4 * sizeof(M))));
   const L4 zero = {0, 0, 0, 0};
   const L4 xy_lo = __builtin_shuffle(v.x, v.y, I4{0, 4, 1, 5});  // x0 y0 x1 y1
   const L4 z0_lo = __builtin_shuffle(v.z, zero, I4{0, 4, 1, 5});  // z0 0 z1 0
@@ -90,16 +89,17 @@ L4 dot(const Vec& a, const Vec& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 Vec operator-(const Vec& a) { return {-a.x, -a.y, -a.z}; }
 
 // The contact row's scalars (setupContactConstraint after the vectors):
-// jac0 its m_jacDiagABInv, rel_vel0 its vel1Dotn + vel2Dotn.
-void contact_row(btSolverConstraint& c, btScalar jac0, btScalar rel_vel0, const btSolverBody& a, const btSolverBody& b,
-                 int id_a, int id_b, btManifoldPoint& cp, const btVector3& rel_pos1, const btVector3& rel_pos2,
-                 const btContactSolverInfo& info) {
+// denom its denom0 + denom1, rel_vel0 its vel1Dotn + vel2Dotn.
+void contact_row(btSolverConstraint& c, btScalar denom, btScalar rel_vel0, const btSolverBody& a,
+                 const btSolverBody& b, int id_a, int id_b, btManifoldPoint& cp, const btVector3& rel_pos1,
+                 const btVector3& rel_pos2, const btContactSolverInfo& info) {
   const btRigidBody* rb0 = a.m_originalBody;
   const btRigidBody* rb1 = b.m_originalBody;
   const btVector3 zero3(0, 0, 0);
   const btScalar inv_time_step = btScalar(1) / info.m_timeStep;
   const btScalar cfm = info.m_globalCfm * inv_time_step;
   const btScalar erp = info.m_erp2;
+  const btScalar jac0 = info.m_sor / (denom + cfm);  // relaxation / (denom0 + denom1 + cfm)
   c.m_solverBodyIdA = id_a;
   c.m_solverBodyIdB = id_b;
   c.m_originalContactPoint = &cp;
@@ -245,11 +245,10 @@ void setup_rows(btSolverConstraint* const* row, const FrictionAxes& axes, const 
   side<Rows>(rb1, b, axis, -axis, torque_b, rel_pos2, true, kSideB, row, denom1, vel2);
   const L4 rel_vel = vel1 + vel2;  // vel1Dotn + vel2Dotn
 
-  const btScalar relaxation = info.m_sor;  // setupContactConstraint's, which the friction rows take
-  const btScalar cfm = info.m_globalCfm * (btScalar(1) / info.m_timeStep);
-  contact_row(*row[0], relaxation / (denom0[0] + denom1[0] + cfm), rel_vel[0], a, b, id_a, id_b, cp, rel_pos1,
-              rel_pos2, info);
-  friction_rows<Rows>(row, relaxation / (denom0 + denom1), rel_vel, axes, id_a, id_b, cp);
+  const L4 denom = denom0 + denom1;
+  contact_row(*row[0], denom[0], rel_vel[0], a, b, id_a, id_b, cp, rel_pos1, rel_pos2, info);
+  // setupContactConstraint's relaxation, which the friction rows take.
+  friction_rows<Rows>(row, info.m_sor / denom, rel_vel, axes, id_a, id_b, cp);
 }
 
 }  // namespace
